@@ -1,0 +1,33 @@
+/* Shared helpers of the CPython binding: buffer checks and status -> tussock.Error.
+ * The binding holds no logic: it checks arguments and buffers and calls C. */
+#ifndef TSK_BINDING_H
+#define TSK_BINDING_H
+
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include "tussock/core.h"
+
+/// tussock.Error, a subclass of RuntimeError.
+extern PyObject* tsk_py_error;
+
+/// Raises tussock.Error with the C library's last message; returns NULL.
+PyObject* tsk_py_raise(tsk_status status);
+
+/// Raises tussock.Error with a message of the binding's own ("name: ..."); returns NULL.
+PyObject* tsk_py_raise_arg(const char* name, const char* fmt, ...);
+
+/// Element types a buffer may have.
+typedef enum tsk_py_dtype { TSK_PY_F32, TSK_PY_I32, TSK_PY_U16, TSK_PY_U8 } tsk_py_dtype;
+
+/// Gets a C-contiguous buffer of `dtype` with exactly `count` elements (count < 0: any
+/// count, returned by tsk_py_count), writable when `writable`. On any mismatch raises
+/// tussock.Error naming `name` and returns 0; on success returns 1 and the caller must
+/// PyBuffer_Release(view).
+int tsk_py_buffer(PyObject* obj, const char* name, tsk_py_dtype dtype, Py_ssize_t count,
+                  int writable, Py_buffer* view);
+
+/// Number of elements in a buffer obtained by tsk_py_buffer.
+Py_ssize_t tsk_py_count(const Py_buffer* view);
+
+#endif

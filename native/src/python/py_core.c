@@ -1,0 +1,88 @@
+/* Binding of the core: version, threads, deterministic random numbers, vector lengths. */
+#include "binding.h"
+
+static PyObject* py_version(PyObject* self, PyObject* args) {
+    (void)self;
+    (void)args;
+    return PyUnicode_FromString(tsk_version());
+}
+
+static PyObject* py_set_threads(PyObject* self, PyObject* args) {
+    (void)self;
+    int n;
+    if (!PyArg_ParseTuple(args, "i:set_threads", &n)) return NULL;
+    tsk_status s = tsk_set_threads(n);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_get_threads(PyObject* self, PyObject* args) {
+    (void)self;
+    (void)args;
+    return PyLong_FromLong(tsk_get_threads());
+}
+
+static PyObject* py_hash4(PyObject* self, PyObject* args) {
+    (void)self;
+    unsigned long long seed, a, b, c;
+    if (!PyArg_ParseTuple(args, "KKKK:hash4", &seed, &a, &b, &c)) return NULL;
+    return PyLong_FromUnsignedLongLong(tsk_hash4(seed, a, b, c));
+}
+
+static PyObject* py_rand_fill(PyObject* self, PyObject* args) {
+    (void)self;
+    unsigned long long seed, stream;
+    PyObject* out_obj;
+    if (!PyArg_ParseTuple(args, "KKO:rand_fill", &seed, &stream, &out_obj)) return NULL;
+    Py_buffer out;
+    if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, -1, 1, &out)) return NULL;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_rand_fill(seed, stream, out.buf, (size_t)tsk_py_count(&out));
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&out);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_vec3_lengths(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *xyz_obj, *out_obj;
+    if (!PyArg_ParseTuple(args, "OO:vec3_lengths", &xyz_obj, &out_obj)) return NULL;
+    Py_buffer xyz, out;
+    if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, -1, 1, &out)) return NULL;
+    const Py_ssize_t n = tsk_py_count(&out);
+    if (!tsk_py_buffer(xyz_obj, "xyz", TSK_PY_F32, 3 * n, 0, &xyz)) {
+        PyBuffer_Release(&out);
+        return NULL;
+    }
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_vec3_lengths(xyz.buf, (size_t)n, out.buf);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&xyz);
+    PyBuffer_Release(&out);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_allocated_bytes(PyObject* self, PyObject* args) {
+    (void)self;
+    (void)args;
+    return PyLong_FromSize_t(tsk_allocated_bytes());
+}
+
+PyMethodDef tsk_py_core_methods[] = {
+    {"version", py_version, METH_NOARGS, "version() -> str: native library version."},
+    {"set_threads", py_set_threads, METH_VARARGS,
+     "set_threads(n): worker threads, 0 = all cores."},
+    {"get_threads", py_get_threads, METH_NOARGS, "get_threads() -> int."},
+    {"hash4", py_hash4, METH_VARARGS, "hash4(seed, a, b, c) -> int: counter-based hash."},
+    {"rand_fill", py_rand_fill, METH_VARARGS,
+     "rand_fill(seed, stream, out): out[i] = uniform [0,1) of (seed, stream, i); out float32."},
+    {"vec3_lengths", py_vec3_lengths, METH_VARARGS,
+     "vec3_lengths(xyz, out): out[i] = |xyz[i]|; xyz float32 (3n), out float32 (n)."},
+    {"allocated_bytes", py_allocated_bytes, METH_NOARGS,
+     "allocated_bytes() -> int: bytes held by the native library."},
+    {NULL, NULL, 0, NULL},
+};
