@@ -4,6 +4,10 @@
 #ifndef TSK_BENCH_H
 #define TSK_BENCH_H
 
+#ifndef _POSIX_C_SOURCE
+#define _POSIX_C_SOURCE 200809L /* clock_gettime under strict C17 */
+#endif
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

@@ -1,0 +1,44 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Tussock: capture grass blades with a depth camera, grow meadows of millions of blades,
+grow Weber-Penn trees that sway in wind, and bring pictures of vegetation to life."""
+
+bl_info = {
+    "name": "Tussock",
+    "author": "Tussock developers",
+    "version": (0, 1, 0),
+    "blender": (3, 4, 0),
+    "location": "View3D > Sidebar > Tussock",
+    "description": "Capture, grow and animate grass and trees that move",
+    "category": "Object",
+}
+
+from . import handlers, prefs, ui  # noqa: E402
+
+# One list of classes, registered in order and unregistered in reverse.
+_MODULES = (prefs, ui)
+
+
+def _classes():
+    for module in _MODULES:
+        yield from module.classes
+
+
+def register():
+    import bpy
+
+    for cls in _classes():
+        bpy.utils.register_class(cls)
+    for module in _MODULES:
+        if hasattr(module, "register_extra"):
+            module.register_extra()
+
+
+def unregister():
+    import bpy
+
+    handlers.remove_all()
+    for module in reversed(_MODULES):
+        if hasattr(module, "unregister_extra"):
+            module.unregister_extra()
+    for cls in reversed(list(_classes())):
+        bpy.utils.unregister_class(cls)

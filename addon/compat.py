@@ -1,0 +1,44 @@
+"""The few Blender API differences between 3.4, 4.x and 5.x live here and nowhere else."""
+
+import bpy
+
+VERSION = bpy.app.version
+
+
+def node_group_add_socket(group, in_out, socket_type, name):
+    """Adds an input ('INPUT') or output ('OUTPUT') socket to a node group's interface.
+
+    Blender 3.x: group.inputs/outputs.new; 4.0+: group.interface.new_socket."""
+    if hasattr(group, "interface"):
+        return group.interface.new_socket(name=name, in_out=in_out, socket_type=socket_type)
+    sockets = group.inputs if in_out == "INPUT" else group.outputs
+    return sockets.new(socket_type, name)
+
+
+def node_group_socket_names(group, in_out):
+    """Names of a node group's input or output sockets, in order."""
+    if hasattr(group, "interface"):
+        return [item.name for item in group.interface.items_tree
+                if getattr(item, "item_type", "SOCKET") == "SOCKET" and item.in_out == in_out]
+    sockets = group.inputs if in_out == "INPUT" else group.outputs
+    return [s.name for s in sockets]
+
+
+def compositor_tree(scene, create=True):
+    """The scene's compositor node tree: scene.node_tree before 5.0,
+    scene.compositing_node_group from 5.0 on (created and assigned when missing)."""
+    if hasattr(scene, "compositing_node_group"):
+        tree = scene.compositing_node_group
+        if tree is None and create:
+            tree = bpy.data.node_groups.new("Tussock Compositor", "CompositorNodeTree")
+            scene.compositing_node_group = tree
+        return tree
+    if create and scene.node_tree is None:
+        scene.use_nodes = True
+    return scene.node_tree
+
+
+def preferences_id(package):
+    """bl_idname for AddonPreferences: the add-on's package, which is 'tussock' for a
+    legacy add-on and 'bl_ext.<repo>.tussock' for a 4.2+ extension."""
+    return package

@@ -1,0 +1,34 @@
+"""Loads the compiled module _tussock. A missing or broken build never raises at
+registration: it becomes one clear message that the panel shows and operators report."""
+
+BUILD_HINT = "run ./build.sh build in the Tussock source folder, then restart Blender"
+
+lib = None
+error = ""
+
+try:
+    from . import _tussock as lib  # noqa: F401
+except Exception as exc:  # ImportError, OSError from a missing shared library, ...
+    lib = None
+    error = f"Tussock's native library is not available ({exc.__class__.__name__}: {exc}); {BUILD_HINT}."
+
+Error = lib.Error if lib is not None else RuntimeError
+
+
+class NativeMissing(RuntimeError):
+    """Raised by require() when the native library could not be loaded."""
+
+
+def available():
+    return lib is not None
+
+
+def require():
+    """Returns the native module, or raises NativeMissing with the clear message."""
+    if lib is None:
+        raise NativeMissing(error)
+    return lib
+
+
+def version():
+    return lib.version() if lib is not None else ""

@@ -1,0 +1,132 @@
+"""The binding inside Blender: numpy float32 buffers go into C and back, results checked
+against numpy; bad buffers raise tussock.Error naming the argument and Blender goes on."""
+
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import harness  # noqa: E402
+from harness import test  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+harness.enable_addon()
+import tussock  # noqa: E402  (the add-on package, linked by run.py)
+from tussock import native  # noqa: E402
+
+lib = native.require()
+
+M64 = np.uint64(0xFFFFFFFFFFFFFFFF)
+
+
+def _mix(z):
+    with np.errstate(over="ignore"):
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        return z ^ (z >> np.uint64(31))
+
+
+def numpy_rand01(seed, stream, n):
+    """The counter-based generator written again in numpy, from its definition."""
+    with np.errstate(over="ignore"):
+        i = np.arange(n, dtype=np.uint64)
+        h = _mix(np.full(n, np.uint64(seed) ^ np.uint64(0x9E3779B97F4A7C15)))
+        h = _mix(h + np.uint64(stream))
+        h = _mix(h + i + np.uint64(0x632BE59BD9B4E019))
+        h = _mix(h + np.uint64(0) + np.uint64(0x8CB92BA72F3D8DD7))
+    return ((h >> np.uint64(40)).astype(np.float64) / 16777216.0).astype(np.float32)
+
+
+@test
+def test_vec3_lengths_match_numpy():
+    rng = np.random.default_rng(5)
+    xyz = rng.normal(size=(10000, 3)).astype(np.float32)
+    out = np.empty(10000, np.float32)
+    lib.vec3_lengths(xyz, out)
+    ref = np.linalg.norm(xyz.astype(np.float64), axis=1)
+    assert np.max(np.abs(out - ref)) < 1e-6 * np.max(ref), np.max(np.abs(out - ref))
+
+
+@test
+def test_rand_fill_matches_numpy_definition():
+    out = np.empty(50000, np.float32)
+    lib.rand_fill(1234, 7, out)
+    ref = numpy_rand01(1234, 7, 50000)
+    assert np.array_equal(out, ref), np.flatnonzero(out != ref)[:5]
+
+
+@test
+def test_rand_fill_same_bytes_with_1_and_2_threads():
+    a = np.empty(100003, np.float32)
+    b = np.empty(100003, np.float32)
+    lib.set_threads(1)
+    lib.rand_fill(9, 1, a)
+    lib.set_threads(2)
+    lib.rand_fill(9, 1, b)
+    lib.set_threads(0)
+    assert a.tobytes() == b.tobytes()
+
+
+def expect_error(fn, needle):
+    try:
+        fn()
+    except lib.Error as exc:
+        assert needle in str(exc), f"message {exc!r} lacks {needle!r}"
+        assert isinstance(exc, RuntimeError)
+        return
+    raise AssertionError(f"no tussock.Error for {needle}")
+
+
+@test
+def test_wrong_dtype_raises_naming_argument():
+    expect_error(lambda: lib.vec3_lengths(np.zeros(9, np.float64), np.zeros(3, np.float32)),
+                 "xyz: must have dtype float32")
+    expect_error(lambda: lib.vec3_lengths(np.zeros(9, np.float32), np.zeros(3, np.int32)),
+                 "out: must have dtype float32")
+
+
+@test
+def test_non_contiguous_raises_naming_argument():
+    xyz = np.zeros((6, 3), np.float32)[::2]
+    expect_error(lambda: lib.vec3_lengths(xyz, np.zeros(3, np.float32)), "xyz: must be C-contiguous")
+
+
+@test
+def test_too_short_raises_naming_argument():
+    expect_error(lambda: lib.vec3_lengths(np.zeros(8, np.float32), np.zeros(3, np.float32)),
+                 "xyz: must have exactly 9 elements, got 8")
+
+
+@test
+def test_read_only_output_raises_naming_argument():
+    out = np.zeros(3, np.float32)
+    out.setflags(write=False)
+    expect_error(lambda: lib.vec3_lengths(np.zeros(9, np.float32), out), "out: must be writable")
+
+
+@test
+def test_not_a_buffer_raises_naming_argument():
+    expect_error(lambda: lib.rand_fill(1, 2, [0.0, 1.0]), "out: expected a float32 array")
+
+
+@test
+def test_nan_input_reports_index():
+    xyz = np.zeros(9, np.float32)
+    xyz[4] = np.nan
+    expect_error(lambda: lib.vec3_lengths(xyz, np.zeros(3, np.float32)), "vector 1 is not finite")
+
+
+@test
+def test_blender_keeps_running_after_errors():
+    import bpy
+    for _ in range(100):
+        try:
+            lib.vec3_lengths(np.zeros(2, np.float64), np.zeros(1, np.float32))
+        except lib.Error:
+            pass
+    bpy.ops.mesh.primitive_cube_add()
+    assert bpy.context.active_object is not None
+    assert lib.allocated_bytes() == 0
+
+
+harness.main()

@@ -1,0 +1,161 @@
+#!/usr/bin/env bash
+# Tussock's only entry point:  ./build.sh deps | build | test | demo | bench [NAME...] | package
+# Each step is idempotent and quiet when there is nothing to do.
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+BUILD="$ROOT/build"
+PY=/usr/bin/python3          # Blender on Debian uses the system Python 3.11
+BLENDER="${BLENDER:-blender}"
+export BLENDER
+
+PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ clang
+          libclang-rt-dev libopencv-dev libopenni2-dev libosd-dev)
+
+say() { printf '%s\n' "$*" >&2; }
+die() { say "build.sh: $*"; exit 1; }
+
+# Runs a command quietly; prints its output only if it fails.
+quiet() {
+  local log
+  log="$(mktemp)"
+  if ! "$@" >"$log" 2>&1; then
+    cat "$log" >&2
+    rm -f "$log"
+    return 1
+  fi
+  rm -f "$log"
+}
+
+cmd_deps() {
+  local missing=()
+  for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  say "build.sh deps: installing Debian packages: ${missing[*]}"
+  local sudo=()
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || die "need root or sudo to install: ${missing[*]}"
+    sudo=(sudo)
+  fi
+  quiet "${sudo[@]}" apt-get update -qq || die "apt-get update failed"
+  DEBIAN_FRONTEND=noninteractive quiet "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" \
+    || die "apt-get install failed for: ${missing[*]}"
+}
+
+configure() { # dir, extra cmake args...
+  local dir="$1"; shift
+  if [ ! -f "$dir/build.ninja" ]; then
+    quiet cmake -S "$ROOT/native" -B "$dir" -G Ninja "$@" || die "cmake configure failed ($dir)"
+  fi
+}
+
+cmd_build() {
+  configure "$BUILD/release" -DCMAKE_BUILD_TYPE=Release
+  quiet cmake --build "$BUILD/release" || die "native build failed"
+  local so="$BUILD/release/_tussock.abi3.so"
+  if ! cmp -s "$so" "$ROOT/addon/_tussock.abi3.so"; then
+    cp "$so" "$ROOT/addon/_tussock.abi3.so"
+  fi
+}
+
+build_asan() {
+  configure "$BUILD/asan" -DCMAKE_BUILD_TYPE=Debug -DTSK_SANITIZE=ON \
+    -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++
+  quiet cmake --build "$BUILD/asan" || die "sanitizer build failed"
+}
+
+# Runs every test_* program of a build dir; adds to PASSED/FAILED.
+PASSED=0
+FAILED=0
+run_native_tests() { # dir, label
+  local dir="$1" label="$2" t out line p f
+  for t in "$dir"/test_*; do
+    [ -x "$t" ] || continue
+    if out="$(cd "$dir" && "$t" 2>&1)"; then :; else
+      printf '%s\n' "$out"
+    fi
+    line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed' | tail -n 1 || true)"
+    if [ -z "$line" ]; then
+      printf '%s\n' "$out"
+      p=0; f=1
+    else
+      p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
+      if [ "$f" -eq 0 ] && ! printf '%s\n' "$out" | grep -q "^$line\$"; then f=1; fi
+    fi
+    printf '%-8s %-28s %s passed, %s failed\n' "$label" "$(basename "$t")" "$p" "$f"
+    PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+  done
+}
+
+cmd_test() {
+  local t0 t1
+  t0=$(date +%s)
+  cmd_deps
+  cmd_build
+  build_asan
+  cmd_package >/dev/null
+  export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1"
+  export LSAN_OPTIONS="suppressions=$ROOT/native/tests/lsan.supp:print_suppressions=0"
+  export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+  run_native_tests "$BUILD/release" native
+  run_native_tests "$BUILD/asan" asan+ubsan
+  unset ASAN_OPTIONS LSAN_OPTIONS UBSAN_OPTIONS
+  local out line p f
+  if out="$("$PY" "$ROOT/blender_tests/run.py" 2>&1)"; then :; fi
+  printf '%s\n' "$out" | grep -v -E '^[0-9]+ passed, [0-9]+ failed$' || true
+  line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed$' | tail -n 1 || true)"
+  if [ -z "$line" ]; then p=0; f=1; else
+    p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
+  fi
+  printf '%-8s %-28s %s passed, %s failed\n' blender "blender_tests" "$p" "$f"
+  PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+  t1=$(date +%s)
+  say "test time: $((t1 - t0)) s"
+  echo "$PASSED passed, $FAILED failed"
+  [ "$FAILED" -eq 0 ]
+}
+
+cmd_demo() {
+  cmd_deps
+  cmd_build
+  mkdir -p "$ROOT/out"
+  TSK_OUT="$ROOT/out" "$PY" "$ROOT/tools/blender_run.py" "$ROOT/tools/demo.py" -- "$ROOT/out"
+}
+
+cmd_bench() {
+  cmd_build
+  local b
+  for b in "$BUILD/release"/bench_*; do
+    [ -x "$b" ] || continue
+    "$b" "$@"
+  done
+  # benchmarks that need Blender itself
+  local s
+  for s in "$ROOT"/tools/bench_*.py; do
+    [ -f "$s" ] || continue
+    "$PY" "$ROOT/tools/blender_run.py" "$s" -- "$@" | grep '^{' || true
+  done
+}
+
+cmd_package() {
+  cmd_build
+  "$PY" "$ROOT/tools/package.py" "$ROOT" "$ROOT/dist"
+}
+
+main() {
+  local cmd="${1:-}"
+  [ $# -gt 0 ] && shift
+  case "$cmd" in
+    deps) cmd_deps ;;
+    build) cmd_deps; cmd_build ;;
+    test) cmd_test ;;
+    demo) cmd_demo ;;
+    bench) cmd_deps; cmd_bench "$@" ;;
+    package) cmd_deps; cmd_package ;;
+    *) say "usage: ./build.sh deps | build | test | demo | bench [NAME...] | package"; exit 2 ;;
+  esac
+}
+
+main "$@"

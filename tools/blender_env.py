@@ -1,0 +1,53 @@
+"""Runs a script in background Blender (`blender -b --factory-startup`) with a fresh,
+private user folder whose addons/tussock links to this checkout's addon/, so nothing of
+the person's own Blender setup is read or changed. Used by the test runner, the demo,
+the docs pictures and the Blender benchmarks."""
+
+import os
+import shutil
+import subprocess
+import tempfile
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+class BlenderUser:
+    """A temporary Blender user folder with the add-on linked in (a context manager)."""
+
+    def __enter__(self):
+        self.root = tempfile.mkdtemp(prefix="tussock-blender-")
+        addons = os.path.join(self.root, "scripts", "addons")
+        os.makedirs(addons)
+        os.symlink(os.path.join(REPO, "addon"), os.path.join(addons, "tussock"))
+        self.tmp = os.path.join(self.root, "tmp")
+        os.makedirs(self.tmp)
+        env = dict(os.environ)
+        env["BLENDER_USER_SCRIPTS"] = os.path.join(self.root, "scripts")
+        env["BLENDER_USER_CONFIG"] = os.path.join(self.root, "config")
+        env["BLENDER_USER_DATAFILES"] = os.path.join(self.root, "datafiles")
+        env["TSK_TEST_TMP"] = self.tmp
+        self.env = env
+        return self
+
+    def __exit__(self, *exc):
+        shutil.rmtree(self.root, ignore_errors=True)
+
+
+def command(script, args=(), blend=None):
+    blender = os.environ.get("BLENDER", "blender")
+    cmd = [blender, "-b"]
+    if blend:
+        cmd.append(blend)
+    cmd += ["--factory-startup", "-noaudio", "--python-exit-code", "1", "--python", script,
+            "--", *args]
+    return cmd
+
+
+def run(script, args=(), blend=None, timeout=None, capture=True):
+    """Runs script in background Blender; returns (exit code, output text)."""
+    with BlenderUser() as user:
+        kw = dict(env=user.env, timeout=timeout, text=True, errors="replace")
+        if capture:
+            kw.update(stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        proc = subprocess.run(command(script, args, blend), **kw)
+        return proc.returncode, proc.stdout or ""
