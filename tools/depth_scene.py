@@ -1,0 +1,172 @@
+"""Ground truth for capture: analytic grass blades as Blender meshes, and exact depth
+images of them rendered by Cycles (planar depth along the camera axis, the convention of
+depth cameras), written as 32-bit OpenEXR in metres and 16-bit PNG in millimetres.
+
+Runs inside Blender. The camera sits at the world origin looking along +Y with x to the
+right and z up, and has the intrinsics of a 640x480 structured-light sensor
+(fx = fy = 570.3 px, cx = 319.5, cy = 239.5), so a point (X, Y, Z) in the world is
+(X, -Z, Y) in the OpenCV camera frame (x right, y down, z forward)."""
+
+import math
+import os
+
+import bpy
+import numpy as np
+
+WIDTH, HEIGHT = 640, 480
+FX = 570.3
+SENSOR_MM = 36.0
+
+
+def world_to_camera(p):
+    """World points (N, 3) to the OpenCV camera frame of the ground-truth camera."""
+    p = np.asarray(p, np.float64)
+    return np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=1)
+
+
+def blade_centreline(root, length, angle, bend, knots=200):
+    """An analytic blade: a circular-arc-like centreline in the x-z plane at depth root[1]
+    starting at `root`, leaning by `angle` (radians from vertical, + to the right) and
+    curving by `bend` (radians turned over its length). Returns (knots, 3) world points
+    and the arc-length parameter s in [0, 1]."""
+    s = np.linspace(0.0, 1.0, knots)
+    heading = angle + bend * s  # direction of the tangent from vertical
+    ds = length / (knots - 1)
+    dx = np.sin(heading) * ds
+    dz = np.cos(heading) * ds
+    x = root[0] + np.concatenate([[0.0], np.cumsum(0.5 * (dx[1:] + dx[:-1]))])
+    z = root[2] + np.concatenate([[0.0], np.cumsum(0.5 * (dz[1:] + dz[:-1]))])
+    y = np.full_like(s, root[1])
+    return np.stack([x, y, z], axis=1), s
+
+
+def blade_width(s, base_width, tip=0.25):
+    """Full width (m) along the blade: widest near the base, tapering to a point.
+    w(s) = base_width * (1 - s^2)^(1/2) * (1 - tip*s): smooth and zero at the tip."""
+    s = np.asarray(s, np.float64)
+    return base_width * np.sqrt(np.clip(1.0 - s * s, 0.0, 1.0)) * (1.0 - tip * s)
+
+
+def blade_mesh(name, centre, widths):
+    """A flat ribbon facing the camera (-Y), from centreline points and full widths."""
+    t = np.gradient(centre, axis=0)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    view = np.array([0.0, -1.0, 0.0])
+    side = np.cross(t, view)
+    side /= np.linalg.norm(side, axis=1, keepdims=True)
+    left = centre - side * (widths[:, None] * 0.5)
+    right = centre + side * (widths[:, None] * 0.5)
+    n = len(centre)
+    verts = np.empty((n, 2, 3), np.float32)
+    verts[:, 0], verts[:, 1] = left, right
+    quads = np.arange(n - 1, dtype=np.int32)[:, None] * 2 + np.array([0, 1, 3, 2], np.int32)
+    mesh = bpy.data.meshes.new(name)
+    mesh.vertices.add(n * 2)
+    mesh.vertices.foreach_set("co", verts.ravel())
+    mesh.loops.add(quads.size)
+    mesh.loops.foreach_set("vertex_index", quads.ravel())
+    mesh.polygons.add(n - 1)
+    mesh.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(n - 1, 4, np.int32))
+    mesh.update()
+    mesh.validate()
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def standard_cluster(depth=0.6, count=5, length=0.16, base_width=0.012, spread=0.55,
+                     base_gap=0.012, sway=None):
+    """A cluster of `count` blades fanning out from a common base at `depth` metres in front
+    of the camera, like a tuft photographed from the side. `sway` (one value per blade,
+    radians) adds to each blade's bend, as wind would. Returns a list of dicts with the
+    world centreline, arc parameter and widths of each blade (the ground truth)."""
+    blades = []
+    for i in range(count):
+        u = (i - (count - 1) / 2) / max(1, (count - 1) / 2)  # -1 .. 1
+        root = (u * base_gap * (count - 1) / 2, depth + 0.004 * abs(u), -0.09)
+        bend = 0.35 * u + (sway[i] if sway is not None else 0.0)
+        centre, s = blade_centreline(root, length * (1.0 - 0.12 * abs(u)), u * spread, bend,
+                                     knots=200)
+        blades.append({"centre": centre, "s": s, "width": blade_width(s, base_width)})
+    return blades
+
+
+def setup_camera_scene():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    cam = bpy.data.objects.new("Depth camera", bpy.data.cameras.new("Depth camera"))
+    scene.collection.objects.link(cam)
+    cam.location = (0.0, 0.0, 0.0)
+    cam.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    cam.data.sensor_fit = "HORIZONTAL"
+    cam.data.sensor_width = SENSOR_MM
+    cam.data.lens = FX * SENSOR_MM / WIDTH
+    cam.data.clip_start = 0.05
+    cam.data.clip_end = 20.0
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 1
+    scene.cycles.use_denoising = False
+    scene.cycles.pixel_filter_type = "BOX"
+    scene.cycles.filter_width = 0.01  # one ray through each pixel centre: exact depth
+    scene.render.resolution_x, scene.render.resolution_y = WIDTH, HEIGHT
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Raw"
+    scene.view_settings.look = "None"
+    scene.view_layers[0].use_pass_z = True
+    return scene
+
+
+def _file_output(tree, base, name, fmt, depth):
+    out = tree.nodes.new("CompositorNodeOutputFile")
+    out.base_path = base
+    out.format.file_format = fmt
+    # Blender 3.4 writes OpenEXR only as RGB(A); the three channels hold the same depth.
+    out.format.color_mode = "BW" if fmt == "PNG" else "RGB"
+    out.format.color_depth = depth
+    if fmt == "OPEN_EXR":
+        out.format.exr_codec = "ZIP"
+    out.file_slots[0].path = name
+    return out
+
+
+def render_depth(scene, directory, stem, frame=1, far=10.0):
+    """Renders the current frame's depth and writes <stem>.exr (metres, float32, 0 where
+    nothing was hit) and <stem>.png (uint16 millimetres, 0 = no data). Returns both paths."""
+    from tussock import compat  # compositor tree location differs in Blender 5
+    os.makedirs(directory, exist_ok=True)
+    scene.frame_set(frame)
+    scene.render.use_compositing = True
+    tree = compat.compositor_tree(scene)
+    for node in list(tree.nodes):
+        tree.nodes.remove(node)
+    rl = tree.nodes.new("CompositorNodeRLayers")
+    # valid = depth < far; metres = depth * valid; png value = metres * 1000 / 65535
+    less = tree.nodes.new("CompositorNodeMath")
+    less.operation = "LESS_THAN"
+    less.inputs[1].default_value = far
+    tree.links.new(rl.outputs["Depth"], less.inputs[0])
+    metres = tree.nodes.new("CompositorNodeMath")
+    metres.operation = "MULTIPLY"
+    tree.links.new(rl.outputs["Depth"], metres.inputs[0])
+    tree.links.new(less.outputs[0], metres.inputs[1])
+    mm = tree.nodes.new("CompositorNodeMath")
+    mm.operation = "MULTIPLY"
+    mm.inputs[1].default_value = 1000.0 / 65535.0
+    tree.links.new(metres.outputs[0], mm.inputs[0])
+    tmp = os.path.join(directory, ".render_tmp")
+    exr = _file_output(tree, tmp, "exr_", "OPEN_EXR", "32")
+    png = _file_output(tree, tmp, "png_", "PNG", "16")
+    tree.links.new(metres.outputs[0], exr.inputs[0])
+    tree.links.new(mm.outputs[0], png.inputs[0])
+    bpy.ops.render.render(write_still=False)
+    paths = []
+    for prefix, ext in (("exr_", ".exr"), ("png_", ".png")):
+        src = os.path.join(tmp, f"{prefix}{frame:04d}{ext}")
+        dst = os.path.join(directory, stem + ext)
+        os.replace(src, dst)
+        paths.append(dst)
+    os.rmdir(tmp)
+    return tuple(paths)
