@@ -13,9 +13,12 @@ bl_info = {
 }
 
 from . import handlers, prefs, ui  # noqa: E402
+from .meadow import operators as meadow_operators  # noqa: E402
+from .meadow import props as meadow_props  # noqa: E402
+from .meadow import ui as meadow_ui  # noqa: E402
 
 # One list of classes, registered in order and unregistered in reverse.
-_MODULES = (prefs, ui)
+_MODULES = (prefs, ui, meadow_props, meadow_operators, meadow_ui)
 
 
 def _classes():

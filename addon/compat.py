@@ -42,3 +42,37 @@ def preferences_id(package):
     """bl_idname for AddonPreferences: the add-on's package, which is 'tussock' for a
     legacy add-on and 'bl_ext.<repo>.tussock' for a 4.2+ extension."""
     return package
+
+
+def enabled_output(node, name=None):
+    """The output socket that is in use. Nodes such as Named Attribute and Random Value
+    have one output per data type in 3.x (same name, only one enabled) and a single
+    output in 4.x; this picks the right one in both."""
+    for socket in node.outputs:
+        if socket.enabled and (name is None or socket.name == name):
+            return socket
+    raise KeyError(f"{node.bl_idname} has no enabled output {name!r}")
+
+
+def node_group_socket_identifier(group, in_out, name):
+    """Identifier of a node group's socket (the key of a Geometry Nodes modifier input)."""
+    if hasattr(group, "interface"):
+        for item in group.interface.items_tree:
+            if getattr(item, "item_type", "SOCKET") == "SOCKET" and item.in_out == in_out \
+                    and item.name == name:
+                return item.identifier
+    else:
+        sockets = group.inputs if in_out == "INPUT" else group.outputs
+        for socket in sockets:
+            if socket.name == name:
+                return socket.identifier
+    raise KeyError(f"node group {group.name} has no {in_out.lower()} {name!r}")
+
+
+def set_modifier_input(modifier, name, value):
+    """Sets the value of a Geometry Nodes modifier's input by the socket's name."""
+    modifier[node_group_socket_identifier(modifier.node_group, "INPUT", name)] = value
+
+
+def get_modifier_input(modifier, name):
+    return modifier[node_group_socket_identifier(modifier.node_group, "INPUT", name)]

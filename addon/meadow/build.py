@@ -1,0 +1,180 @@
+"""Builds a meadow's Blender data from its settings: the native library makes the patch,
+lays out the tiles with the density map and lists the chunk instances; this module puts
+them into the chunk collection and the instance point cloud. All native work happens
+before any Blender data is touched, so an error leaves the scene as it was."""
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+from .. import compat, native
+from ..capture.blades import COLLECTION as BLADES_COLLECTION
+from ..nodes import meadow_nodes
+from . import chunks as chunk_data
+from . import material
+
+MODIFIER = "Tussock Meadow"
+BLADE_RAND_STREAM = 0x636F6C6F72  # "color": per-blade colour variation
+MAX_MODELS = 256
+
+
+def ground_area(ground):
+    """(origin xyz, size xy) of a ground object's world-space bounding box."""
+    corners = np.array([ground.matrix_world @ Vector(c) for c in ground.bound_box], np.float64)
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    return (float(lo[0]), float(lo[1]), float(hi[2])), (float(hi[0] - lo[0]), float(hi[1] - lo[1]))
+
+
+def blade_models(collection):
+    """Knots, widths and knot counts of the blade objects in `collection` (DESIGN.md's
+    blade contract: vertices root->tip, point attribute `width`). Returns None for the
+    default blade when there are none. Non-blade objects are an error."""
+    if collection is None:
+        collection = bpy.data.collections.get(BLADES_COLLECTION)
+    if collection is None or len(collection.objects) == 0:
+        return None
+    knots, widths, counts = [], [], []
+    for obj in collection.objects:  # one entry per model object (not per knot)
+        mesh = obj.data if obj.type == "MESH" else None
+        if mesh is None or "width" not in mesh.attributes or len(mesh.vertices) < 2:
+            raise ValueError(f"'{obj.name}' in '{collection.name}' is not a Tussock blade "
+                             "(a mesh of knots with a 'width' attribute)")
+        n = len(mesh.vertices)
+        if n > 64:
+            raise ValueError(f"blade '{obj.name}' has {n} knots; refine it to 64 or fewer "
+                             "(Tussock > Refine)")
+        co = np.empty(n * 3, np.float32)
+        mesh.vertices.foreach_get("co", co)
+        w = np.empty(n, np.float32)
+        mesh.attributes["width"].data.foreach_get("value", w)
+        knots.append(co)
+        widths.append(w)
+        counts.append(n)
+        if len(counts) > MAX_MODELS:
+            raise ValueError(f"more than {MAX_MODELS} blade models in '{collection.name}'")
+    return (np.concatenate(knots), np.concatenate(widths), np.array(counts, np.int32))
+
+
+def patch_key(settings):
+    """What the patch depends on; the chunk meshes are rebuilt only when it changes."""
+    models = settings.models or bpy.data.collections.get(BLADES_COLLECTION)
+    model_names = sorted(o.name for o in models.objects) if models is not None else []
+    return repr((settings.patch_blades, round(settings.scale_min, 6), round(settings.scale_max, 6),
+                 settings.seed, round(settings.tile_size, 6), settings.chunk_blades, model_names))
+
+
+def compute_patch(settings):
+    """The patch expanded into one mesh in tile-local metres, as plain arrays."""
+    lib = native.require()
+    models = blade_models(settings.models)
+    kw = dict(blade_count=settings.patch_blades, scale_min=settings.scale_min,
+              scale_max=settings.scale_max, seed=settings.seed)
+    if models is not None:
+        kw.update(knots=models[0], widths=models[1], knot_counts=models[2])
+    patch = lib.patch_create(**kw)
+    pinfo = lib.patch_info(patch)
+    nv, nt = pinfo["vertex_count"], pinfo["triangle_count"]
+    positions = np.empty(nv * 3, np.float32)
+    uvs = np.empty(nv * 2, np.float32)
+    tris = np.empty(nt * 3, np.int32)
+    blade_index = np.empty(nv, np.int32)
+    lib.patch_expand(patch, settings.tile_size, positions, None, uvs, tris, blade_index)
+    blade_rand = np.empty(pinfo["blade_count"], np.float32)
+    lib.rand_fill(settings.seed, BLADE_RAND_STREAM, blade_rand)
+    return dict(positions=positions.reshape(-1, 3), uvs=uvs.reshape(-1, 2),
+                tris=tris.reshape(-1, 3), blade_index=blade_index, blade_rand=blade_rand,
+                blade_count=pinfo["blade_count"])
+
+
+def density_image_values(settings):
+    img = settings.density_image
+    if img is None or img.size[0] == 0 or img.size[1] == 0:
+        raise ValueError("density image: choose an image with pixels")
+    iw, ih = img.size
+    px = np.empty(iw * ih * 4, np.float32)
+    img.pixels.foreach_get(px)
+    return np.ascontiguousarray(px.reshape(-1, 4)[:, :3].mean(axis=1), np.float32), iw, ih
+
+
+def compute_layout(settings, origin, size):
+    """Tiles, density map and chunk instances of the meadow, as plain arrays."""
+    lib = native.require()
+    density = settings.density.lower()
+    image, iw, ih = (None, 0, 0)
+    if density == "image":
+        image, iw, ih = density_image_values(settings)
+    meadow = lib.meadow_create(
+        origin=origin, size=size, tile_size=settings.tile_size,
+        blades_per_tile=settings.blades_per_tile, patch_blades=settings.patch_blades,
+        chunk_blades=settings.chunk_blades, seed=settings.seed, density=density,
+        noise_scale=settings.noise_scale, noise_octaves=settings.noise_octaves,
+        noise_threshold=settings.noise_threshold, image=image, image_width=iw,
+        image_height=ih)
+    info = lib.meadow_info(meadow)
+    n = info["chunk_instances"]
+    origins = np.empty(n * 3, np.float32)
+    chunk = np.empty(n, np.int32)
+    lib.meadow_chunk_instances(meadow, origins, chunk)
+    return dict(info=info, origins=origins.reshape(-1, 3), chunk=chunk)
+
+
+def patch_collection(obj):
+    name = f"{obj.name} patch"
+    coll = bpy.data.collections.get(name)
+    if coll is None:
+        coll = bpy.data.collections.new(name)
+    return coll
+
+
+def compute(settings, origin, size, obj=None):
+    """Native work of a meadow (patch only when `obj` has none for these settings)."""
+    key = patch_key(settings)
+    coll = bpy.data.collections.get(f"{obj.name} patch") if obj is not None else None
+    patch = None
+    if coll is None or obj.get("tussock_patch_key") != key or len(coll.objects) == 0:
+        patch = compute_patch(settings)
+    layout = compute_layout(settings, origin, size)
+    return key, patch, layout
+
+
+def write(obj, settings, key, patch, layout):
+    """Writes computed meadow data into the object, its patch collection and modifier."""
+    if patch is not None:
+        coll = patch_collection(obj)
+        chunk_data.build_chunks(coll, obj.name, patch["positions"], patch["tris"],
+                                patch["uvs"], patch["blade_index"], patch["blade_rand"],
+                                patch["blade_count"], settings.chunk_blades,
+                                material.grass_material())
+        obj["tussock_patch_key"] = key
+    coll = patch_collection(obj)
+    chunk_data.write_points(obj.data, layout["origins"], layout["chunk"])
+    mod = obj.modifiers.get(MODIFIER)
+    if mod is None:
+        mod = obj.modifiers.new(MODIFIER, "NODES")
+    group = meadow_nodes.meadow_group()
+    if mod.node_group is not group:
+        mod.node_group = group
+    compat.set_modifier_input(mod, "Chunks", coll)
+    compat.set_modifier_input(mod, "Display", float(settings.display))
+    compat.set_modifier_input(mod, "Seed", int(settings.seed))
+    info = layout["info"]
+    obj["tussock_blades"] = int(info["blade_count"])
+    obj["tussock_tiles"] = int(info["tile_count"])
+    obj["tussock_instances"] = int(info["chunk_instances"])
+    obj.update_tag()
+    return info
+
+
+def area_of(obj, settings):
+    if settings.ground is not None:
+        return ground_area(settings.ground)
+    return tuple(obj["tussock_origin"]), tuple(obj["tussock_size"])
+
+
+def rebuild(obj):
+    """Recomputes the meadow of `obj` from its settings and writes it into Blender; the
+    native work raises before anything in the scene changes."""
+    settings = obj.tussock_meadow
+    origin, size = area_of(obj, settings)
+    key, patch, layout = compute(settings, origin, size, obj)
+    return write(obj, settings, key, patch, layout)

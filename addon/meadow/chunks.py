@@ -1,0 +1,74 @@
+"""Blender data of a meadow: the patch split into chunk objects, and the point cloud of
+chunk instances that the meadow node group reads. All arrays cross with foreach_set;
+the only Python loop is over chunk objects (tens of them), never over blades."""
+
+import bpy
+import numpy as np
+
+
+def chunk_object_name(meadow_name, index):
+    # zero-padded so the collection's name order is the chunk order (Pick Instance)
+    return f"{meadow_name} chunk {index:05d}"
+
+
+def _mesh_from_arrays(name, positions, tris, uvs, blade_rand, normals=None):
+    mesh = bpy.data.meshes.new(name)
+    nv, nt = len(positions), len(tris)
+    mesh.vertices.add(nv)
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(positions, np.float32).ravel())
+    mesh.loops.add(nt * 3)
+    mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(tris, np.int32).ravel())
+    mesh.polygons.add(nt)
+    mesh.polygons.foreach_set("loop_start", np.arange(0, nt * 3, 3, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(nt, 3, np.int32))
+    uv_layer = mesh.uv_layers.new(name="UVMap")
+    uv_layer.data.foreach_set("uv", np.ascontiguousarray(uvs[tris.ravel()], np.float32).ravel())
+    rnd = mesh.attributes.new("tsk_blade_rand", "FLOAT", "POINT")
+    rnd.data.foreach_set("value", np.ascontiguousarray(blade_rand, np.float32))
+    mesh.polygons.foreach_set("use_smooth", np.ones(nt, bool))
+    mesh.update()
+    return mesh
+
+
+def build_chunks(collection, meadow_name, positions, tris, uvs, blade_index, blade_rand,
+                 blade_count, chunk_blades, material):
+    """Fills `collection` with blade_count / chunk_blades chunk objects. positions (V, 3),
+    uvs (V, 2), tris (T, 3) describe the expanded patch where blade b owns a contiguous run
+    of vertices and triangles; blade_index (V,) says whose vertex it is; blade_rand
+    (blade_count,) is a per-blade random value in [0, 1) for colour variation."""
+    for obj in list(collection.objects):
+        mesh = obj.data
+        bpy.data.objects.remove(obj)
+        if mesh is not None and mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+    verts_per_blade = len(positions) // blade_count
+    tris_per_blade = len(tris) // blade_count
+    chunks = blade_count // chunk_blades
+    for c in range(chunks):
+        v0, v1 = c * chunk_blades * verts_per_blade, (c + 1) * chunk_blades * verts_per_blade
+        t0, t1 = c * chunk_blades * tris_per_blade, (c + 1) * chunk_blades * tris_per_blade
+        name = chunk_object_name(meadow_name, c)
+        mesh = _mesh_from_arrays(name, positions[v0:v1], tris[t0:t1] - v0, uvs[v0:v1],
+                                 blade_rand[blade_index[v0:v1]])
+        mesh.materials.append(material)
+        obj = bpy.data.objects.new(name, mesh)
+        collection.objects.link(obj)
+    return chunks
+
+
+def write_points(mesh, origins, chunk, hidden=None):
+    """Replaces the points of the meadow's instance cloud: one point per chunk instance at
+    origins (N, 3) with int attribute tsk_chunk and boolean tsk_hidden."""
+    mesh.clear_geometry()
+    n = len(chunk)
+    mesh.vertices.add(n)
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(origins, np.float32).ravel())
+    for name, kind in (("tsk_chunk", "INT"), ("tsk_hidden", "BOOLEAN")):
+        if name in mesh.attributes:
+            mesh.attributes.remove(mesh.attributes[name])
+        mesh.attributes.new(name, kind, "POINT")
+    mesh.attributes["tsk_chunk"].data.foreach_set("value", np.ascontiguousarray(chunk, np.int32))
+    if hidden is None:
+        hidden = np.zeros(n, bool)
+    mesh.attributes["tsk_hidden"].data.foreach_set("value", np.ascontiguousarray(hidden, bool))
+    mesh.update()

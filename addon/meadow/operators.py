@@ -1,0 +1,93 @@
+"""tussock.add_meadow: a meadow over the selected ground mesh, or over a new plane."""
+
+import types
+
+import bpy
+
+from .. import errors
+from . import build
+from .props import DENSITY_ITEMS
+
+# settings copied from the operator to the meadow object, in this order
+SETTINGS = ("tile_size", "blades_per_tile", "patch_blades", "chunk_blades", "scale_min",
+            "scale_max", "density", "noise_scale", "noise_octaves", "noise_threshold", "seed",
+            "display")
+
+
+class TUSSOCK_OT_add_meadow(bpy.types.Operator):
+    """Grow a meadow of instanced blades over the selected ground mesh (or a new plane)"""
+    bl_idname = "tussock.add_meadow"
+    bl_label = "Add Meadow"
+    bl_options = {"REGISTER", "UNDO"}
+
+    size: bpy.props.FloatVectorProperty(name="Size", size=2, default=(10.0, 10.0), min=0.0,
+                                        unit="LENGTH",
+                                        description="Size of the new ground plane when no "
+                                        "ground mesh is selected")
+    tile_size: bpy.props.FloatProperty(name="Tile size", default=0.25, min=0.0, unit="LENGTH")
+    blades_per_tile: bpy.props.IntProperty(name="Blades per tile", default=64, min=0)
+    patch_blades: bpy.props.IntProperty(name="Patch size", default=16384, min=0)
+    chunk_blades: bpy.props.IntProperty(name="Chunk", default=16, min=0)
+    scale_min: bpy.props.FloatProperty(name="Scale min", default=0.8)
+    scale_max: bpy.props.FloatProperty(name="Scale max", default=1.2)
+    density: bpy.props.EnumProperty(name="Density", items=DENSITY_ITEMS, default="NOISE")
+    noise_scale: bpy.props.FloatProperty(name="Noise scale", default=8.0, unit="LENGTH")
+    noise_octaves: bpy.props.IntProperty(name="Octaves", default=3)
+    noise_threshold: bpy.props.FloatProperty(name="Threshold", default=0.2)
+    seed: bpy.props.IntProperty(name="Seed", default=1, min=0)
+    display: bpy.props.FloatProperty(name="Viewport display", default=0.25, min=0.0, max=1.0,
+                                     subtype="FACTOR")
+
+    def execute(self, context):
+        return errors.run(self, self._add, context)
+
+    def _settings(self, ground):
+        values = {name: getattr(self, name) for name in SETTINGS}
+        return types.SimpleNamespace(ground=ground, models=None, density_image=None, **values)
+
+    def _add(self, context):
+        ground = context.active_object
+        if ground is not None and (ground.type != "MESH" or not ground.select_get()
+                                   or ground.get("tussock_meadow_object")):
+            ground = None
+        if ground is None and (self.size[0] <= 0 or self.size[1] <= 0):
+            raise ValueError(f"size: must be positive, got {self.size[0]} x {self.size[1]}")
+        settings = self._settings(ground)
+        if ground is not None:
+            origin, size = build.ground_area(ground)
+        else:
+            cur = context.scene.cursor.location
+            origin = (cur.x - self.size[0] / 2, cur.y - self.size[1] / 2, cur.z)
+            size = tuple(self.size)
+        # everything native first: a bad parameter cancels with the scene unchanged
+        key, patch, layout = build.compute(settings, origin, size)
+
+        if ground is None:
+            mesh = bpy.data.meshes.new("Meadow ground")
+            hx, hy = size[0] / 2, size[1] / 2
+            mesh.from_pydata([(-hx, -hy, 0), (hx, -hy, 0), (hx, hy, 0), (-hx, hy, 0)], [],
+                             [(0, 1, 2, 3)])
+            ground = bpy.data.objects.new("Meadow ground", mesh)
+            ground.location = (origin[0] + hx, origin[1] + hy, origin[2])
+            context.scene.collection.objects.link(ground)
+        obj = bpy.data.objects.new("Meadow", bpy.data.meshes.new("Meadow"))
+        obj["tussock_meadow_object"] = True
+        obj["tussock_origin"] = origin
+        obj["tussock_size"] = size
+        context.scene.collection.objects.link(obj)
+        s = obj.tussock_meadow
+        s.ground = ground  # is_meadow is still False: no rebuild on assignment
+        for name in SETTINGS:
+            setattr(s, name, getattr(self, name))
+        info = build.write(obj, s, key, patch, layout)
+        s.is_meadow = True
+        for o in context.selected_objects:
+            o.select_set(False)
+        obj.select_set(True)
+        context.view_layer.objects.active = obj
+        self.report({"INFO"}, f"Meadow: {info['blade_count']:,} blades in "
+                              f"{info['nonempty_tiles']:,} tiles")
+        return {"FINISHED"}
+
+
+classes = (TUSSOCK_OT_add_meadow,)

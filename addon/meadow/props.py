@@ -1,0 +1,79 @@
+"""Meadow settings, stored on the meadow object so that every meadow has its own and they
+travel with the .blend. Changing one rebuilds the meadow's instances interactively."""
+
+import bpy
+
+from .. import native
+
+
+def _rebuild(self, context):
+    obj = self.id_data
+    if not self.is_meadow or not native.available():
+        return
+    from . import build
+    try:
+        build.rebuild(obj)
+    except native.Error as exc:
+        # an update callback cannot report; keep the last good meadow and show why
+        self.last_error = str(exc)
+    else:
+        self.last_error = ""
+
+
+DENSITY_ITEMS = [
+    ("NOISE", "Noise", "Perlin-noise density map (seed 000, Fig. 8)"),
+    ("UNIFORM", "Uniform", "Every tile has the full number of blades"),
+    ("IMAGE", "Image", "Density from an image painted or loaded by the artist (white = full)"),
+]
+
+
+class TussockMeadowSettings(bpy.types.PropertyGroup):
+    is_meadow: bpy.props.BoolProperty(default=False, options={"HIDDEN"})
+    last_error: bpy.props.StringProperty(default="", options={"HIDDEN"})
+    ground: bpy.props.PointerProperty(name="Ground", type=bpy.types.Object,
+                                      description="Mesh whose extent the meadow covers",
+                                      update=_rebuild)
+    models: bpy.props.PointerProperty(name="Blade models", type=bpy.types.Collection,
+                                      description="Collection of blade objects to grow "
+                                      "(empty: Tussock's default blade)", update=_rebuild)
+    tile_size: bpy.props.FloatProperty(name="Tile size", default=0.25, min=0.01, max=100.0,
+                                       unit="LENGTH", update=_rebuild)
+    blades_per_tile: bpy.props.IntProperty(name="Blades per tile", default=64, min=1,
+                                           max=65536, update=_rebuild)
+    patch_blades: bpy.props.IntProperty(name="Patch size", default=16384, min=16,
+                                        max=1 << 20, update=_rebuild,
+                                        description="Blades in the patch that all tiles reuse")
+    chunk_blades: bpy.props.IntProperty(name="Chunk", default=16, min=1, max=65536,
+                                        update=_rebuild,
+                                        description="Blades per instanced chunk; counts per "
+                                        "tile are multiples of it")
+    scale_min: bpy.props.FloatProperty(name="Scale min", default=0.8, min=0.01, max=100.0,
+                                       update=_rebuild)
+    scale_max: bpy.props.FloatProperty(name="Scale max", default=1.2, min=0.01, max=100.0,
+                                       update=_rebuild)
+    density: bpy.props.EnumProperty(name="Density", items=DENSITY_ITEMS, default="NOISE",
+                                    update=_rebuild)
+    noise_scale: bpy.props.FloatProperty(name="Noise scale", default=8.0, min=0.01,
+                                         unit="LENGTH", update=_rebuild)
+    noise_octaves: bpy.props.IntProperty(name="Octaves", default=3, min=1, max=12,
+                                         update=_rebuild)
+    noise_threshold: bpy.props.FloatProperty(name="Threshold", default=0.2, min=0.0,
+                                             max=0.99, update=_rebuild)
+    density_image: bpy.props.PointerProperty(name="Density image", type=bpy.types.Image,
+                                             update=_rebuild)
+    seed: bpy.props.IntProperty(name="Seed", default=1, min=0, update=_rebuild)
+    display: bpy.props.FloatProperty(name="Viewport display", default=0.25, min=0.0,
+                                     max=1.0, subtype="FACTOR", update=_rebuild,
+                                     description="Fraction of instances shown in the "
+                                     "viewport; renders show all")
+
+
+classes = (TussockMeadowSettings,)
+
+
+def register_extra():
+    bpy.types.Object.tussock_meadow = bpy.props.PointerProperty(type=TussockMeadowSettings)
+
+
+def unregister_extra():
+    del bpy.types.Object.tussock_meadow

@@ -1,0 +1,50 @@
+"""The Meadow panel in the Tussock sidebar tab."""
+
+import bpy
+
+
+class TUSSOCK_PT_meadow(bpy.types.Panel):
+    bl_label = "Meadow"
+    bl_idname = "TUSSOCK_PT_meadow"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Tussock"
+    bl_parent_id = "TUSSOCK_PT_main"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.operator("tussock.add_meadow", icon="OUTLINER_OB_HAIR")
+        obj = context.active_object
+        if obj is None or not obj.tussock_meadow.is_meadow:
+            return
+        s = obj.tussock_meadow
+        if s.last_error:
+            box = layout.box()
+            box.alert = True
+            box.label(text=s.last_error, icon="ERROR")
+        layout.label(text=f"{obj.get('tussock_blades', 0):,} blades, "
+                          f"{obj.get('tussock_tiles', 0):,} tiles")
+        col = layout.column(align=True)
+        col.prop(s, "ground")
+        col.prop(s, "models")
+        col = layout.column(align=True)
+        col.prop(s, "tile_size")
+        col.prop(s, "blades_per_tile")
+        col.prop(s, "patch_blades")
+        col.prop(s, "chunk_blades")
+        row = layout.row(align=True)
+        row.prop(s, "scale_min")
+        row.prop(s, "scale_max")
+        layout.prop(s, "density")
+        if s.density == "NOISE":
+            col = layout.column(align=True)
+            col.prop(s, "noise_scale")
+            col.prop(s, "noise_octaves")
+            col.prop(s, "noise_threshold")
+        elif s.density == "IMAGE":
+            layout.template_ID(s, "density_image", open="image.open")
+        layout.prop(s, "seed")
+        layout.prop(s, "display", slider=True)
+
+
+classes = (TUSSOCK_PT_meadow,)

@@ -1,0 +1,1 @@
+"""Builders of the geometry-node groups and compositor trees that Tussock owns."""
