@@ -59,6 +59,14 @@ tsk_status tsk_blade_model_set(tsk_blade_model* model, const float* xyz, const f
 /// low down and tapering to a point at the tip. knot_count 2..64.
 tsk_status tsk_blade_model_default(tsk_blade_model* model, int32_t knot_count);
 
+/// Sets `model_count` models from flat arrays, as Blender hands them over: knot_counts[m]
+/// knots for model m, their xyz (3 floats each) and widths concatenated model after model;
+/// `total_knots` is the length of `width` (and a third of that of `xyz`) and must equal the
+/// sum of knot_counts. Each model is checked as tsk_blade_model_set does.
+tsk_status tsk_blade_models_set(tsk_blade_model* models, int32_t model_count, const float* xyz,
+                                const float* width, const int32_t* knot_counts,
+                                size_t total_knots);
+
 /// Resamples `in` to `knot_count` knots evenly spaced in arc length (positions and widths
 /// linearly interpolated). Root and tip are kept exactly; the same knot count copies `in`.
 tsk_status tsk_blade_model_resample(const tsk_blade_model* in, int32_t knot_count,
@@ -129,6 +137,13 @@ size_t tsk_blade_triangle_count(int32_t knot_count);
 /// 3 floats per vertex, uvs 2 per vertex; any may be NULL. `widths` are full widths (m).
 tsk_status tsk_blade_expand(const float* knots, const float* widths, int32_t knot_count,
                             const float side[3], float* positions, float* normals, float* uvs);
+
+/// tsk_blade_expand for `blade_count` blades of `knot_count` knots each, blade after blade:
+/// knots 3K floats, widths K floats, sides 3 floats per blade; outputs 2K vertices per blade
+/// (positions, normals 3 floats, uvs 2 floats; any may be NULL). Deterministic in parallel.
+tsk_status tsk_blades_expand(const float* knots, const float* widths, const float* sides,
+                             size_t blade_count, int32_t knot_count, float* positions,
+                             float* normals, float* uvs);
 
 /// Triangle indices of one expanded blade: for each segment k, (2k, 2k+1, 2k+3) and
 /// (2k, 2k+3, 2k+2), plus `vertex_base`; counter-clockwise seen from the normal side.

@@ -3,6 +3,7 @@
 #include "meadow_internal.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 tsk_status tsk_blade_model_set(tsk_blade_model* model, const float* xyz, const float* width,
@@ -140,4 +141,35 @@ void tsk_blade_model_side(const tsk_blade_model* model, float side[3]) {
     if (len < 1e-6) return; /* straight up: any horizontal side works, keep +y */
     side[0] = (float)(-dy / len); /* +z x lean */
     side[1] = (float)(dx / len);
+}
+
+tsk_status tsk_blade_models_set(tsk_blade_model* models, int32_t model_count, const float* xyz,
+                                const float* width, const int32_t* knot_counts,
+                                size_t total_knots) {
+    if (model_count < 0 || model_count > TSK_PATCH_MAX_MODELS)
+        return tsk_error_arg(model_count < 0 ? TSK_ERR_ARGUMENT : TSK_ERR_LIMIT, "model_count",
+                             "must be 0..%d, got %d", TSK_PATCH_MAX_MODELS, (int)model_count);
+    if (model_count == 0) return TSK_OK;
+    if (models == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "models", "is NULL");
+    if (knot_counts == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "knot_counts", "is NULL");
+    size_t first = 0;
+    for (int32_t m = 0; m < model_count; ++m) {
+        const int32_t n = knot_counts[m];
+        if (n < 0 || (size_t)n > total_knots - first)
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "knot_counts",
+                                 "model %d has %d knots but only %zu remain of %zu", (int)m, (int)n,
+                                 total_knots - first, total_knots);
+        tsk_status s = tsk_blade_model_set(&models[m], xyz ? xyz + 3 * first : NULL,
+                                           width ? width + first : NULL, n);
+        if (s != TSK_OK) {
+            char why[256];
+            snprintf(why, sizeof why, "%s", tsk_last_error());
+            return tsk_error_arg(s, "models", "model %d: %s", (int)m, why);
+        }
+        first += (size_t)n;
+    }
+    if (first != total_knots)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "knot_counts",
+                             "sum to %zu knots but %zu were given", first, total_knots);
+    return TSK_OK;
 }

@@ -127,6 +127,57 @@ tsk_status tsk_blade_expand(const float* knots, const float* widths, int32_t kno
     return TSK_OK;
 }
 
+typedef struct many_ctx {
+    const float *knots, *widths, *sides;
+    int32_t K;
+    float *pos, *nrm, *uv;
+} many_ctx;
+
+static void expand_many(size_t begin, size_t end, size_t chunk, void* vctx) {
+    (void)chunk;
+    const many_ctx* c = vctx;
+    const size_t K = (size_t)c->K;
+    for (size_t b = begin; b < end; ++b)
+        expand_blade(&c->knots[3 * K * b], &c->widths[K * b], c->K, &c->sides[3 * b],
+                     c->pos ? &c->pos[6 * K * b] : NULL, c->nrm ? &c->nrm[6 * K * b] : NULL,
+                     c->uv ? &c->uv[4 * K * b] : NULL);
+}
+
+tsk_status tsk_blades_expand(const float* knots, const float* widths, const float* sides,
+                             size_t blade_count, int32_t knot_count, float* positions,
+                             float* normals, float* uvs) {
+    if (knot_count < 2 || knot_count > TSK_BLADE_MAX_KNOTS)
+        return tsk_error_arg(knot_count > TSK_BLADE_MAX_KNOTS ? TSK_ERR_LIMIT : TSK_ERR_ARGUMENT,
+                             "knot_count", "must be 2..%d, got %d", TSK_BLADE_MAX_KNOTS,
+                             (int)knot_count);
+    if (blade_count > (size_t)TSK_MEADOW_MAX_BLADES)
+        return tsk_error_arg(TSK_ERR_LIMIT, "blade_count", "%zu exceeds the limit of %lld",
+                             blade_count, (long long)TSK_MEADOW_MAX_BLADES);
+    if (blade_count == 0) return TSK_OK;
+    if (knots == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "is NULL");
+    if (widths == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "is NULL");
+    if (sides == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "sides", "is NULL");
+    const size_t K = (size_t)knot_count;
+    for (size_t i = 0; i < 3 * K * blade_count; ++i)
+        if (!isfinite(knots[i]))
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %zu of blade %zu is not finite",
+                                 (i / 3) % K, i / (3 * K));
+    for (size_t i = 0; i < K * blade_count; ++i)
+        if (!isfinite(widths[i]) || widths[i] < 0.0f)
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
+                                 "width %zu of blade %zu must be finite and >= 0", i % K, i / K);
+    for (size_t b = 0; b < blade_count; ++b) {
+        const float* s = &sides[3 * b];
+        const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+        if (!isfinite(l2) || !(l2 > 1e-20f))
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "sides",
+                                 "side of blade %zu must be a finite non-zero vector", b);
+    }
+    many_ctx c = {knots, widths, sides, knot_count, positions, normals, uvs};
+    tsk_parallel_for(blade_count, 256, expand_many, &c);
+    return TSK_OK;
+}
+
 tsk_status tsk_blade_indices(int32_t knot_count, int32_t vertex_base, int32_t* tris) {
     if (knot_count < 2 || knot_count > TSK_BLADE_MAX_KNOTS)
         return tsk_error_arg(knot_count > TSK_BLADE_MAX_KNOTS ? TSK_ERR_LIMIT : TSK_ERR_ARGUMENT,
