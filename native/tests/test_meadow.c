@@ -849,6 +849,81 @@ TEST(test_patch_mesh_identical_bytes_1_and_2_threads) {
     CHECK(patch_digest(2, 18) != a);
 }
 
+
+TEST(test_realised_tile_expands_to_the_patch_mesh_moved_to_the_tile) {
+    /* two routes to the same geometry: the patch mesh (tile-local) moved to tile t's corner,
+     * and the tile's realised rest skeletons expanded by tsk_blades_expand */
+    enum { P = 1024, K = 16 };
+    tsk_patch* p = make_patch(41, P);
+    tsk_meadow_def d = tsk_default_meadow_def();
+    d.size[0] = 5.0f;
+    d.size[1] = 3.0f;
+    d.patch_blades = P;
+    d.seed = 2;
+    tsk_meadow* m = make_meadow(&d);
+    const size_t nv = (size_t)P * 2 * K;
+    float* mesh = malloc(nv * 3 * sizeof(float));
+    float* mesh_n = malloc(nv * 3 * sizeof(float));
+    CHECK(tsk_patch_expand(p, d.tile_size, mesh, mesh_n, NULL, NULL, NULL) == TSK_OK);
+    const int64_t t = 17; /* tile (7, 1) */
+    int64_t n = 0;
+    CHECK(tsk_meadow_blade_count(m, t, t + 1, &n) == TSK_OK);
+    CHECK(n > 0);
+    float* knots = malloc((size_t)n * 3 * K * sizeof(float));
+    float* widths = malloc((size_t)n * K * sizeof(float));
+    float* sides = malloc((size_t)n * 3 * sizeof(float));
+    int32_t* idx = malloc((size_t)n * sizeof(int32_t));
+    float* pos = malloc((size_t)n * 6 * K * sizeof(float));
+    float* nrm = malloc((size_t)n * 6 * K * sizeof(float));
+    CHECK(tsk_meadow_realise_knots(m, p, t, t + 1, knots, widths, sides) == TSK_OK);
+    CHECK(tsk_meadow_realise(m, p, t, t + 1, NULL, NULL, NULL, idx) == TSK_OK);
+    CHECK(tsk_blades_expand(knots, widths, sides, (size_t)n, K, pos, nrm, NULL) == TSK_OK);
+    const float cx = 7 * d.tile_size, cy = 1 * d.tile_size;
+    double worst = 0, worst_n = 0;
+    for (int64_t b = 0; b < n; ++b)
+        for (int v = 0; v < 2 * K; ++v) {
+            const float* a = &pos[3 * (2 * K * b + v)];
+            const float* e = &mesh[3 * (2 * K * (size_t)idx[b] + v)];
+            worst = fmax(worst, fabs(a[0] - (e[0] + cx)) + fabs(a[1] - (e[1] + cy)) + fabs(a[2] - e[2]));
+            const float* an = &nrm[3 * (2 * K * b + v)];
+            const float* en = &mesh_n[3 * (2 * K * (size_t)idx[b] + v)];
+            worst_n = fmax(worst_n, fabs(an[0] - en[0]) + fabs(an[1] - en[1]) + fabs(an[2] - en[2]));
+        }
+    CHECK_MSG(worst < 1e-5, "position difference %g m", worst);
+    CHECK_MSG(worst_n < 1e-3, "normal difference %g", worst_n);
+    sides[0] = NAN;
+    CHECK_STATUS(tsk_blades_expand(knots, widths, sides, (size_t)n, K, pos, NULL, NULL),
+                 TSK_ERR_ARGUMENT, "sides");
+    free(mesh);
+    free(mesh_n);
+    free(knots);
+    free(widths);
+    free(sides);
+    free(idx);
+    free(pos);
+    free(nrm);
+    tsk_meadow_destroy(m);
+    tsk_patch_destroy(p);
+}
+
+TEST(test_models_from_flat_arrays_split_by_knot_counts) {
+    const float xyz[3 * 5] = {1, 1, 0, 1, 1, 0.1f, /* model 0: 2 knots, root moved to 0 */
+                              0, 0, 0, 0, 0, 0.2f, 0.1f, 0, 0.3f};
+    const float w[5] = {0.01f, 0.0f, 0.02f, 0.01f, 0.0f};
+    const int32_t counts[2] = {2, 3};
+    tsk_blade_model ms[2];
+    CHECK(tsk_blade_models_set(ms, 2, xyz, w, counts, 5) == TSK_OK);
+    CHECK(ms[0].knot_count == 2 && ms[1].knot_count == 3);
+    CHECK_NEAR(ms[0].xyz[5], 0.1, 1e-7);
+    CHECK(ms[0].xyz[3] == 0.0f);
+    CHECK(ms[1].width[1] == 0.01f);
+    CHECK_STATUS(tsk_blade_models_set(ms, 2, xyz, w, counts, 6), TSK_ERR_ARGUMENT, "knot_counts");
+    const int32_t too_many[2] = {2, 4};
+    CHECK_STATUS(tsk_blade_models_set(ms, 2, xyz, w, too_many, 5), TSK_ERR_ARGUMENT, "knot_counts");
+    const int32_t one[2] = {1, 4};
+    CHECK_STATUS(tsk_blade_models_set(ms, 2, xyz, w, one, 5), TSK_ERR_ARGUMENT, "model 0");
+}
+
 /* ---- bad meadow inputs ----------------------------------------------------------------------- */
 
 TEST(test_meadow_rejects_bad_input_with_messages) {
@@ -973,6 +1048,8 @@ TEST_MAIN(TEST_ENTRY(test_default_blade_matches_documented_formula),
           TEST_ENTRY(test_expansion_widths_equal_model_widths_times_scale),
           TEST_ENTRY(test_blade_expand_straight_blade_closed_form),
           TEST_ENTRY(test_patch_mesh_identical_bytes_1_and_2_threads),
+          TEST_ENTRY(test_realised_tile_expands_to_the_patch_mesh_moved_to_the_tile),
+          TEST_ENTRY(test_models_from_flat_arrays_split_by_knot_counts),
           TEST_ENTRY(test_meadow_rejects_bad_input_with_messages),
           TEST_ENTRY(test_meadow_and_patch_release_their_memory),
           TEST_ENTRY(test_ten_million_blade_meadow_lays_out))
