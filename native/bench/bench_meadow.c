@@ -1,6 +1,7 @@
 /* Benchmarks of the meadow: building and expanding the default 16,384-blade patch
  * (meadow_patch) and laying out the tiles of a 10-million-blade meadow (meadow_tiles).
  * The headline meadow_10M (Blender's peak memory) is measured in Blender, not here. */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime in bench.h under strict C17 */
 #include "bench.h"
 #include "tussock/core.h"
 #include "tussock/meadow.h"
