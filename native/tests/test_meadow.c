@@ -628,7 +628,8 @@ TEST(test_chunk_instances_reproduce_the_realised_meadow) {
     int32_t* chunk = malloc(I * sizeof(int32_t));
     float* org = malloc(3 * I * sizeof(float));
     CHECK(tsk_meadow_realise(m, p, 0, info.tile_count, xyz, NULL, NULL, idx) == TSK_OK);
-    CHECK(tsk_meadow_chunk_instances(m, org, chunk) == TSK_OK);
+    int32_t* ctile = malloc(I * sizeof(int32_t));
+    CHECK(tsk_meadow_chunk_instances(m, org, chunk, ctile) == TSK_OK);
     float pxy[2 * 16384];
     CHECK(tsk_patch_get_blades(p, pxy, NULL, NULL, NULL) == TSK_OK);
     int ok = 1;
@@ -636,6 +637,11 @@ TEST(test_chunk_instances_reproduce_the_realised_meadow) {
         for (int k = 0; k < 8; ++k) {
             const size_t o = 8 * n + k;
             ok &= idx[o] == chunk[n] * 8 + k; /* blade k of chunk = the realised blade */
+            /* the chunk's tile is the tile whose blade range holds blade o */
+            int64_t before = 0, upto = 0;
+            CHECK(tsk_meadow_blade_count(m, 0, ctile[n], &before) == TSK_OK);
+            CHECK(tsk_meadow_blade_count(m, 0, ctile[n] + 1, &upto) == TSK_OK);
+            ok &= (int64_t)o >= before && (int64_t)o < upto;
             ok &= fabsf(org[3 * n] + pxy[2 * idx[o]] * d.tile_size - xyz[3 * o]) < 1e-4f;
             ok &= fabsf(org[3 * n + 1] + pxy[2 * idx[o] + 1] * d.tile_size - xyz[3 * o + 1]) <
                   1e-4f;
@@ -659,6 +665,7 @@ TEST(test_chunk_instances_reproduce_the_realised_meadow) {
     free(idx);
     free(xyz);
     free(chunk);
+    free(ctile);
     free(org);
     free(torg);
     free(toff);

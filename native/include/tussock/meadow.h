@@ -272,12 +272,14 @@ tsk_status tsk_meadow_instances(const tsk_meadow* meadow, float* origins, int32_
                                 int32_t* counts);
 
 /// One instance per chunk of chunk_blades patch blades that some tile uses, tile by tile in
-/// index order: origins (3 floats, the tile's corner) and chunk (int32: which chunk of the
-/// patch, (offset / C + k) mod (patch_blades / C)). There are info.chunk_instances of them.
-/// With the patch mesh split into patch_blades / C chunks, instancing chunk `chunk[n]` at
+/// index order: origins (3 floats, the tile's corner), chunk (int32: which chunk of the
+/// patch, (offset / C + k) mod (patch_blades / C)) and tile (int32: the tile's index, so that
+/// the instances of simulated tiles can be hidden). There are info.chunk_instances of them;
+/// any pointer may be NULL. With the patch mesh split into patch_blades / C chunks (chunk c
+/// is blades [c*C, (c+1)*C), i.e. a run of vertices), instancing chunk `chunk[n]` at
 /// `origins[n]` reproduces the meadow exactly.
 tsk_status tsk_meadow_chunk_instances(const tsk_meadow* meadow, float* origins,
-                                      int32_t* chunk);
+                                      int32_t* chunk, int32_t* tile);
 
 /// Number of blades in tiles [tile_begin, tile_end).
 tsk_status tsk_meadow_blade_count(const tsk_meadow* meadow, int64_t tile_begin,

@@ -20,7 +20,7 @@ typedef struct inst_ctx {
     int64_t tile_begin;
     int64_t blade_base; /* first_blade[tile_begin] */
     float *origins, *xyz, *turn, *scale, *knots, *widths, *sides;
-    int32_t *offsets, *counts, *index;
+    int32_t *offsets, *counts, *index, *tile;
 } inst_ctx;
 
 static void fill_instances(size_t begin, size_t end, size_t chunk, void* vctx) {
@@ -66,16 +66,19 @@ static void fill_chunks(size_t begin, size_t end, size_t chunk, void* vctx) {
                 c->origins[3 * o + 2] = corner[2];
             }
             if (c->index) c->index[o] = (start + k) % runs;
+            if (c->tile) c->tile[o] = (int32_t)t;
         }
     }
 }
 
-tsk_status tsk_meadow_chunk_instances(const tsk_meadow* m, float* origins, int32_t* chunk) {
+tsk_status tsk_meadow_chunk_instances(const tsk_meadow* m, float* origins, int32_t* chunk,
+                                      int32_t* tile) {
     if (m == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "meadow", "is NULL");
     inst_ctx c = {0};
     c.m = m;
     c.origins = origins;
     c.index = chunk;
+    c.tile = tile;
     tsk_parallel_for((size_t)m->tile_count, TILE_GRAIN, fill_chunks, &c);
     return TSK_OK;
 }

@@ -481,8 +481,8 @@ static PyObject* py_meadow_instances(PyObject* self, PyObject* args) {
 
 static PyObject* py_meadow_chunk_instances(PyObject* self, PyObject* args) {
     (void)self;
-    PyObject *obj, *org_o, *chunk_o;
-    if (!PyArg_ParseTuple(args, "OOO:meadow_chunk_instances", &obj, &org_o, &chunk_o))
+    PyObject *obj, *org_o, *chunk_o, *tile_o = Py_None;
+    if (!PyArg_ParseTuple(args, "OOO|O:meadow_chunk_instances", &obj, &org_o, &chunk_o, &tile_o))
         return NULL;
     tsk_meadow* m = get_meadow(obj);
     if (m == NULL) return NULL;
@@ -491,15 +491,16 @@ static PyObject* py_meadow_chunk_instances(PyObject* self, PyObject* args) {
     const Py_ssize_t N = (Py_ssize_t)i.chunk_instances;
     views v = {0};
     float* org;
-    int32_t* chunk;
+    int32_t *chunk, *tile;
     if (!views_get(&v, org_o, "origins", TSK_PY_F32, 3 * N, 1, 1, (void**)&org) ||
-        !views_get(&v, chunk_o, "chunk", TSK_PY_I32, N, 1, 1, (void**)&chunk)) {
+        !views_get(&v, chunk_o, "chunk", TSK_PY_I32, N, 1, 1, (void**)&chunk) ||
+        !views_get(&v, tile_o, "tile", TSK_PY_I32, N, 1, 1, (void**)&tile)) {
         views_release(&v);
         return NULL;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_meadow_chunk_instances(m, org, chunk);
+    s = tsk_meadow_chunk_instances(m, org, chunk, tile);
     Py_END_ALLOW_THREADS
     views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -625,8 +626,9 @@ PyMethodDef tsk_py_meadow_methods[] = {
      "meadow_instances(meadow, origins, offsets, counts): per tile float32 corner (3), int32 "
      "patch offset, int32 count; None skips."},
     {"meadow_chunk_instances", py_meadow_chunk_instances, METH_VARARGS,
-     "meadow_chunk_instances(meadow, origins, chunk): per used chunk float32 tile corner (3) "
-     "and int32 chunk index into the patch; chunk_instances of them."},
+     "meadow_chunk_instances(meadow, origins, chunk[, tile]): per used chunk float32 tile "
+     "corner (3), int32 chunk index into the patch, int32 tile index; chunk_instances of "
+     "them; None skips."},
     {"meadow_blade_count", py_meadow_blade_count, METH_VARARGS,
      "meadow_blade_count(meadow, tile_begin, tile_end) -> int."},
     {"meadow_realise", py_meadow_realise, METH_VARARGS,
