@@ -387,7 +387,8 @@ static int32_t ref_count(const tsk_meadow_def* d, const ref_noise* r, int i, int
     const double n = ref_fbm(r, (cx - d->origin[0]) / d->noise_scale,
                              (cy - d->origin[1]) / d->noise_scale, d->noise_octaves,
                              d->noise_persistence);
-    double v = (n + 1) / 2, t = d->noise_threshold;
+    double v = (1 + d->noise_contrast * n) / 2, t = d->noise_threshold;
+    v = v < 0 ? 0 : v > 1 ? 1 : v;
     double dens = (v - t) / (1 - t);
     dens = dens < 0 ? 0 : dens > 1 ? 1 : dens;
     const double q = d->blades_per_tile * dens / d->chunk_blades + 0.5;
@@ -409,6 +410,7 @@ TEST(test_meadow_count_matches_density_map) {
     d.noise_scale = 6.0f;
     d.noise_octaves = 4;
     d.noise_threshold = 0.35f;
+    d.noise_contrast = 1.7f;
     tsk_meadow* m = make_meadow(&d);
     tsk_meadow_info info;
     CHECK(tsk_meadow_get_info(m, &info) == TSK_OK);
@@ -438,7 +440,7 @@ TEST(test_meadow_count_matches_density_map) {
     CHECK(info.blade_count == got);
     CHECK(zero > 0 && zero < T);  /* the threshold leaves bare patches, not bare everything */
     CHECK(got > T * 5 && got < T * 95);
-    (void)full;
+    CHECK(full > 0 && full < T); /* the contrast reaches full density somewhere */
     free(counts);
     tsk_meadow_destroy(m);
 }
@@ -961,6 +963,7 @@ TEST(test_meadow_rejects_bad_input_with_messages) {
     BAD(noise_scale, -1.0f, TSK_ERR_ARGUMENT, "noise_scale");
     BAD(noise_octaves, 0, TSK_ERR_ARGUMENT, "noise_octaves");
     BAD(noise_threshold, 1.0f, TSK_ERR_ARGUMENT, "noise_threshold");
+    BAD(noise_contrast, -1.0f, TSK_ERR_ARGUMENT, "noise_contrast");
     BAD(noise_persistence, NAN, TSK_ERR_ARGUMENT, "noise_persistence");
     BAD(density, (tsk_density_kind)7, TSK_ERR_ARGUMENT, "density");
     BAD(size[0], 1e9f, TSK_ERR_LIMIT, "size.x");

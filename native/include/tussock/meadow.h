@@ -214,7 +214,9 @@ typedef struct tsk_meadow_def {
     float noise_scale;        ///< metres per noise lattice cell of octave 0, > 0 (default 8)
     int32_t noise_octaves;    ///< 1..12 (default 3)
     float noise_persistence;  ///< amplitude ratio of octave o+1 to o, [0, 1] (default 0.5)
-    float noise_threshold;    ///< [0, 1): noise values below it leave bare ground (default 0.2)
+    float noise_contrast;     ///< gain on the noise before the threshold, 0..100 (default 2.5:
+                              ///< fractal Perlin noise mostly stays within +-0.4)
+    float noise_threshold;    ///< [0, 1): noise values below it leave bare ground (default 0.15)
     const float* image;       ///< density image, row-major, row 0 at origin.y (Blender's
                               ///< pixel order), read only during tsk_meadow_create
     int32_t image_width;      ///< pixels, 1..TSK_MEADOW_MAX_IMAGE_SIDE
@@ -229,8 +231,8 @@ tsk_meadow_def tsk_default_meadow_def(void);
 /// Density d of the tile with centre (cx, cy) in metres:
 ///  - UNIFORM: d = 1;
 ///  - NOISE: n = tsk_noise_fbm2(noise, (cx - origin.x) / noise_scale, (cy - origin.y) /
-///    noise_scale, octaves, persistence), v = (n + 1) / 2, d = clamp((v - threshold) /
-///    (1 - threshold), 0, 1);
+///    noise_scale, octaves, persistence), v = clamp((1 + contrast * n) / 2, 0, 1),
+///    d = clamp((v - threshold) / (1 - threshold), 0, 1);
 ///  - IMAGE: bilinear sample of the image at pixel coordinates
 ///    ((cx - origin.x) / size.x * width - 1/2, (cy - origin.y) / size.y * height - 1/2),
 ///    edges clamped, then clamped to [0, 1].

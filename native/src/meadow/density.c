@@ -20,6 +20,10 @@ tsk_status tsk_meadow_check_density(const tsk_meadow_def* def) {
             def->noise_persistence > 1.0f)
             return tsk_error_arg(TSK_ERR_ARGUMENT, "noise_persistence", "must be in [0, 1], got %g",
                                  (double)def->noise_persistence);
+        if (!isfinite(def->noise_contrast) || def->noise_contrast < 0.0f ||
+            def->noise_contrast > 100.0f)
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "noise_contrast", "must be in [0, 100], got %g",
+                                 (double)def->noise_contrast);
         if (!isfinite(def->noise_threshold) || def->noise_threshold < 0.0f ||
             def->noise_threshold >= 1.0f)
             return tsk_error_arg(TSK_ERR_ARGUMENT, "noise_threshold", "must be in [0, 1), got %g",
@@ -68,7 +72,7 @@ double tsk_meadow_density_at(const tsk_meadow_def* def, const tsk_noise* noise, 
         const double n = tsk_noise_fbm2(noise, (cx - def->origin[0]) / def->noise_scale,
                                         (cy - def->origin[1]) / def->noise_scale,
                                         def->noise_octaves, def->noise_persistence);
-        const double v = 0.5 * (n + 1.0);
+        const double v = clamp01(0.5 * (1.0 + (double)def->noise_contrast * n));
         const double t = def->noise_threshold;
         return clamp01((v - t) / (1.0 - t));
     }

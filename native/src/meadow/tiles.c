@@ -22,7 +22,8 @@ tsk_meadow_def tsk_default_meadow_def(void) {
     d.noise_scale = 8.0f;
     d.noise_octaves = 3;
     d.noise_persistence = 0.5f;
-    d.noise_threshold = 0.2f;
+    d.noise_contrast = 2.5f;
+    d.noise_threshold = 0.15f;
     return d;
 }
 

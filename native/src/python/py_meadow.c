@@ -349,6 +349,7 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
                             "blades_per_tile", "patch_blades", "chunk_blades",
                             "seed",          "density",       "noise_scale",
                             "noise_octaves", "noise_persistence", "noise_threshold",
+                            "noise_contrast",
                             "image",         "image_width",   "image_height", NULL};
     tsk_meadow_def d = tsk_default_meadow_def();
     PyObject *origin_o = NULL, *size_o = NULL, *image_o = Py_None;
@@ -356,10 +357,11 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
     unsigned long long seed = d.seed;
     int bpt = d.blades_per_tile, pb = d.patch_blades, cb = d.chunk_blades, oct = d.noise_octaves;
     int iw = 0, ih = 0;
-    float ts = d.tile_size, ns = d.noise_scale, np = d.noise_persistence, nt = d.noise_threshold;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "|OOfiiiKsfiffOii:meadow_create", names,
+    float ts = d.tile_size, ns = d.noise_scale, np = d.noise_persistence, nt = d.noise_threshold,
+          nc = d.noise_contrast;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "|OOfiiiKsfifffOii:meadow_create", names,
                                      &origin_o, &size_o, &ts, &bpt, &pb, &cb, &seed, &density,
-                                     &ns, &oct, &np, &nt, &image_o, &iw, &ih))
+                                     &ns, &oct, &np, &nt, &nc, &image_o, &iw, &ih))
         return NULL;
     if (!parse_floats(origin_o, "origin", d.origin, 3) || !parse_floats(size_o, "size", d.size, 2))
         return NULL;
@@ -381,6 +383,7 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
     d.noise_octaves = oct;
     d.noise_persistence = np;
     d.noise_threshold = nt;
+    d.noise_contrast = nc;
     views v = {0};
     if (d.density == TSK_DENSITY_IMAGE) {
         if (iw < 1 || ih < 1 || iw > TSK_MEADOW_MAX_IMAGE_SIDE || ih > TSK_MEADOW_MAX_IMAGE_SIDE)
@@ -613,7 +616,8 @@ PyMethodDef tsk_py_meadow_methods[] = {
      METH_VARARGS | METH_KEYWORDS,
      "meadow_create(origin=(0,0,0), size=(10,10), tile_size=0.5, blades_per_tile=64, "
      "patch_blades=16384, chunk_blades=1, seed=1, density='noise', noise_scale=8, "
-     "noise_octaves=3, noise_persistence=0.5, noise_threshold=0.2, image=None, image_width=0, "
+     "noise_octaves=3, noise_persistence=0.5, noise_threshold=0.15, noise_contrast=2.5, "
+     "image=None, image_width=0, "
      "image_height=0) -> meadow handle. density: 'uniform' | 'noise' | 'image' (float32 "
      "image of image_width*image_height values in [0,1], row 0 at origin y)."},
     {"meadow_info", py_meadow_info, METH_VARARGS,
