@@ -12,28 +12,36 @@ size_t tsk_blade_triangle_count(int32_t knot_count) {
     return knot_count >= 2 ? 2 * (size_t)(knot_count - 1) : 0;
 }
 
-/* Unchecked expansion of one blade; `side` need not be unit length but must be non-zero. */
+/* Unchecked expansion of one blade; `side` need not be unit length but must be non-zero.
+ * Each segment length is computed once (for UVs); side_k and tangent_k are unit and
+ * perpendicular, so their cross product (the normal) is unit without normalising. */
 static void expand_blade(const float* knots, const float* widths, int32_t n, const float side[3],
                          float* pos, float* nrm, float* uv) {
-    const float sl = sqrtf(side[0] * side[0] + side[1] * side[1] + side[2] * side[2]);
-    const float s0[3] = {side[0] / sl, side[1] / sl, side[2] / sl};
+    const float inv_sl = 1.0f / sqrtf(side[0] * side[0] + side[1] * side[1] + side[2] * side[2]);
+    const float s0[3] = {side[0] * inv_sl, side[1] * inv_sl, side[2] * inv_sl};
+    float seg[TSK_BLADE_MAX_KNOTS];
     float total = 0.0f;
-    if (uv)
+    if (uv) {
+        seg[0] = 0.0f;
         for (int32_t k = 1; k < n; ++k) {
             const float dx = knots[3 * k] - knots[3 * k - 3], dy = knots[3 * k + 1] - knots[3 * k - 2],
                         dz = knots[3 * k + 2] - knots[3 * k - 1];
-            total += sqrtf(dx * dx + dy * dy + dz * dz);
+            seg[k] = sqrtf(dx * dx + dy * dy + dz * dz);
+            total += seg[k];
         }
+    }
+    const float inv_total = total > 0.0f ? 1.0f / total : 0.0f;
     float along = 0.0f;
     for (int32_t k = 0; k < n; ++k) {
         const int32_t a = k > 0 ? k - 1 : 0, b = k < n - 1 ? k + 1 : n - 1;
         float t[3] = {knots[3 * b] - knots[3 * a], knots[3 * b + 1] - knots[3 * a + 1],
                       knots[3 * b + 2] - knots[3 * a + 2]};
-        float tl = sqrtf(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
-        if (tl > 0.0f) {
-            t[0] /= tl;
-            t[1] /= tl;
-            t[2] /= tl;
+        const float tl2 = t[0] * t[0] + t[1] * t[1] + t[2] * t[2];
+        if (tl2 > 0.0f) {
+            const float inv = 1.0f / sqrtf(tl2);
+            t[0] *= inv;
+            t[1] *= inv;
+            t[2] *= inv;
         } else {
             t[0] = 0.0f;
             t[1] = 0.0f;
@@ -42,11 +50,12 @@ static void expand_blade(const float* knots, const float* widths, int32_t n, con
         /* side made perpendicular to the tangent (Gram-Schmidt), then unit length */
         const float d = s0[0] * t[0] + s0[1] * t[1] + s0[2] * t[2];
         float s[3] = {s0[0] - d * t[0], s0[1] - d * t[1], s0[2] - d * t[2]};
-        float ssl = sqrtf(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
-        if (ssl > 1e-6f) {
-            s[0] /= ssl;
-            s[1] /= ssl;
-            s[2] /= ssl;
+        const float ssl2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+        if (ssl2 > 1e-12f) {
+            const float inv = 1.0f / sqrtf(ssl2);
+            s[0] *= inv;
+            s[1] *= inv;
+            s[2] *= inv;
         } else { /* tangent along the side: keep the side as given */
             s[0] = s0[0];
             s[1] = s0[1];
@@ -61,27 +70,16 @@ static void expand_blade(const float* knots, const float* widths, int32_t n, con
             }
         }
         if (nrm) {
-            float nv[3] = {s[1] * t[2] - s[2] * t[1], s[2] * t[0] - s[0] * t[2],
-                           s[0] * t[1] - s[1] * t[0]};
-            const float nl = sqrtf(nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2]);
-            if (nl > 0.0f) {
-                nv[0] /= nl;
-                nv[1] /= nl;
-                nv[2] /= nl;
-            }
+            const float nv[3] = {s[1] * t[2] - s[2] * t[1], s[2] * t[0] - s[0] * t[2],
+                                 s[0] * t[1] - s[1] * t[0]};
             for (int q = 0; q < 3; ++q) {
                 nrm[6 * k + q] = nv[q];
                 nrm[6 * k + 3 + q] = nv[q];
             }
         }
         if (uv) {
-            if (k > 0) {
-                const float dx = knots[3 * k] - knots[3 * k - 3],
-                            dy = knots[3 * k + 1] - knots[3 * k - 2],
-                            dz = knots[3 * k + 2] - knots[3 * k - 1];
-                along += sqrtf(dx * dx + dy * dy + dz * dz);
-            }
-            float v = total > 0.0f ? along / total : (float)k / (float)(n - 1);
+            along += seg[k];
+            float v = total > 0.0f ? along * inv_total : (float)k / (float)(n - 1);
             if (k == n - 1) v = 1.0f;
             uv[4 * k] = 0.0f;
             uv[4 * k + 1] = v;
