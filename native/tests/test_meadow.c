@@ -824,6 +824,10 @@ TEST(test_blade_expand_straight_blade_closed_form) {
     const int32_t want[6] = {10, 11, 13, 10, 13, 12};
     CHECK(memcmp(tris, want, sizeof want) == 0);
     CHECK(tris[17] == 10 + 6);
+    int32_t many[3 * 18];
+    CHECK(tsk_blades_indices(4, 3, many) == TSK_OK);
+    for (int i = 0; i < 18; ++i) CHECK(many[36 + i] == tris[i] - 10 + 16); /* blade 2 at 16 */
+    CHECK_STATUS(tsk_blades_indices(64, (size_t)1 << 30, many), TSK_ERR_LIMIT, "blade_count");
     CHECK(tsk_blade_vertex_count(4) == 8 && tsk_blade_triangle_count(4) == 6);
     const float zero[3] = {0, 0, 0};
     CHECK_STATUS(tsk_blade_expand(knots, widths, 4, zero, pos, nrm, uv), TSK_ERR_ARGUMENT, "side");

@@ -150,6 +150,10 @@ tsk_status tsk_blades_expand(const float* knots, const float* widths, const floa
 /// `tris` holds 3 * tsk_blade_triangle_count(knot_count) int32.
 tsk_status tsk_blade_indices(int32_t knot_count, int32_t vertex_base, int32_t* tris);
 
+/// tsk_blade_indices for `blade_count` blades laid out one after another (blade b's vertices
+/// start at 2*K*b), into 6(K-1) int32 per blade. blade_count * 2K must fit in int32.
+tsk_status tsk_blades_indices(int32_t knot_count, size_t blade_count, int32_t* tris);
+
 /// Vertex and triangle counts of tsk_patch_expand.
 tsk_status tsk_patch_mesh_counts(const tsk_patch* patch, size_t* vertex_count,
                                  size_t* triangle_count);

@@ -189,6 +189,22 @@ tsk_status tsk_blade_indices(int32_t knot_count, int32_t vertex_base, int32_t* t
     return TSK_OK;
 }
 
+tsk_status tsk_blades_indices(int32_t knot_count, size_t blade_count, int32_t* tris) {
+    if (knot_count < 2 || knot_count > TSK_BLADE_MAX_KNOTS)
+        return tsk_error_arg(knot_count > TSK_BLADE_MAX_KNOTS ? TSK_ERR_LIMIT : TSK_ERR_ARGUMENT,
+                             "knot_count", "must be 2..%d, got %d", TSK_BLADE_MAX_KNOTS,
+                             (int)knot_count);
+    if (blade_count > (size_t)INT32_MAX / (2 * (size_t)knot_count))
+        return tsk_error_arg(TSK_ERR_LIMIT, "blade_count",
+                             "%zu blades of %d knots exceed 2^31 vertices", blade_count,
+                             (int)knot_count);
+    if (blade_count > 0 && tris == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "tris", "is NULL");
+    const size_t per = 6 * (size_t)(knot_count - 1);
+    for (size_t b = 0; b < blade_count; ++b)
+        blade_indices(knot_count, (int32_t)(2 * (size_t)knot_count * b), &tris[per * b]);
+    return TSK_OK;
+}
+
 tsk_status tsk_patch_mesh_counts(const tsk_patch* p, size_t* vertex_count,
                                  size_t* triangle_count) {
     if (p == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "patch", "is NULL");

@@ -302,18 +302,15 @@ static PyObject* py_blade_indices(PyObject* self, PyObject* args) {
     if (knot_count < 2 || knot_count > TSK_BLADE_MAX_KNOTS)
         return tsk_py_raise_arg("knot_count", "must be 2..%d, got %d", TSK_BLADE_MAX_KNOTS,
                                 knot_count);
-    if (blade_count < 0 || (long long)blade_count * 2 * knot_count > INT32_MAX)
-        return tsk_py_raise_arg("blade_count", "must be 0..%d, got %d",
-                                (int)(INT32_MAX / (2 * knot_count)), blade_count);
+    if (blade_count < 0) return tsk_py_raise_arg("blade_count", "must be >= 0, got %d", blade_count);
     views v = {0};
     int32_t* tris;
     const Py_ssize_t per = 3 * (Py_ssize_t)tsk_blade_triangle_count(knot_count);
     if (!views_get(&v, tri_o, "tris", TSK_PY_I32, per * blade_count, 1, 0, (void**)&tris))
         return NULL;
-    tsk_status s = TSK_OK;
+    tsk_status s;
     Py_BEGIN_ALLOW_THREADS
-    for (int b = 0; b < blade_count && s == TSK_OK; ++b)
-        s = tsk_blade_indices(knot_count, 2 * knot_count * b, tris + per * b);
+    s = tsk_blades_indices(knot_count, (size_t)blade_count, tris);
     Py_END_ALLOW_THREADS
     views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
