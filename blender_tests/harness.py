@@ -43,6 +43,45 @@ def check_near(a, b, tol, what=""):
         raise AssertionError(f"{what} |{a} - {b}| = {abs(a - b)} > {tol}")
 
 
+def scene_fingerprint():
+    """A digest of every datablock and its key properties, to check that a cancelled
+    operator left the file exactly as it was."""
+    import hashlib
+    import bpy
+    h = hashlib.sha256()
+    for attr in ("objects", "meshes", "collections", "materials", "images", "node_groups",
+                 "textures", "cameras", "lights", "curves", "worlds"):
+        for idb in getattr(bpy.data, attr):
+            h.update(f"{attr}:{idb.name}:{idb.users}".encode())
+            if attr == "objects":
+                h.update(repr([tuple(r) for r in idb.matrix_world]).encode())
+                h.update(repr(sorted(idb.keys())).encode())
+                h.update(repr([m.name for m in idb.modifiers]).encode())
+            elif attr == "meshes":
+                h.update(f"{len(idb.vertices)}:{len(idb.polygons)}:{len(idb.attributes)}".encode())
+            elif attr == "collections":
+                h.update(repr(sorted(o.name for o in idb.objects)).encode())
+    for scene in bpy.data.scenes:
+        h.update(repr(sorted(o.name for o in scene.objects)).encode())
+        h.update(repr(sorted(c.name for c in scene.collection.children)).encode())
+    return h.hexdigest()
+
+
+def expect_cancel(op, needle, **kwargs):
+    """Runs an operator that must fail: it reports an error containing `needle`, returns
+    CANCELLED (raised as RuntimeError in background) and leaves the scene unchanged."""
+    before = scene_fingerprint()
+    try:
+        result = op(**kwargs)
+    except RuntimeError as exc:
+        msg = str(exc)
+        assert needle in msg, f"error {msg!r} lacks {needle!r}"
+    else:
+        raise AssertionError(f"{op} with {kwargs} returned {result}, expected an error")
+    after = scene_fingerprint()
+    assert before == after, f"{op} with {kwargs} changed the scene"
+
+
 def main():
     flt = os.environ.get("TSK_TEST_FILTER", "")
     passed = failed = 0

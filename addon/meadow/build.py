@@ -71,7 +71,10 @@ def compute_patch(settings):
               scale_max=settings.scale_max, seed=settings.seed)
     if models is not None:
         kw.update(knots=models[0], widths=models[1], knot_counts=models[2])
-    patch = lib.patch_create(**kw)
+    try:
+        patch = lib.patch_create(**kw)
+    except lib.Error as exc:  # name the setting the artist knows
+        raise lib.Error(f"patch ({settings.patch_blades} blades): {exc}") from None
     pinfo = lib.patch_info(patch)
     nv, nt = pinfo["vertex_count"], pinfo["triangle_count"]
     positions = np.empty(nv * 3, np.float32)
