@@ -4,6 +4,7 @@
  * recordings made by the test, and every bad input with its status and message. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdint.h>
+#include <dirent.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
@@ -11,6 +12,7 @@
 #include "bridge/opencv_capture_bridge.h"
 #include "capture/depth_internal.h"
 #include "capture_scene.h"
+#include "oni_writer.h"
 
 #include "test.h"
 #include "tussock/capture.h"
@@ -21,6 +23,21 @@
 static float g_depth[W * H];
 static char g_dir[256];
 
+/* removes the test's temporary files at exit */
+static void remove_tmp_dir(void) {
+    DIR* d = opendir(g_dir);
+    if (d == NULL) return;
+    struct dirent* e;
+    char p[600];
+    while ((e = readdir(d)) != NULL) {
+        if (e->d_name[0] == '.') continue;
+        snprintf(p, sizeof p, "%s/%s", g_dir, e->d_name);
+        unlink(p);
+    }
+    closedir(d);
+    rmdir(g_dir);
+}
+
 static const char* tmp_path(const char* name) {
     static char buf[4][512];
     static int k;
@@ -28,6 +45,7 @@ static const char* tmp_path(const char* name) {
     if (g_dir[0] == '\0') {
         snprintf(g_dir, sizeof g_dir, "/tmp/tsk_test_capture_%d", (int)getpid());
         mkdir(g_dir, 0700);
+        atexit(remove_tmp_dir);
     }
     snprintf(buf[k], sizeof buf[k], "%s/%s", g_dir, name);
     return buf[k];
@@ -719,6 +737,75 @@ TEST(test_device_missing_gives_device_error) {
     CHECK(src == NULL);
 }
 
+
+TEST(test_oni_recording_made_by_the_test_plays_frame_by_frame) {
+    /* four frames of the fan at 0.6, 0.7, 0.8, 0.9 m, written as an OpenNI2 recording */
+    const char* path = tmp_path("fan.oni");
+    const double hfov = 1.0, vfov = 0.8;
+    oni_writer ow;
+    CHECK(oniw_open(&ow, path, W, H, hfov, vfov) == 0);
+    static uint16_t mm[W * H];
+    scene_blade sb[8];
+    int nb = scene_fan(sb, 320.0, 450.0);
+    for (int f = 0; f < 4; ++f) {
+        for (int i = 0; i < nb; ++i) sb[i].z0 = 0.6 + 0.1 * f;
+        scene_render(sb, nb, W, H, 0.0f, g_depth);
+        for (int i = 0; i < W * H; ++i) mm[i] = (uint16_t)lroundf(g_depth[i] * 1000.0f);
+        CHECK(oniw_frame(&ow, mm) == 0);
+    }
+    CHECK(oniw_close(&ow) == 0);
+    tsk_depth_source* src = NULL;
+    CHECK_STATUS(tsk_depth_open_oni(path, &src), TSK_OK, "");
+    if (src == NULL) return;
+    tsk_depth_info info;
+    CHECK(tsk_depth_get_info(src, &info) == TSK_OK);
+    CHECK(info.kind == TSK_DEPTH_ONI && info.width == W && info.height == H);
+    CHECK(info.frame_count == 4);
+    /* intrinsics from the recorded field of view: fx = (W/2) / tan(hfov/2) */
+    CHECK(info.has_device_intrinsics == 1);
+    CHECK_NEAR(info.intrinsics.fx, 0.5 * W / tan(0.5 * hfov), 0.01);
+    CHECK_NEAR(info.intrinsics.fy, 0.5 * H / tan(0.5 * vfov), 0.01);
+    static float d[W * H];
+    tsk_depth_frame fr;
+    const int root = 449 * W + 320;
+    for (int f = 0; f < 4; ++f) {
+        CHECK_STATUS(tsk_depth_read(src, d, W * H, &fr), TSK_OK, "");
+        CHECK(fr.is_new == 1 && fr.index == f && fr.end == (f == 3));
+        CHECK_NEAR(d[root], 0.6 + 0.1 * f, 0.0015);
+    }
+    CHECK(tsk_depth_read(src, d, W * H, &fr) == TSK_OK && fr.is_new == 0 && fr.end == 1);
+    CHECK_STATUS(tsk_depth_seek(src, 1), TSK_OK, "");
+    CHECK_STATUS(tsk_depth_read(src, d, W * H, &fr), TSK_OK, "");
+    CHECK(fr.index == 1);
+    CHECK_NEAR(d[root], 0.7, 0.0015);
+    /* the frame is exactly what was written */
+    long diff = 0;
+    for (int i = 0; i < nb; ++i) sb[i].z0 = 0.7;
+    scene_render(sb, nb, W, H, 0.0f, g_depth);
+    for (int i = 0; i < W * H; ++i) diff += fabsf(d[i] - 0.001f * lroundf(g_depth[i] * 1000.0f)) > 1e-6f;
+    CHECK(diff == 0);
+    /* and captures like the image */
+    tsk_capture* cap = NULL;
+    CHECK(tsk_capture_create(&cap) == TSK_OK);
+    tsk_capture_def def = tsk_default_capture_def();
+    def.intrinsics = info.intrinsics;
+    CHECK(tsk_capture_process(cap, &def, d, W, H) == TSK_OK);
+    CHECK(tsk_capture_blade_count(cap) == 5);
+    tsk_capture_destroy(cap);
+    CHECK_STATUS(tsk_depth_seek(src, 4), TSK_ERR_ARGUMENT, "index");
+    tsk_depth_close(src);
+    /* a truncated recording: fails cleanly at open or at read, never hangs */
+    truncate_file(path, 6000);
+    tsk_status s = tsk_depth_open_oni(path, &src);
+    if (s == TSK_OK) {
+        s = tsk_depth_read(src, d, W * H, &fr);
+        CHECK(s != TSK_OK || fr.is_new == 0);
+        tsk_depth_close(src);
+    } else {
+        CHECK(s == TSK_ERR_FORMAT);
+    }
+}
+
 TEST_MAIN(TEST_ENTRY(test_capture_clean_fan_gives_exact_blades_and_profiles),
           TEST_ENTRY(test_capture_noisy_fan_keeps_count_and_tolerances),
           TEST_ENTRY(test_capture_single_blade_is_one_blade_root_to_tip),
@@ -735,4 +822,5 @@ TEST_MAIN(TEST_ENTRY(test_capture_clean_fan_gives_exact_blades_and_profiles),
           TEST_ENTRY(test_band_proposal_finds_the_nearest_mode),
           TEST_ENTRY(test_intrinsics_defaults_scale_and_fov),
           TEST_ENTRY(test_device_dummy_reads_latest_frame_without_blocking),
-          TEST_ENTRY(test_device_missing_gives_device_error))
+          TEST_ENTRY(test_device_missing_gives_device_error),
+          TEST_ENTRY(test_oni_recording_made_by_the_test_plays_frame_by_frame))

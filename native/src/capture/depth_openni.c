@@ -215,17 +215,36 @@ tsk_status tsk_oni_stop(tsk_depth_source* src) {
     return TSK_OK;
 }
 
+/* Seeking does not use OpenNI2's ONI_DEVICE_COMMAND_SEEK: the OniFile player of OpenNI2
+ * 2.2 crashed in its reading thread on seek in our tests, and a crash would take Blender
+ * down. Instead a backward seek reopens the recording, and frames up to `index` are read
+ * and dropped (manual playback reads a 640x480 frame in about a millisecond). */
 tsk_status tsk_oni_seek(tsk_depth_source* src, int index) {
-    tsk_oni_state* st = src->oni;
-    OniSeek seek;
-    seek.frameIndex = index + 1; /* recordings number their frames from 1 */
-    seek.stream = st->stream;
-    if (oniDeviceInvoke(st->dev, ONI_DEVICE_COMMAND_SEEK, &seek, (int)sizeof seek) !=
-        ONI_STATUS_OK)
-        return tsk_error_arg(TSK_ERR_FORMAT, "index", "cannot seek to frame %d (%s)", index,
-                             oni_error());
-    src->cursor = index;
-    return TSK_OK;
+    if (index < src->cursor) {
+        char path[sizeof src->description];
+        memcpy(path, src->description, sizeof path);
+        const int frames = src->frame_count;
+        tsk_oni_close(src);
+        tsk_status s = tsk_oni_open(src, path, 1);
+        if (s != TSK_OK) return s;
+        if (src->frame_count != frames)
+            return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' changed while it was read", path);
+        src->cursor = 0;
+    }
+    if (src->cursor == index) return TSK_OK;
+    const size_t npix = (size_t)src->width * (size_t)src->height;
+    float* scratch = tsk_alloc(npix * sizeof(float), "seek buffer");
+    if (scratch == NULL) return TSK_ERR_MEMORY;
+    tsk_status s = TSK_OK;
+    while (src->cursor < index && s == TSK_OK) {
+        tsk_depth_frame fr;
+        memset(&fr, 0, sizeof fr);
+        s = tsk_oni_read(src, scratch, npix, &fr);
+        if (s == TSK_OK && !fr.is_new)
+            s = tsk_error_arg(TSK_ERR_FORMAT, "index", "recording ended before frame %d", index);
+    }
+    tsk_free(scratch);
+    return s;
 }
 
 static void convert(const tsk_depth_source* src, const tsk_oni_state* st, const OniFrame* f,

@@ -95,12 +95,17 @@ tsk_status tsk_depth_open_oni(const char* path, tsk_depth_source** out) {
     fclose(f);
     tsk_depth_source* src = new_source(TSK_DEPTH_ONI);
     if (src == NULL) return TSK_ERR_MEMORY;
+    if (strlen(path) >= sizeof src->description) {
+        tsk_depth_close(src);
+        return tsk_error_arg(TSK_ERR_LIMIT, "path", "longer than %zu characters",
+                             sizeof src->description - 1);
+    }
+    snprintf(src->description, sizeof src->description, "%s", path);
     tsk_status s = tsk_oni_open(src, path, 1);
     if (s != TSK_OK) {
         tsk_depth_close(src);
         return s;
     }
-    snprintf(src->description, sizeof src->description, "%s", path);
     *out = src;
     return TSK_OK;
 }
