@@ -5,6 +5,7 @@
  * disconnects, or sends nothing for TSK_ONI_STALL_S seconds while started, is reported
  * as lost. OpenNI2 is initialised once per process and never shut down (re-initialising
  * it is not reliable). */
+#define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
@@ -33,8 +34,10 @@ struct tsk_oni_state {
     atomic_int arrived; /* frames announced by the new-frame callback */
     atomic_int lost;
     int seen;           /* value of `arrived` at the last read */
+    int arrived_at_start;
     int frames_read;
     double last_frame_s;
+    double stopped_s; /* when the device stream was last stopped (0 = never started) */
     char uri[ONI_MAX_STR];
 };
 
@@ -204,15 +207,46 @@ tsk_status tsk_oni_start(tsk_depth_source* src) {
                              st->uri, oni_error());
     st->started = 1;
     st->seen = atomic_load(&st->arrived);
+    st->arrived_at_start = st->seen;
     st->last_frame_s = now_s();
     return TSK_OK;
 }
 
+/* The Dummy driver's frame thread sets its own "running" flag when it begins, so a stop
+ * issued before the thread has begun is lost and the thread runs on forever. Before
+ * stopping a device stream, wait (at most TSK_ONI_START_GRACE_S) for its first frame. */
+#define TSK_ONI_START_GRACE_S 0.5
+static void wait_first_frame(const tsk_oni_state* st) {
+    const double t0 = now_s();
+    while (atomic_load(&((tsk_oni_state*)st)->arrived) == st->arrived_at_start &&
+           now_s() - t0 < TSK_ONI_START_GRACE_S) {
+        struct timespec ts = {0, 2000000};
+        nanosleep(&ts, NULL);
+    }
+}
+
 tsk_status tsk_oni_stop(tsk_depth_source* src) {
     tsk_oni_state* st = src->oni;
-    if (st->started && st->stream) oniStreamStop(st->stream);
+    if (st->started && st->stream) {
+        if (!st->is_file) wait_first_frame(st);
+        oniStreamStop(st->stream);
+        st->stopped_s = now_s();
+    }
     st->started = 0;
     return TSK_OK;
+}
+
+/* OpenNI2's Dummy driver (and possibly others) only flags its frame thread to stop and
+ * does not join it; the thread touches the stream up to one frame period (33 ms) later.
+ * Destroying the stream before that is a use-after-free, so a device stream is destroyed
+ * only TSK_ONI_STOP_GRACE_S after it was stopped. */
+#define TSK_ONI_STOP_GRACE_S 0.12
+static void wait_after_stop(const tsk_oni_state* st) {
+    if (st->is_file || st->stopped_s == 0.0) return;
+    const double left = TSK_ONI_STOP_GRACE_S - (now_s() - st->stopped_s);
+    if (left <= 0.0) return;
+    struct timespec ts = {0, (long)(left * 1e9)};
+    nanosleep(&ts, NULL);
 }
 
 /* Seeking does not use OpenNI2's ONI_DEVICE_COMMAND_SEEK: the OniFile player of OpenNI2
@@ -336,8 +370,13 @@ void tsk_oni_close(tsk_depth_source* src) {
     if (st == NULL) return;
     if (!st->is_file) registry_set(st, 0);
     if (st->stream) {
-        if (st->started) oniStreamStop(st->stream);
+        if (st->started) {
+            if (!st->is_file) wait_first_frame(st);
+            oniStreamStop(st->stream);
+            st->stopped_s = now_s();
+        }
         if (st->frame_cb) oniStreamUnregisterNewFrameCallback(st->stream, st->frame_cb);
+        wait_after_stop(st);
         oniStreamDestroy(st->stream);
     }
     if (st->dev) oniDeviceClose(st->dev);
