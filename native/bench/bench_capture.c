@@ -3,6 +3,7 @@
  * one thread, on the 5-blade test cluster with sensor-like noise; median of 60 runs.
  * With `--images DIR` it also writes the debug images (depth, mask, labels, overlay) of
  * that frame as PNG files into DIR, for the documentation. */
+#define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <string.h>
 

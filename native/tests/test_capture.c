@@ -814,6 +814,37 @@ TEST(test_oni_recording_made_by_the_test_plays_frame_by_frame) {
     }
 }
 
+
+TEST(test_capture_random_depth_is_handled_without_harm) {
+    /* random depths (half of them in one band, some holes): many odd blobs; the pipeline
+     * must return a status, keep its limits, and give only finite knots */
+    tsk_capture* cap = NULL;
+    CHECK(tsk_capture_create(&cap) == TSK_OK);
+    for (uint64_t seed = 1; seed <= 3; ++seed) {
+        for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x) {
+                const float u = tsk_rand01(seed, (uint64_t)x / (seed + 1), (uint64_t)y / (seed + 1), 9);
+                g_depth[y * W + x] = u < 0.1f ? 0.0f : (u < 0.6f ? 0.8f + 0.05f * u : 3.0f * u);
+            }
+        tsk_capture_def def = tsk_default_capture_def();
+        def.min_area = 20;
+        const double t0 = mono_s();
+        tsk_status s = tsk_capture_process(cap, &def, g_depth, W, H);
+        CHECK(mono_s() - t0 < 5.0);
+        CHECK_MSG(s == TSK_OK || s == TSK_ERR_FORMAT, "%s", tsk_last_error());
+        const int n = tsk_capture_blade_count(cap);
+        CHECK(n >= 0 && n <= TSK_CAPTURE_MAX_BLADES);
+        const int total = tsk_capture_knot_total(cap);
+        float* xyz = malloc(sizeof(float) * 3 * (size_t)(total + 1));
+        CHECK(tsk_capture_get_knots(cap, xyz, NULL, NULL, (size_t)total) == TSK_OK);
+        int finite = 1;
+        for (int k = 0; k < 3 * total; ++k) finite &= isfinite(xyz[k]) != 0;
+        CHECK(finite);
+        free(xyz);
+    }
+    tsk_capture_destroy(cap);
+}
+
 TEST_MAIN(TEST_ENTRY(test_capture_clean_fan_gives_exact_blades_and_profiles),
           TEST_ENTRY(test_capture_noisy_fan_keeps_count_and_tolerances),
           TEST_ENTRY(test_capture_single_blade_is_one_blade_root_to_tip),
@@ -831,4 +862,5 @@ TEST_MAIN(TEST_ENTRY(test_capture_clean_fan_gives_exact_blades_and_profiles),
           TEST_ENTRY(test_intrinsics_defaults_scale_and_fov),
           TEST_ENTRY(test_device_dummy_reads_latest_frame_without_blocking),
           TEST_ENTRY(test_device_missing_gives_device_error),
-          TEST_ENTRY(test_oni_recording_made_by_the_test_plays_frame_by_frame))
+          TEST_ENTRY(test_oni_recording_made_by_the_test_plays_frame_by_frame),
+          TEST_ENTRY(test_capture_random_depth_is_handled_without_harm))
