@@ -187,6 +187,10 @@ TEST(test_capture_clean_fan_gives_exact_blades_and_profiles) {
     CHECK(e.xyz_max_mm <= 2.0);
     CHECK(e.cover_tip >= 0.97);
     CHECK(e.cover_root <= 0.35);
+    /* no blade touches the border or is one-sided */
+    uint32_t fl[8] = {0};
+    if (e.blades == 5) CHECK(tsk_capture_get_blades(cap, NULL, fl, 5) == TSK_OK);
+    for (int b = 0; b < 5; ++b) CHECK(fl[b] == 0);
     float near_m, far_m;
     tsk_capture_band(cap, &near_m, &far_m);
     CHECK(near_m > 0.5f && near_m < 0.72f); /* blades span 0.72 .. 0.82 m */
@@ -612,6 +616,18 @@ TEST(test_capture_bad_frames_and_parameters_give_clear_errors) {
     def.near_m = 0.1f;
     def.far_m = 0.2f;
     CHECK_STATUS(tsk_capture_process(cap, &def, g_depth, W, H), TSK_ERR_FORMAT, "selects no pixel");
+    /* a band that takes in the wall: one blob filling the picture; every blade it yields
+     * is flagged as cut by the border */
+    def.near_m = 0.1f;
+    def.far_m = 5.0f;
+    CHECK_STATUS(tsk_capture_process(cap, &def, g_depth, W, H), TSK_OK, "");
+    {
+        const int n = tsk_capture_blade_count(cap);
+        uint32_t fl[TSK_CAPTURE_MAX_BLADES];
+        CHECK(tsk_capture_get_blades(cap, NULL, fl, (size_t)n) == TSK_OK);
+        for (int b = 0; b < n; ++b) CHECK(fl[b] & TSK_BLADE_CUT_BY_BORDER);
+        CHECK(n == 0 || strstr(tsk_capture_status_message(cap), "border") != NULL);
+    }
     def = tsk_default_capture_def();
     def.near_m = 0.9f;
     def.far_m = 0.5f;

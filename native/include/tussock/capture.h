@@ -170,7 +170,8 @@ enum {
 tsk_status tsk_capture_propose_band(const float* depth_m, int width, int height, int min_pixels,
                                     float* near_m, float* far_m);
 
-/// Result of processing one frame; reused from frame to frame (no allocation once warm).
+/// Result of processing one frame. Reuse it from frame to frame: its buffers are kept and
+/// only grow, so a live preview does not reallocate them.
 typedef struct tsk_capture tsk_capture;
 
 tsk_status tsk_capture_create(tsk_capture** out);
