@@ -68,7 +68,10 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
     /* symmetric matching (seed 000 Fig. 5b): left side i walks back from the tip, the
      * right side follows with the point nearest to it, never going back */
     int count = 0, j = 0;
-    int* pj = (int*)(arc); /* right index of each pair (arc is filled later) */
+    if (!tsk_cap_grow((void**)&cap->pair_j, &cap->pair_j_cap, (size_t)pairs_max, sizeof(int),
+                      "skeleton"))
+        return TSK_ERR_MEMORY;
+    int* pj = cap->pair_j;
     for (int i = 0; i <= nl; ++i) {
         const int li = (tip - i + n) % n;
         const float lx = ring->x[li], ly = ring->y[li];

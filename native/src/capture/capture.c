@@ -99,7 +99,8 @@ void tsk_capture_destroy(tsk_capture* cap) {
                       cap->knot_start, cap->flags,  cap->xyz,           cap->width_m,
                       cap->uv,     cap->poly_start, cap->poly_xy,       cap->ring.x,
                       cap->ring.y, cap->ring.d,     cap->ring.edge,     cap->tmp,
-                      cap->skel,   cap->knots,      cap->spans,         cap->peaks};
+                      cap->skel,   cap->knots,      cap->spans,         cap->peaks,
+                      cap->pair_j};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i) tsk_free(arrays[i]);
     tsk_free(cap);
 }

@@ -65,6 +65,8 @@ struct tsk_capture {
     size_t spans_cap;
     int* peaks;
     size_t peaks_cap;
+    int* pair_j; /* matching: index on the right side of each pair */
+    size_t pair_j_cap;
 };
 
 /* Grows *p (element size elem) to hold at least need elements; keeps contents. */
