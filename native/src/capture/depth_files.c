@@ -1,0 +1,198 @@
+/* Depth image files and numbered sequences: frame discovery for '#' patterns, a header
+ * check of PNG and OpenEXR files before any decoding (size limit, 16-bit grey PNG only),
+ * decoding through the OpenCV bridge and conversion to metres (PNG: millimetres, 0 = no
+ * data; EXR: metres, NaN/inf/negative = no data, counted). */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "bridge/opencv_capture_bridge.h"
+#include "depth_internal.h"
+
+static uint32_t be32(const unsigned char* p) {
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+static int32_t le32(const unsigned char* p) {
+    return (int32_t)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+                     (uint32_t)p[3] << 24);
+}
+
+#define HEADER_BYTES 65536
+
+tsk_status tsk_depth_check_header(const char* path, int* w, int* h) {
+    FILE* f = fopen(path, "rb");
+    if (f == NULL) return tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s'", path);
+    static _Thread_local unsigned char buf[HEADER_BYTES];
+    const size_t n = fread(buf, 1, sizeof buf, f);
+    const int read_error = ferror(f);
+    fclose(f);
+    if (read_error) return tsk_error_arg(TSK_ERR_IO, "path", "cannot read '%s'", path);
+    static const unsigned char png_sig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+    long long width = -1, height = -1;
+    if (n >= 8 && memcmp(buf, png_sig, 8) == 0) {
+        if (n < 33 || memcmp(buf + 12, "IHDR", 4) != 0)
+            return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is a truncated PNG", path);
+        width = be32(buf + 16);
+        height = be32(buf + 20);
+        const int bit_depth = buf[24], colour = buf[25];
+        if (width > TSK_DEPTH_MAX_SIDE || height > TSK_DEPTH_MAX_SIDE)
+            return tsk_error_arg(TSK_ERR_LIMIT, "path",
+                                 "'%s' is %lldx%lld; depth images are limited to %dx%d", path,
+                                 width, height, TSK_DEPTH_MAX_SIDE, TSK_DEPTH_MAX_SIDE);
+        if (colour != 0)
+            return tsk_error_arg(TSK_ERR_FORMAT, "path",
+                                 "'%s' is a colour PNG; depth must be a 16-bit grey PNG in "
+                                 "millimetres", path);
+        if (bit_depth != 16)
+            return tsk_error_arg(TSK_ERR_FORMAT, "path",
+                                 "'%s' is a %d-bit PNG; depth must be a 16-bit grey PNG in "
+                                 "millimetres", path, bit_depth);
+    } else if (n >= 8 && buf[0] == 0x76 && buf[1] == 0x2f && buf[2] == 0x31 && buf[3] == 0x01) {
+        /* OpenEXR header: attributes name\0 type\0 size value ... until an empty name */
+        size_t at = 8;
+        int found = 0;
+        while (at < n && buf[at] != 0) {
+            const unsigned char* name = buf + at;
+            const void* z1 = memchr(name, 0, n - at);
+            if (z1 == NULL) break;
+            size_t p = (size_t)((const unsigned char*)z1 - buf) + 1;
+            const void* z2 = p < n ? memchr(buf + p, 0, n - p) : NULL;
+            if (z2 == NULL) break;
+            const unsigned char* type = buf + p;
+            p = (size_t)((const unsigned char*)z2 - buf) + 1;
+            if (p + 4 > n) break;
+            const int32_t size = le32(buf + p);
+            p += 4;
+            if (size < 0 || p + (size_t)size > n) break;
+            if (strcmp((const char*)name, "dataWindow") == 0 &&
+                strcmp((const char*)type, "box2i") == 0 && size == 16) {
+                const long long x0 = le32(buf + p), y0 = le32(buf + p + 4);
+                const long long x1 = le32(buf + p + 8), y1 = le32(buf + p + 12);
+                width = x1 - x0 + 1;
+                height = y1 - y0 + 1;
+                found = 1;
+            }
+            at = p + (size_t)size;
+        }
+        if (!found)
+            return tsk_error_arg(TSK_ERR_FORMAT, "path",
+                                 "'%s' is a truncated or malformed OpenEXR (no dataWindow)", path);
+        if (width <= 0 || height <= 0)
+            return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' has an empty data window", path);
+        if (width > TSK_DEPTH_MAX_SIDE || height > TSK_DEPTH_MAX_SIDE)
+            return tsk_error_arg(TSK_ERR_LIMIT, "path",
+                                 "'%s' is %lldx%lld; depth images are limited to %dx%d", path,
+                                 width, height, TSK_DEPTH_MAX_SIDE, TSK_DEPTH_MAX_SIDE);
+    } else {
+        return tsk_error_arg(TSK_ERR_FORMAT, "path",
+                             "'%s' is neither a PNG nor an OpenEXR file%s", path,
+                             n == 0 ? " (it is empty)" : "");
+    }
+    if (width <= 0 || height <= 0)
+        return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' has size %lldx%lld", path, width,
+                             height);
+    *w = (int)width;
+    *h = (int)height;
+    return TSK_OK;
+}
+
+static void frame_path(const tsk_depth_source* src, int number, char* out, size_t cap) {
+    if (src->hash_len == 0) {
+        snprintf(out, cap, "%s", src->pattern);
+        return;
+    }
+    snprintf(out, cap, "%.*s%0*d%s", src->hash_pos, src->pattern, src->hash_len, number,
+             src->pattern + src->hash_pos + src->hash_len);
+}
+
+static int file_exists(const char* path) {
+    FILE* f = fopen(path, "rb");
+    if (f == NULL) return 0;
+    fclose(f);
+    return 1;
+}
+
+/* index -1: discover the frames and check the first one */
+tsk_status tsk_files_read(tsk_depth_source* src, int index, float* depth_m, size_t count,
+                          int* invalid) {
+    char path[4200];
+    if (index < 0) {
+        if (src->hash_len == 0) {
+            src->first_frame = 0;
+            src->frame_count = 1;
+        } else {
+            int first = -1;
+            for (int i = 0; i < TSK_DEPTH_MAX_FRAMES; ++i) {
+                frame_path(src, i, path, sizeof path);
+                if (file_exists(path)) {
+                    first = i;
+                    break;
+                }
+            }
+            if (first < 0) {
+                frame_path(src, 0, path, sizeof path);
+                return tsk_error_arg(TSK_ERR_IO, "path",
+                                     "no file of the sequence '%s' exists (tried '%s' and "
+                                     "higher numbers)", src->pattern, path);
+            }
+            int n = 1;
+            while (first + n < TSK_DEPTH_MAX_FRAMES) {
+                frame_path(src, first + n, path, sizeof path);
+                if (!file_exists(path)) break;
+                ++n;
+            }
+            src->first_frame = first;
+            src->frame_count = n;
+        }
+        frame_path(src, src->first_frame, path, sizeof path);
+        int w = 0, h = 0;
+        tsk_status s = tsk_depth_check_header(path, &w, &h);
+        if (s != TSK_OK) return s;
+        src->width = w;
+        src->height = h;
+        /* decode the first frame once so that a broken file fails at open time */
+        const size_t npix = (size_t)w * (size_t)h;
+        float* tmp = tsk_alloc(npix * sizeof(float), "depth frame");
+        if (tmp == NULL) return TSK_ERR_MEMORY;
+        int bad = 0;
+        s = tsk_files_read(src, 0, tmp, npix, &bad);
+        tsk_free(tmp);
+        return s;
+    }
+    frame_path(src, src->first_frame + index, path, sizeof path);
+    int w = 0, h = 0;
+    tsk_status s = tsk_depth_check_header(path, &w, &h);
+    if (s != TSK_OK) return s;
+    if (w != src->width || h != src->height)
+        return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is %dx%d but the sequence is %dx%d",
+                             path, w, h, src->width, src->height);
+    int dw = 0, dh = 0;
+    tsk_cvb_depth_type type;
+    void* data = NULL;
+    s = tsk_cvb_read_depth(path, &dw, &dh, &type, &data);
+    if (s != TSK_OK) return s;
+    if (dw != w || dh != h || (size_t)dw * (size_t)dh != count) {
+        tsk_free(data);
+        return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' decoded to %dx%d, header says %dx%d",
+                             path, dw, dh, w, h);
+    }
+    int bad = 0;
+    if (type == TSK_CVB_U16) {
+        const uint16_t* mm = data;
+        for (size_t i = 0; i < count; ++i) depth_m[i] = (float)mm[i] * 0.001f;
+    } else {
+        const float* m = data;
+        for (size_t i = 0; i < count; ++i) {
+            const float v = m[i];
+            if (isfinite(v) && v >= 0.0f) {
+                depth_m[i] = v;
+            } else {
+                depth_m[i] = 0.0f;
+                ++bad;
+            }
+        }
+    }
+    tsk_free(data);
+    if (invalid) *invalid = bad;
+    return TSK_OK;
+}

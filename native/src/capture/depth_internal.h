@@ -1,0 +1,43 @@
+/* Private state of a depth source, shared by the files and OpenNI2 back ends. */
+#ifndef TSK_DEPTH_INTERNAL_H
+#define TSK_DEPTH_INTERNAL_H
+
+#include "tussock/capture.h"
+
+typedef struct tsk_oni_state tsk_oni_state;
+
+struct tsk_depth_source {
+    tsk_depth_kind kind;
+    int width, height;
+    int frame_count; /* -1 for devices */
+    int first_frame;
+    int cursor; /* next frame to read (files, recordings) */
+    int has_K;
+    tsk_intrinsics K;
+    char description[256];
+    /* files */
+    char* pattern;     /* path with the '#' run (or a plain path) */
+    int hash_pos, hash_len; /* position and length of the '#' run; len 0 = single file */
+    /* OpenNI2 */
+    tsk_oni_state* oni;
+};
+
+/* files back end */
+tsk_status tsk_files_read(tsk_depth_source* src, int index, float* depth_m, size_t count,
+                          int* invalid);
+/* Reads and checks the header of a PNG or OpenEXR file: size limit, PNG bit depth and
+ * colour type. Sets *w, *h. */
+tsk_status tsk_depth_check_header(const char* path, int* w, int* h);
+
+/* OpenNI2 back end (recordings and devices) */
+tsk_status tsk_oni_open(tsk_depth_source* src, const char* uri, int is_file);
+tsk_status tsk_oni_start(tsk_depth_source* src);
+tsk_status tsk_oni_stop(tsk_depth_source* src);
+tsk_status tsk_oni_seek(tsk_depth_source* src, int index);
+tsk_status tsk_oni_read(tsk_depth_source* src, float* depth_m, size_t count,
+                        tsk_depth_frame* frame);
+void tsk_oni_close(tsk_depth_source* src);
+/* Test hook: makes a device source behave as if the device had been unplugged. */
+void tsk_oni_simulate_loss(tsk_depth_source* src);
+
+#endif
