@@ -97,11 +97,10 @@ cmd_test() {
   build_asan
   cmd_package >/dev/null
   export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1"
-  export LSAN_OPTIONS="suppressions=$ROOT/native/tests/lsan.supp:print_suppressions=0"
   export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
   run_native_tests "$BUILD/release" native
   run_native_tests "$BUILD/asan" asan+ubsan
-  unset ASAN_OPTIONS LSAN_OPTIONS UBSAN_OPTIONS
+  unset ASAN_OPTIONS UBSAN_OPTIONS
   local out line p f
   if out="$("$PY" "$ROOT/blender_tests/run.py" 2>&1)"; then :; fi
   printf '%s\n' "$out" | grep -v -E '^[0-9]+ passed, [0-9]+ failed$' || true

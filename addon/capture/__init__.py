@@ -1,0 +1,1 @@
+"""Capture grass blades from a depth camera, OpenNI2 recordings or depth images."""
