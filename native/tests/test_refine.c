@@ -606,9 +606,9 @@ TEST(test_resample_is_uniform_in_arc_length) {
 TEST(test_bend_cantilever_matches_euler_bernoulli) {
     /* A straight horizontal blade of uniform width, clamped at x = 0, under its own weight
      * with small gravity: w(x) = q x^2 (6L^2 - 4Lx + x^2) / (24 EI), tip q L^4 / (8 EI). */
-    enum { K = 41 };
+    const int K = TSK_TEST_SLOW ? 21 : 41; /* fewer knots under the sanitizers */
     const double L = 0.2, width = 0.005;
-    float knots[3 * K], widths[K], traj[3 * K];
+    float knots[3 * 41], widths[41], traj[3 * 41];
     for (int j = 0; j < K; ++j) {
         knots[3 * j] = (float)(L * j / (K - 1)), knots[3 * j + 1] = 0, knots[3 * j + 2] = 0;
         widths[j] = (float)width;
@@ -648,9 +648,10 @@ static void curved_blade(size_t k, double L, float* knots, float* widths) {
 }
 
 TEST(test_bend_keeps_segment_lengths_and_root) {
-    enum { K = 48, F = 12 };
-    float knots[3 * K], widths[K];
-    static float traj[F * K * 3];
+    enum { F = 12 };
+    const int K = TSK_TEST_SLOW ? 24 : 48;
+    float knots[3 * 48], widths[48];
+    static float traj[F * 48 * 3];
     curved_blade(K, 0.2, knots, widths);
     tsk_refine_bend_def d = tsk_default_refine_bend_def();
     d.warmup = 0.25f;
@@ -675,8 +676,8 @@ TEST(test_bend_keeps_segment_lengths_and_root) {
 }
 
 TEST(test_bend_prestress_holds_rest_shape) {
-    enum { K = 32 };
-    float knots[3 * K], widths[K], traj[3 * K], sag[3 * K];
+    const int K = TSK_TEST_SLOW ? 16 : 32;
+    float knots[3 * 32], widths[32], traj[3 * 32], sag[3 * 32];
     curved_blade(K, 0.2, knots, widths);
     tsk_refine_bend_def d = tsk_default_refine_bend_def();
     d.wind_speed = 0;
@@ -751,15 +752,16 @@ TEST(test_bend_bad_input_names_argument) {
 
 TEST(test_refine_simulated_blade_end_to_end) {
     /* a still capture: simulate the full blade, then refine it; memory is returned */
-    enum { K = 64, F = 16, M = 8 };
+    enum { F = 16, M = 8 };
+    const int K = TSK_TEST_SLOW ? 24 : 64;
     size_t before = tsk_allocated_bytes();
-    float knots[3 * K], widths[K];
-    static float traj[F * K * 3];
+    float knots[3 * 64], widths[64];
+    static float traj[F * 64 * 3];
     curved_blade(K, 0.2, knots, widths);
     tsk_refine_bend_def d = tsk_default_refine_bend_def();
     d.warmup = 0.5f;
     CHECK(tsk_refine_simulate(&d, knots, widths, K, F, traj) == TSK_OK);
-    tsk_refine_input in = {knots, widths, traj, K, F};
+    tsk_refine_input in = {knots, widths, traj, (size_t)K, F};
     outbuf o = {.traj = NULL};
     tsk_refine_output out = as_output(&o);
     tsk_refine_def def = {M, 0.5f};
