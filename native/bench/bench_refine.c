@@ -172,6 +172,14 @@ static void bench_quality(void) {
         exit(1);
     }
     double sim_s = bench_now_s() - t0;
+    /* how far the full blade's tip moves about its mean, for scale (RMS, m) */
+    double mean[3] = {0, 0, 0}, motion = 0;
+    for (size_t f = 0; f < FRAMES; ++f)
+        for (int c = 0; c < 3; ++c) mean[c] += full_traj[(f * FULL + FULL - 1) * 3 + c] / FRAMES;
+    for (size_t f = 0; f < FRAMES; ++f)
+        for (int c = 0; c < 3; ++c)
+            motion += pow(full_traj[(f * FULL + FULL - 1) * 3 + c] - mean[c], 2) / FRAMES;
+    motion = sqrt(motion);
     static const int counts[] = {64, 32, 16, 8};
     static const float mus[] = {0.5f, 1.0f, 0.0f};
     const char* mu_names[] = {"alg1", "alg1_mu1", "alg1_mu0"};
@@ -214,11 +222,13 @@ static void bench_quality(void) {
         snprintf(name, sizeof name, "refine_quality_%d", counts[ci]);
         bench_emit(name, r, "tip error of Algorithm 1 / that of uniform resampling", params, NULL);
     }
-    char params[256];
+    char params[384];
     snprintf(params, sizeof params,
              "\"knots\": 16, \"from\": %d, \"frames\": %d, \"fps\": %g, \"mu\": 0.5, "
-             "\"wind_speed\": %g, \"gust\": %g, \"full_sim_s\": %.2f",
-             FULL, FRAMES, (double)bend.fps, (double)bend.wind_speed, (double)bend.gust, sim_s);
+             "\"wind_speed\": %g, \"gust\": %g, \"full_sim_s\": %.2f, \"tip_motion_rms_mm\": %.3f, "
+             "\"alg1_tip_mm\": %.4f, \"uniform_tip_mm\": %.4f",
+             FULL, FRAMES, (double)bend.fps, (double)bend.wind_speed, (double)bend.gust, sim_s,
+             motion * 1000.0, alg_tip[0][2] * 1000.0, uni_tip[2] * 1000.0);
     bench_emit("refine_quality", ratio16,
                "tip error of Algorithm 1 at 16 knots \xc3\xb7 that of uniform resampling", params,
                NULL);
