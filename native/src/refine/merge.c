@@ -6,6 +6,9 @@
 
 #include <math.h>
 #include <stdio.h>
+#if defined(__SSE2__) && !defined(TSK_NO_SIMD)
+#include <emmintrin.h>
+#endif
 #include <string.h>
 
 tsk_refine_def tsk_default_refine_def(void) {
@@ -17,25 +20,71 @@ tsk_refine_def tsk_default_refine_def(void) {
 }
 
 /* seed 000, eq. 1-3. Eq. 3 as printed subtracts (sum d)^2 / n, which is not a variance;
- * the variance sum(d^2)/n - (sum(d)/n)^2 is used (clamped at 0 against rounding). */
+ * the variance sum(d^2)/n - (sum(d)/n)^2 is used (clamped at 0 against rounding).
+ * The sums are kept in two lanes (even and odd frames) that are added at the end, so that
+ * the SSE2 version below and this scalar one give the same bits. */
+static double finish_difference(float mu, double s0, double s1, double q0, double q1,
+                                size_t frame_count) {
+    const double n = (double)frame_count;
+    const double dis = (s0 + s1) / n;      /* eq. 2 */
+    double var = (q0 + q1) / n - dis * dis; /* eq. 3, true variance */
+    if (var < 0.0) var = 0.0;
+    const double m = (double)mu;
+    return dis * m + var * (1.0 - m); /* eq. 1 */
+}
+
 double tsk_refine_difference(float mu, const float* a, const float* b, size_t frame_count,
                              double inv_length) {
     if (a == NULL || b == NULL || frame_count == 0) return NAN;
-    double s = 0.0, s2 = 0.0;
+    double s[2] = {0.0, 0.0}, q[2] = {0.0, 0.0};
     for (size_t f = 0; f < frame_count; ++f) {
         const double dx = (double)a[3 * f] - (double)b[3 * f];
         const double dy = (double)a[3 * f + 1] - (double)b[3 * f + 1];
         const double dz = (double)a[3 * f + 2] - (double)b[3 * f + 2];
         const double d = sqrt(dx * dx + dy * dy + dz * dz) * inv_length;
-        s += d;
-        s2 += d * d;
+        s[f & 1] += d;
+        q[f & 1] += d * d;
     }
-    const double n = (double)frame_count;
-    const double dis = s / n;              /* eq. 2 */
-    double var = s2 / n - dis * dis;       /* eq. 3, true variance */
-    if (var < 0.0) var = 0.0;
-    const double m = (double)mu;
-    return dis * m + var * (1.0 - m);      /* eq. 1 */
+    return finish_difference(mu, s[0], s[1], q[0], q[1], frame_count);
+}
+
+/* The same from the working layout: a knot's x, y and z rows of f floats each. */
+static double difference_rows(float mu, const float* a, const float* b, size_t f,
+                              double inv_length) {
+    const float *ax = a, *ay = a + f, *az = a + 2 * f;
+    const float *bx = b, *by = b + f, *bz = b + 2 * f;
+    size_t i = 0;
+#if defined(__SSE2__) && !defined(TSK_NO_SIMD)
+    __m128d vs = _mm_setzero_pd(), vq = _mm_setzero_pd();
+    const __m128d vinv = _mm_set1_pd(inv_length);
+    for (; i + 2 <= f; i += 2) {
+        const __m128d dx = _mm_sub_pd(_mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(ax + i)))),
+                                      _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(bx + i)))));
+        const __m128d dy = _mm_sub_pd(_mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(ay + i)))),
+                                      _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(by + i)))));
+        const __m128d dz = _mm_sub_pd(_mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(az + i)))),
+                                      _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(bz + i)))));
+        const __m128d d2 = _mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)),
+                                      _mm_mul_pd(dz, dz));
+        const __m128d d = _mm_mul_pd(_mm_sqrt_pd(d2), vinv);
+        vs = _mm_add_pd(vs, d);
+        vq = _mm_add_pd(vq, _mm_mul_pd(d, d));
+    }
+    double s[2], q[2];
+    _mm_storeu_pd(s, vs);
+    _mm_storeu_pd(q, vq);
+#else
+    double s[2] = {0.0, 0.0}, q[2] = {0.0, 0.0};
+#endif
+    for (; i < f; ++i) {
+        const double dx = (double)ax[i] - (double)bx[i];
+        const double dy = (double)ay[i] - (double)by[i];
+        const double dz = (double)az[i] - (double)bz[i];
+        const double d = sqrt(dx * dx + dy * dy + dz * dz) * inv_length;
+        s[i & 1] += d;
+        q[i & 1] += d * d;
+    }
+    return finish_difference(mu, s[0], s[1], q[0], q[1], f);
 }
 
 /* ---- validation ------------------------------------------------------------------------ */
@@ -96,11 +145,20 @@ static tsk_status check_blade(const tsk_refine_def* def, const tsk_refine_input*
                                  "knots %zu and %zu are at the same place (duplicate knot)",
                                  j - 1, j);
     }
+    /* a branch-free scan of the exponent bits first (all ones: inf or NaN), then the culprit */
     const size_t n = k * f * 3;
-    for (size_t i = 0; i < n; ++i)
-        if (!isfinite(in->trajectories[i]))
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "trajectories",
-                                 "frame %zu, knot %zu is not finite", i / (3 * k), (i / 3) % k);
+    uint32_t bad = 0;
+    for (size_t i = 0; i < n; ++i) {
+        uint32_t u;
+        memcpy(&u, in->trajectories + i, sizeof u);
+        bad |= (uint32_t)((u & 0x7f800000u) == 0x7f800000u);
+    }
+    if (bad)
+        for (size_t i = 0; i < n; ++i)
+            if (!isfinite(in->trajectories[i]))
+                return tsk_error_arg(TSK_ERR_ARGUMENT, "trajectories",
+                                     "frame %zu, knot %zu is not finite", i / (3 * k),
+                                     (i / 3) % k);
     return TSK_OK;
 }
 
@@ -148,11 +206,12 @@ static pair_entry heap_pop(pair_entry* heap, size_t* size) {
 
 /* ---- one blade ----------------------------------------------------------------------------- */
 
-/* Working state, knot-major so that a knot's trajectory is contiguous: traj[j][f][3]. A
+/* Working state, knot-major so that a knot's trajectory is contiguous and in rows:
+ * traj[j] = f x values, f y values, f z values (vectorises eq. 1-3). A
  * live knot keeps the slot of its first source knot, so its source range is
  * [slot, next[slot]) and slot order is blade order. */
 typedef struct work {
-    float* traj;     /* [k][f][3] */
+    float* traj;     /* [k][3][f] */
     float* rest;     /* [k][3] */
     double* wl;      /* sum of l_j * w_j over the range */
     double* l;       /* sum of l_j over the range */
@@ -186,11 +245,19 @@ static tsk_status refine_one(const tsk_refine_def* def, const tsk_refine_input* 
         goto done;
     }
 
-    /* transpose [f][k][3] -> [k][f][3] */
-    for (size_t fr = 0; fr < f; ++fr)
-        for (size_t j = 0; j < k; ++j)
-            memcpy(w.traj + (j * f + fr) * 3, in->trajectories + (fr * k + j) * 3,
-                   3 * sizeof(float));
+    /* transpose [f][k][3] -> [k][3][f], in blocks of 16 knots to stay in cache */
+    for (size_t j0 = 0; j0 < k; j0 += 16) {
+        const size_t j1 = j0 + 16 < k ? j0 + 16 : k;
+        for (size_t fr = 0; fr < f; ++fr) {
+            const float* src = in->trajectories + fr * k * 3;
+            for (size_t j = j0; j < j1; ++j) {
+                float* dst = w.traj + j * 3 * f + fr;
+                dst[0] = src[3 * j];
+                dst[f] = src[3 * j + 1];
+                dst[2 * f] = src[3 * j + 2];
+            }
+        }
+    }
     memcpy(w.rest, in->knots, k * 3 * sizeof(float));
 
     /* rest length and the arc length each knot owns (double, in blade order) */
@@ -219,8 +286,8 @@ static tsk_status refine_one(const tsk_refine_def* def, const tsk_refine_input* 
     const int32_t tip = (int32_t)k - 1, end = (int32_t)k;
     size_t hsize = 0;
     for (int32_t j = 0; j < tip; ++j) {
-        pair_entry e = {tsk_refine_difference(def->mu, w.traj + (size_t)j * f * 3,
-                                              w.traj + (size_t)(j + 1) * f * 3, f, inv_length),
+        pair_entry e = {difference_rows(def->mu, w.traj + (size_t)j * f * 3,
+                                        w.traj + (size_t)(j + 1) * f * 3, f, inv_length),
                         j, j + 1, 0, 0};
         heap_push(w.heap, &hsize, e);
     }
@@ -249,7 +316,14 @@ static tsk_status refine_one(const tsk_refine_def* def, const tsk_refine_input* 
             memcpy(a, b, f * 3 * sizeof(float)); /* the tip stays where it is */
             memcpy(ra, rb, 3 * sizeof(float));
         } else {
-            for (size_t i = 0; i < 3 * f; ++i) a[i] = 0.5f * (a[i] + b[i]);
+            size_t i = 0;
+#if defined(__SSE2__) && !defined(TSK_NO_SIMD)
+            const __m128 half = _mm_set1_ps(0.5f); /* same IEEE operations as below */
+            for (; i + 4 <= 3 * f; i += 4)
+                _mm_storeu_ps(a + i, _mm_mul_ps(half, _mm_add_ps(_mm_loadu_ps(a + i),
+                                                                 _mm_loadu_ps(b + i))));
+#endif
+            for (; i < 3 * f; ++i) a[i] = 0.5f * (a[i] + b[i]);
             for (int c = 0; c < 3; ++c) ra[c] = 0.5f * (ra[c] + rb[c]);
         }
         w.wl[left] += w.wl[right];
@@ -264,14 +338,14 @@ static tsk_status refine_one(const tsk_refine_def* def, const tsk_refine_input* 
         /* new candidate pairs with the neighbours */
         const int32_t before = w.prev[left];
         if (before >= 0) {
-            pair_entry ne = {tsk_refine_difference(def->mu, w.traj + (size_t)before * f * 3, a,
-                                                   f, inv_length),
+            pair_entry ne = {difference_rows(def->mu, w.traj + (size_t)before * f * 3, a, f,
+                                             inv_length),
                              before, left, w.version[before], w.version[left]};
             heap_push(w.heap, &hsize, ne);
         }
         if (after != end) {
-            pair_entry ne = {tsk_refine_difference(def->mu, a, w.traj + (size_t)after * f * 3,
-                                                   f, inv_length),
+            pair_entry ne = {difference_rows(def->mu, a, w.traj + (size_t)after * f * 3, f,
+                                             inv_length),
                              left, after, w.version[left], w.version[after]};
             heap_push(w.heap, &hsize, ne);
         }
@@ -285,10 +359,12 @@ static tsk_status refine_one(const tsk_refine_def* def, const tsk_refine_input* 
         out->widths[o] = (float)(w.wl[j] / w.l[j]);
         out->ranges[2 * o] = j;
         out->ranges[2 * o + 1] = nx - j;
-        if (out->trajectories)
+        if (out->trajectories) {
+            const float* src = w.traj + (size_t)j * 3 * f;
             for (size_t fr = 0; fr < f; ++fr)
-                memcpy(out->trajectories + (fr * m + o) * 3, w.traj + ((size_t)j * f + fr) * 3,
-                       3 * sizeof(float));
+                for (int c = 0; c < 3; ++c)
+                    out->trajectories[(fr * m + o) * 3 + (size_t)c] = src[(size_t)c * f + fr];
+        }
     }
     if (o != m) s = tsk_error(TSK_ERR_INTERNAL, "refine: %zu knots written, %zu expected", o, m);
 
