@@ -150,8 +150,9 @@ typedef struct tsk_refine_bend_def {
                            ///< for mass and stiffness, so a pointed tip stays defined (0.05)
     float gravity[3];      ///< m/s^2 (default 0, 0, -9.81: Blender's Z up)
     /// 1 (default): the rest (captured) shape is already the equilibrium under gravity, so
-    /// gravity does not sag it further (rest curvature is offset by the gravity moment);
-    /// 0: the rest shape is stress-free and sags.
+    /// gravity does not sag it further (rest curvature is offset by the gravity moment;
+    /// exact when that moment has no twist part, e.g. a blade curving in a vertical plane,
+    /// since the model has no twist stiffness); 0: the rest shape is stress-free and sags.
     int gravity_prestress;
     float air_density;      ///< kg/m^3 (default 1.2)
     float drag_coefficient; ///< dimensionless (default 1.2, a flat plate across the flow)

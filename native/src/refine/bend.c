@@ -256,7 +256,7 @@ static tsk_status rod_init(rod* r, const tsk_refine_bend_def* d, const float* kn
     const v3 g = v3_make(d->gravity[0], d->gravity[1], d->gravity[2]);
     v3 mx = v3_make(0, 0, 0);
     double msum = 0.0;
-    /* rest frames walk root -> tip, prestress needs suffix sums: first fill G into moment[] */
+    /* G_j goes into moment[] (scratch here), from the tip down */
     for (size_t jj = k - 1; jj-- > 0;) {
         const size_t i = jj + 1;
         mx = add(mx, scale(v3_load(r->x + 3 * i), r->mass[i]));
