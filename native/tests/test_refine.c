@@ -536,6 +536,26 @@ TEST(test_refine_bad_input_names_argument) {
     blade_free(&b);
 }
 
+TEST(test_refine_target_equal_to_knot_count_changes_nothing) {
+    blade b = random_blade(21, 10, 3);
+    outbuf o;
+    o.traj = malloc(3 * 10 * 3 * sizeof(float));
+    tsk_refine_def def = {10, 0.5f};
+    tsk_refine_input in = as_input(&b);
+    tsk_refine_output out = as_output(&o);
+    CHECK(tsk_refine_blade(&def, &in, &out) == TSK_OK);
+    CHECK(memcmp(o.knots, b.knots, 10 * 3 * sizeof(float)) == 0);
+    CHECK(memcmp(o.traj, b.traj, 3 * 10 * 3 * sizeof(float)) == 0);
+    for (int j = 0; j < 10; ++j) {
+        CHECK(o.ranges[2 * j] == j && o.ranges[2 * j + 1] == 1);
+        CHECK_NEAR(o.widths[j], b.widths[j], 1e-7 * b.widths[j]);
+    }
+    CHECK(tsk_refine_blades(&def, &in, &out, 0) == TSK_OK); /* nothing to do */
+    CHECK_STATUS(tsk_refine_blades(&def, NULL, &out, 1), TSK_ERR_ARGUMENT, "blades");
+    free(o.traj);
+    blade_free(&b);
+}
+
 /* ---- tracking and resampling ------------------------------------------------------------ */
 
 /* A planar arc of length L and curvature kappa, parametrised by arc length s. */
@@ -781,6 +801,7 @@ TEST_MAIN(TEST_ENTRY(test_refine_difference_matches_closed_form),
           TEST_ENTRY(test_refine_is_scale_invariant),
           TEST_ENTRY(test_refine_batch_identical_1_and_2_threads),
           TEST_ENTRY(test_refine_bad_input_names_argument),
+          TEST_ENTRY(test_refine_target_equal_to_knot_count_changes_nothing),
           TEST_ENTRY(test_track_matches_knots_by_arc_length),
           TEST_ENTRY(test_resample_is_uniform_in_arc_length),
           TEST_ENTRY(test_bend_cantilever_matches_euler_bernoulli),
