@@ -1,0 +1,261 @@
+/* Binding of skeleton refining: Algorithm 1 for one or many blades, knot tracking,
+ * uniform resampling and the bending simulation. Argument and buffer checks only. */
+#include "binding.h"
+#include "tussock/refine.h"
+
+/* Number of knots of a float32 xyz buffer (its length must be a multiple of 3). */
+static int xyz_count(Py_buffer* view, const char* name, Py_ssize_t* count) {
+    Py_ssize_t n = tsk_py_count(view);
+    if (n % 3 != 0) {
+        tsk_py_raise_arg(name, "length %zd is not a multiple of 3 (x, y, z per knot)", n);
+        return 0;
+    }
+    *count = n / 3;
+    return 1;
+}
+
+static void release_all(Py_buffer** views, int n) {
+    for (int i = 0; i < n; ++i)
+        if (views[i] && views[i]->obj) PyBuffer_Release(views[i]);
+}
+
+static PyObject* py_refine_blade(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* names[] = {"knots", "widths", "trajectories", "frame_count", "target_knots",
+                            "mu", "out_knots", "out_widths", "out_ranges", "out_trajectories",
+                            NULL};
+    PyObject *ko, *wo, *to, *oko, *owo, *oro, *oto = Py_None;
+    Py_ssize_t frames;
+    int target;
+    float mu;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOOnifOOO|O:refine_blade", names, &ko, &wo, &to,
+                                     &frames, &target, &mu, &oko, &owo, &oro, &oto))
+        return NULL;
+    if (frames < 1) return tsk_py_raise_arg("frame_count", "must be at least 1, got %zd", frames);
+    if (target < TSK_REFINE_MIN_TARGET || target > TSK_REFINE_MAX_TARGET)
+        return tsk_py_raise_arg("target_knots", "must be from 2 to 64, got %d", target);
+    Py_buffer k = {0}, w = {0}, t = {0}, ok = {0}, ow = {0}, orr = {0}, ot = {0};
+    Py_buffer* all[] = {&k, &w, &t, &ok, &ow, &orr, &ot};
+    Py_ssize_t n;
+    if (!tsk_py_buffer(ko, "knots", TSK_PY_F32, -1, 0, &k)) return NULL;
+    if (!xyz_count(&k, "knots", &n)) goto fail;
+    if (!tsk_py_buffer(wo, "widths", TSK_PY_F32, n, 0, &w)) goto fail;
+    if (!tsk_py_buffer(to, "trajectories", TSK_PY_F32, frames * n * 3, 0, &t)) goto fail;
+    if (!tsk_py_buffer(oko, "out_knots", TSK_PY_F32, (Py_ssize_t)target * 3, 1, &ok)) goto fail;
+    if (!tsk_py_buffer(owo, "out_widths", TSK_PY_F32, target, 1, &ow)) goto fail;
+    if (!tsk_py_buffer(oro, "out_ranges", TSK_PY_I32, (Py_ssize_t)target * 2, 1, &orr)) goto fail;
+    if (oto != Py_None &&
+        !tsk_py_buffer(oto, "out_trajectories", TSK_PY_F32, frames * target * 3, 1, &ot))
+        goto fail;
+    tsk_refine_def def = {target, mu};
+    tsk_refine_input in = {k.buf, w.buf, t.buf, (size_t)n, (size_t)frames};
+    tsk_refine_output out = {ok.buf, ow.buf, orr.buf, oto != Py_None ? ot.buf : NULL};
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_refine_blade(&def, &in, &out);
+    Py_END_ALLOW_THREADS
+    release_all(all, 7);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+fail:
+    release_all(all, 7);
+    return NULL;
+}
+
+static PyObject* py_refine_blades(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* names[] = {"knots", "widths", "trajectories", "blade_count", "frame_count",
+                            "target_knots", "mu", "out_knots", "out_widths", "out_ranges",
+                            "out_trajectories", NULL};
+    PyObject *ko, *wo, *to, *oko, *owo, *oro, *oto = Py_None;
+    Py_ssize_t blades, frames;
+    int target;
+    float mu;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOOnnifOOO|O:refine_blades", names, &ko, &wo,
+                                     &to, &blades, &frames, &target, &mu, &oko, &owo, &oro, &oto))
+        return NULL;
+    if (blades < 1) return tsk_py_raise_arg("blade_count", "must be at least 1, got %zd", blades);
+    if (frames < 1) return tsk_py_raise_arg("frame_count", "must be at least 1, got %zd", frames);
+    if (target < TSK_REFINE_MIN_TARGET || target > TSK_REFINE_MAX_TARGET)
+        return tsk_py_raise_arg("target_knots", "must be from 2 to 64, got %d", target);
+    Py_buffer k = {0}, w = {0}, t = {0}, ok = {0}, ow = {0}, orr = {0}, ot = {0};
+    Py_buffer* all[] = {&k, &w, &t, &ok, &ow, &orr, &ot};
+    tsk_refine_input* in = NULL;
+    tsk_refine_output* out = NULL;
+    Py_ssize_t n;
+    if (!tsk_py_buffer(ko, "knots", TSK_PY_F32, -1, 0, &k)) return NULL;
+    if (!xyz_count(&k, "knots", &n)) goto fail;
+    if (n % blades != 0) {
+        tsk_py_raise_arg("knots", "%zd knots do not split into %zd blades of equal size", n,
+                         blades);
+        goto fail;
+    }
+    const Py_ssize_t per = n / blades, m = target;
+    if (!tsk_py_buffer(wo, "widths", TSK_PY_F32, n, 0, &w)) goto fail;
+    if (!tsk_py_buffer(to, "trajectories", TSK_PY_F32, frames * n * 3, 0, &t)) goto fail;
+    if (!tsk_py_buffer(oko, "out_knots", TSK_PY_F32, blades * m * 3, 1, &ok)) goto fail;
+    if (!tsk_py_buffer(owo, "out_widths", TSK_PY_F32, blades * m, 1, &ow)) goto fail;
+    if (!tsk_py_buffer(oro, "out_ranges", TSK_PY_I32, blades * m * 2, 1, &orr)) goto fail;
+    if (oto != Py_None &&
+        !tsk_py_buffer(oto, "out_trajectories", TSK_PY_F32, blades * frames * m * 3, 1, &ot))
+        goto fail;
+    in = tsk_alloc((size_t)blades * sizeof *in, "binding blades");
+    out = tsk_alloc((size_t)blades * sizeof *out, "binding outputs");
+    if (in == NULL || out == NULL) {
+        tsk_py_raise(TSK_ERR_MEMORY);
+        goto fail;
+    }
+    /* blade b: knots [b][per][3], widths [b][per], trajectories [b][frames][per][3] */
+    for (Py_ssize_t b = 0; b < blades; ++b) {
+        in[b] = (tsk_refine_input){(const float*)k.buf + b * per * 3,
+                                   (const float*)w.buf + b * per,
+                                   (const float*)t.buf + b * frames * per * 3, (size_t)per,
+                                   (size_t)frames};
+        out[b] = (tsk_refine_output){(float*)ok.buf + b * m * 3, (float*)ow.buf + b * m,
+                                     (int32_t*)orr.buf + b * m * 2,
+                                     oto != Py_None ? (float*)ot.buf + b * frames * m * 3 : NULL};
+    }
+    tsk_refine_def def = {target, mu};
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_refine_blades(&def, in, out, (size_t)blades);
+    Py_END_ALLOW_THREADS
+    tsk_free(in);
+    tsk_free(out);
+    release_all(all, 7);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+fail:
+    tsk_free(in);
+    tsk_free(out);
+    release_all(all, 7);
+    return NULL;
+}
+
+static PyObject* py_refine_track(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *ro, *fko, *foo, *oto;
+    if (!PyArg_ParseTuple(args, "OOOO:refine_track", &ro, &fko, &foo, &oto)) return NULL;
+    Py_buffer r = {0}, fk = {0}, fo = {0}, ot = {0};
+    Py_buffer* all[] = {&r, &fk, &fo, &ot};
+    Py_ssize_t n, total, frames;
+    if (!tsk_py_buffer(ro, "ref_knots", TSK_PY_F32, -1, 0, &r)) return NULL;
+    if (!xyz_count(&r, "ref_knots", &n)) goto fail;
+    if (!tsk_py_buffer(fko, "frame_knots", TSK_PY_F32, -1, 0, &fk)) goto fail;
+    if (!xyz_count(&fk, "frame_knots", &total)) goto fail;
+    if (!tsk_py_buffer(foo, "frame_offsets", TSK_PY_I32, -1, 0, &fo)) goto fail;
+    frames = tsk_py_count(&fo) - 1;
+    if (frames < 1) {
+        tsk_py_raise_arg("frame_offsets", "needs frame_count + 1 >= 2 entries");
+        goto fail;
+    }
+    const int32_t last = ((const int32_t*)fo.buf)[frames];
+    if (last != total) {
+        tsk_py_raise_arg("frame_offsets", "last entry %d must equal the %zd knots of frame_knots",
+                         (int)last, total);
+        goto fail;
+    }
+    if (!tsk_py_buffer(oto, "out_trajectories", TSK_PY_F32, frames * n * 3, 1, &ot)) goto fail;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_refine_track(r.buf, (size_t)n, fk.buf, fo.buf, (size_t)frames, ot.buf);
+    Py_END_ALLOW_THREADS
+    release_all(all, 4);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+fail:
+    release_all(all, 4);
+    return NULL;
+}
+
+static PyObject* py_refine_resample(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *ko, *wo, *oko, *owo;
+    if (!PyArg_ParseTuple(args, "OOOO:refine_resample", &ko, &wo, &oko, &owo)) return NULL;
+    Py_buffer k = {0}, w = {0}, ok = {0}, ow = {0};
+    Py_buffer* all[] = {&k, &w, &ok, &ow};
+    Py_ssize_t n, m;
+    if (!tsk_py_buffer(ko, "knots", TSK_PY_F32, -1, 0, &k)) return NULL;
+    if (!xyz_count(&k, "knots", &n)) goto fail;
+    if (!tsk_py_buffer(wo, "widths", TSK_PY_F32, n, 0, &w)) goto fail;
+    if (!tsk_py_buffer(oko, "out_knots", TSK_PY_F32, -1, 1, &ok)) goto fail;
+    if (!xyz_count(&ok, "out_knots", &m)) goto fail;
+    if (!tsk_py_buffer(owo, "out_widths", TSK_PY_F32, m, 1, &ow)) goto fail;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_refine_resample(k.buf, w.buf, (size_t)n, (size_t)m, ok.buf, ow.buf);
+    Py_END_ALLOW_THREADS
+    release_all(all, 4);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+fail:
+    release_all(all, 4);
+    return NULL;
+}
+
+static PyObject* py_refine_simulate(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* names[] = {"knots", "widths", "frame_count", "out_trajectories",
+                            "youngs_modulus", "thickness", "density", "min_width_ratio",
+                            "gravity_x", "gravity_y", "gravity_z", "gravity_prestress",
+                            "air_density", "drag_coefficient", "damping", "wind_speed",
+                            "wind_x", "wind_y", "wind_z", "gust", "fps", "warmup", "time_step",
+                            NULL};
+    tsk_refine_bend_def d = tsk_default_refine_bend_def();
+    PyObject *ko, *wo, *oto;
+    Py_ssize_t frames;
+    if (!PyArg_ParseTupleAndKeywords(
+            args, kw, "OOnO|$ffffffffpffffffffffff:refine_simulate", names, &ko, &wo, &frames, &oto,
+            &d.youngs_modulus, &d.thickness, &d.density, &d.min_width_ratio, &d.gravity[0],
+            &d.gravity[1], &d.gravity[2], &d.gravity_prestress, &d.air_density,
+            &d.drag_coefficient, &d.damping, &d.wind_speed, &d.wind_direction[0],
+            &d.wind_direction[1], &d.wind_direction[2], &d.gust, &d.fps, &d.warmup, &d.time_step))
+        return NULL;
+    if (frames < 1) return tsk_py_raise_arg("frame_count", "must be at least 1, got %zd", frames);
+    Py_buffer k = {0}, w = {0}, ot = {0};
+    Py_buffer* all[] = {&k, &w, &ot};
+    Py_ssize_t n;
+    if (!tsk_py_buffer(ko, "knots", TSK_PY_F32, -1, 0, &k)) return NULL;
+    if (!xyz_count(&k, "knots", &n)) goto fail;
+    if (!tsk_py_buffer(wo, "widths", TSK_PY_F32, n, 0, &w)) goto fail;
+    if (!tsk_py_buffer(oto, "out_trajectories", TSK_PY_F32, frames * n * 3, 1, &ot)) goto fail;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_refine_simulate(&d, k.buf, w.buf, (size_t)n, (size_t)frames, ot.buf);
+    Py_END_ALLOW_THREADS
+    release_all(all, 3);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+fail:
+    release_all(all, 3);
+    return NULL;
+}
+
+PyMethodDef tsk_py_refine_methods[] = {
+    {"refine_blade", (PyCFunction)(void (*)(void))py_refine_blade, METH_VARARGS | METH_KEYWORDS,
+     "refine_blade(knots, widths, trajectories, frame_count, target_knots, mu, out_knots, "
+     "out_widths, out_ranges, out_trajectories=None): seed 000 Algorithm 1. knots float32 "
+     "(3K), widths (K), trajectories (frame_count*K*3, frame-major); out_knots (3m), out_widths "
+     "(m), out_ranges int32 (2m: first source knot, count), out_trajectories (frame_count*m*3)."},
+    {"refine_blades", (PyCFunction)(void (*)(void))py_refine_blades,
+     METH_VARARGS | METH_KEYWORDS,
+     "refine_blades(knots, widths, trajectories, blade_count, frame_count, target_knots, mu, "
+     "out_knots, out_widths, out_ranges, out_trajectories=None): many blades of equal knot "
+     "count K, in parallel; arrays are refine_blade's stacked per blade "
+     "(trajectories [blade][frame][K][3])."},
+    {"refine_track", py_refine_track, METH_VARARGS,
+     "refine_track(ref_knots, frame_knots, frame_offsets, out_trajectories): trajectories of "
+     "the reference knots through captured skeletons (frame f = frame_knots[offsets[f]:"
+     "offsets[f+1]] knots), matched by normalised arc length. frame_offsets int32 (F+1)."},
+    {"refine_resample", py_refine_resample, METH_VARARGS,
+     "refine_resample(knots, widths, out_knots, out_widths): uniform arc-length resampling "
+     "to len(out_widths) knots."},
+    {"refine_simulate", (PyCFunction)(void (*)(void))py_refine_simulate,
+     METH_VARARGS | METH_KEYWORDS,
+     "refine_simulate(knots, widths, frame_count, out_trajectories, *, youngs_modulus=3e9, "
+     "thickness=4e-4, density=900, min_width_ratio=0.05, gravity_x/y/z=(0,0,-9.81), "
+     "gravity_prestress=True, air_density=1.2, drag_coefficient=1.2, damping=2, wind_speed=3, "
+     "wind_x/y/z=(1,0,0), gust=0.5, fps=24, warmup=1, time_step=0): bending simulation of a "
+     "still blade under the standard wind; out_trajectories (frame_count*K*3)."},
+    {NULL, NULL, 0, NULL},
+};
