@@ -19,11 +19,13 @@ from .capture import ui as capture_ui  # noqa: E402
 from .meadow import operators as meadow_operators  # noqa: E402
 from .meadow import props as meadow_props  # noqa: E402
 from .meadow import ui as meadow_ui  # noqa: E402
+from .refine import operators as refine_operators  # noqa: E402
+from .refine import ui as refine_ui  # noqa: E402
 from .wind import props as wind_props  # noqa: E402
 
 # One list of classes, registered in order and unregistered in reverse.
 _MODULES = (prefs, ui, capture_props, capture_operators, capture_ui, meadow_props,
-            meadow_operators, meadow_ui, wind_props)
+            meadow_operators, meadow_ui, refine_operators, refine_ui, wind_props)
 
 
 def _classes():

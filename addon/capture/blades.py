@@ -7,6 +7,8 @@ The cluster stands upright at the 3D cursor as it stood in front of the camera."
 import bpy
 import numpy as np
 
+from ..nodes import blade_nodes
+
 COLLECTION = "Tussock Blades"
 
 # camera frame (x right, y down, z forward) -> Blender (X right, Y away, Z up)
@@ -69,5 +71,6 @@ def create_blades(scene, knot_counts, camera_xyz, widths, flags, provenance, cur
         obj["tussock_flags"] = int(flags[b])
         obj["tussock_cut_by_border"] = bool(int(flags[b]) & 1)
         coll.objects.link(obj)
+        blade_nodes.show_ribbon(obj)
         objects.append(obj)
     return objects

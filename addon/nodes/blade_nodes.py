@@ -1,0 +1,64 @@
+"""The geometry-node group that shows a blade object expanded by its `width` attribute
+into a ribbon, as the seed's vertex shader does (seed 000 Fig. 6–7). The blade object
+itself stays a polyline of knots (DESIGN.md's contract); only its display is a ribbon."""
+
+import bpy
+
+from .. import compat
+
+GROUP_NAME = "Tussock Blade Ribbon"
+GROUP_VERSION = 1
+MODIFIER = "Tussock Ribbon"
+
+
+def _build(ng):
+    for node in list(ng.nodes):
+        ng.nodes.remove(node)
+    if hasattr(ng, "interface"):
+        ng.interface.clear()
+    else:
+        ng.inputs.clear()
+        ng.outputs.clear()
+    compat.node_group_add_socket(ng, "INPUT", "NodeSocketGeometry", "Geometry")
+    compat.node_group_add_socket(ng, "OUTPUT", "NodeSocketGeometry", "Geometry")
+    n, link = ng.nodes, ng.links.new
+    gin, gout = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
+    to_curve = n.new("GeometryNodeMeshToCurve")
+    width = n.new("GeometryNodeInputNamedAttribute")
+    width.data_type = "FLOAT"
+    width.inputs["Name"].default_value = "width"
+    radius = n.new("GeometryNodeSetCurveRadius")
+    # The profile runs along the curve's binormal, which for a blade lying in a plane is in
+    # that plane and across the blade; its length 1 is scaled by the radius = full width.
+    profile = n.new("GeometryNodeCurvePrimitiveLine")
+    profile.inputs["Start"].default_value = (0.0, -0.5, 0.0)
+    profile.inputs["End"].default_value = (0.0, 0.5, 0.0)
+    to_mesh = n.new("GeometryNodeCurveToMesh")
+    link(gin.outputs[0], to_curve.inputs["Mesh"])
+    link(to_curve.outputs[0], radius.inputs["Curve"])
+    link(compat.enabled_output(width), radius.inputs["Radius"])
+    link(radius.outputs[0], to_mesh.inputs["Curve"])
+    link(profile.outputs[0], to_mesh.inputs["Profile Curve"])
+    link(to_mesh.outputs[0], gout.inputs[0])
+    for i, node in enumerate((gin, to_curve, radius, to_mesh, gout)):
+        node.location = (220 * i, 0)
+    width.location, profile.location = (220, -200), (440, -250)
+    ng["tussock_version"] = GROUP_VERSION
+
+
+def ribbon_group():
+    ng = bpy.data.node_groups.get(GROUP_NAME)
+    if ng is None:
+        ng = bpy.data.node_groups.new(GROUP_NAME, "GeometryNodeTree")
+    if ng.get("tussock_version") != GROUP_VERSION:
+        _build(ng)
+    return ng
+
+
+def show_ribbon(obj):
+    """Adds (once) the ribbon display modifier to a blade object."""
+    mod = obj.modifiers.get(MODIFIER)
+    if mod is None:
+        mod = obj.modifiers.new(MODIFIER, "NODES")
+    mod.node_group = ribbon_group()
+    return mod

@@ -1,0 +1,1 @@
+"""Refine captured skeletons by movement similarity (seed 000 §4.4, Algorithm 1)."""

@@ -1,0 +1,27 @@
+"""The Refine panel in the Tussock sidebar tab."""
+
+import bpy
+
+
+class TUSSOCK_PT_refine(bpy.types.Panel):
+    bl_label = "Refine"
+    bl_idname = "TUSSOCK_PT_refine"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Tussock"
+    bl_parent_id = "TUSSOCK_PT_main"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.label(text="Select captured blades, then:")
+        row = layout.row(align=True)
+        for m in (64, 32, 16, 8):
+            op = row.operator("tussock.refine_blades", text=str(m))
+            op.knots = str(m)
+        obj = context.active_object
+        if obj is not None and "tussock_refined_knots" in obj:
+            layout.label(text=f"{obj.name}: {obj['tussock_refined_knots']} knots, "
+                              f"{obj['tussock_refine_movement'].lower()} movement")
+
+
+classes = (TUSSOCK_PT_refine,)
