@@ -29,6 +29,7 @@ typedef struct gstem {
     float wp_offset;     /* distance from that stem's base */
     float base_frac;     /* fraction of the stem without children (BaseSize on the trunk) */
     float taper;
+    float child_factor; /* 1/(1 + clones): a split stem shares its children with its clones */
     float Q[9];
     float P[12];
     float O[3];
@@ -79,6 +80,7 @@ static tsk_status push_stem(gen* g, gstem** out) {
     }
     *out = &g->s[g->n++];
     memset(*out, 0, sizeof(gstem));
+    (*out)->child_factor = 1.0f;
     return TSK_OK;
 }
 
@@ -252,6 +254,7 @@ static tsk_status grow_clones(gen* g, size_t idx) {
     if (base.is_clone) return TSK_OK;
     const tsk_tree_level_def* lv = &d->level[base.level];
     const int R = lv->curve_res;
+    const size_t first_clone = g->n;
     for (int k = 0; k + 1 < R; ++k) {
         int splits = 0;
         if (base.level == 0 && k == 0 && d->base_splits > 0) {
@@ -290,6 +293,9 @@ static tsk_status grow_clones(gen* g, size_t idx) {
             place_stem(g, ci);
         }
     }
+    const float share = 1.0f / (float)(1 + g->n - first_clone);
+    g->s[idx].child_factor = share;
+    for (size_t c = first_clone; c < g->n; ++c) g->s[c].child_factor = share;
     return TSK_OK;
 }
 
@@ -299,11 +305,12 @@ static int child_count(const gen* g, const gstem* s, int c) {
     const float stems_max = (float)d->level[c].branches;
     float n;
     if (s->level == 0)
-        n = s->is_clone ? stems_max * s->length / g->s[0].length : stems_max;
+        n = stems_max;
     else if (s->level == 1)
         n = stems_max * (0.2f + 0.8f * (s->length / s->wp_parent_len) / s->len_max);
     else
         n = stems_max * (1.0f - 0.5f * s->wp_offset / s->wp_parent_len);
+    n *= s->child_factor;
     if (!(n > 0.0f)) return 0;
     return (int)floorf(n + 0.5f);
 }
@@ -313,6 +320,7 @@ static int leaf_count(const gen* g, const gstem* s) {
     float n = s->level == 0 ? leaves
                             : leaves * tree_shape_ratio(TSK_TREE_TAPERED_CYLINDRICAL,
                                                         s->wp_offset / s->wp_parent_len);
+    n *= s->child_factor;
     if (!(n > 0.0f)) return 0;
     return (int)floorf(n + 0.5f);
 }
