@@ -15,8 +15,13 @@
 
 using namespace OpenSubdiv;
 
+// The float StencilTable(Factory) wrappers static_cast a StencilTableReal<float> to the
+// derived StencilTable, which UBSan rightly reports; use the Real<float> types directly.
+using Stencils = Far::StencilTableReal<float>;
+using StencilFactory = Far::StencilTableFactoryReal<float>;
+
 struct tsk_osd {
-    const Far::StencilTable* stencils = nullptr;
+    const Stencils* stencils = nullptr;
     std::vector<int32_t> faces;  // refined quads
     size_t cage_vertices = 0;
     size_t refined_vertices = 0;
@@ -26,7 +31,7 @@ struct tsk_osd {
 namespace {
 
 struct apply_ctx {
-    const Far::StencilTable* st;
+    const Stencils* st;
     const float* cage;
     float* out;
 };
@@ -77,12 +82,12 @@ extern "C" tsk_status tsk_osd_create(const int32_t* quads, size_t face_count, si
             return tsk_error_arg(TSK_ERR_ARGUMENT, "quads",
                                  "OpenSubdiv could not build a topology from these faces");
         refiner->RefineUniform(Far::TopologyRefiner::UniformOptions(levels));
-        Far::StencilTableFactory::Options so;
+        StencilFactory::Options so;
         so.generateOffsets = true;
         so.generateIntermediateLevels = false;
         so.generateControlVerts = false;
         tsk_osd* h = new tsk_osd();
-        h->stencils = Far::StencilTableFactory::Create(*refiner, so);
+        h->stencils = StencilFactory::Create(*refiner, so);
         const Far::TopologyLevel& last = refiner->GetLevel(levels);
         h->cage_vertices = vertex_count;
         h->refined_vertices = static_cast<size_t>(last.GetNumVertices());
