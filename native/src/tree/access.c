@@ -42,8 +42,8 @@ static void leaf_pose(const tsk_tree* t, size_t j, v3* pos, v3* dir, v3* nrm, v3
     v3 P[4];
     tree_load_points(t->cur, p, P);
     v3 U, V;
-    tree_attach_frame(P, tree_load3(t->cur_O, p), t->leaf_attach[3 * j],
-                      t->leaf_attach[3 * j + 1], pos, &U, &V);
+    const float th = t->leaf_attach[3 * j + 1];
+    tree_attach_frame(P, &t->frames[p], t->leaf_attach[3 * j], cosf(th), sinf(th), pos, &U, &V);
     const float a = t->leaf_attach[3 * j + 2];
     *dir = v3_comb(U, cosf(a), V, sinf(a));
     *wid = v3_cross(U, V);

@@ -197,9 +197,11 @@ static void place_stem(gen* g, size_t idx) {
         const gstem* p = &g->s[s->parent];
         v3 Pp[4];
         tree_load_points(p->P, 0, Pp);
-        tree_attach_frame(Pp, v3_make(p->O[0], p->O[1], p->O[2]), s->v, s->theta, &origin, &U, &V);
+        sloan_frames f;
+        sloan_build(Pp, v3_make(p->O[0], p->O[1], p->O[2]), &f);
+        tree_attach_frame(Pp, &f, s->v, cosf(s->theta), sinf(s->theta), &origin, &U, &V);
     }
-    const float ca = cosf(s->alpha), sa = sinf(s->alpha);
+    const float ca = cosf(s->alpha), sa = sinf(s->alpha); /* same as the tree's trig */
     const v3 axis = v3_comb(U, ca, V, sa), side = v3_comb(U, -sa, V, ca), W = v3_cross(U, V);
     v3 P[4];
     float L = s->length;
@@ -226,6 +228,8 @@ static void place_stem(gen* g, size_t idx) {
     int32_t parent = s->parent, level = s->level;
     float av = s->v, at = s->theta, aa = s->alpha;
     float seg = 1.0f;
+    float trig[4] = {cosf(s->theta), sinf(s->theta), cosf(s->alpha), sinf(s->alpha)};
+    t->trig = trig;
     t->parent = &parent;
     t->level = &level;
     t->attach_v = &av;
@@ -234,15 +238,17 @@ static void place_stem(gen* g, size_t idx) {
     t->local = s->Q;
     t->root = s->root;
     t->rest_seg = &seg;
+    t->seg12 = &seg;
     v3 Pp[4] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-    v3 Op = v3_make(0, 0, 0);
+    sloan_frames fp;
+    memset(&fp, 0, sizeof fp);
     if (s->parent >= 0) {
         const gstem* p = &g->s[s->parent];
         tree_load_points(p->P, 0, Pp);
-        Op = v3_make(p->O[0], p->O[1], p->O[2]);
+        sloan_build(Pp, v3_make(p->O[0], p->O[1], p->O[2]), &fp);
     }
     v3 Pout[4], Oout;
-    tree_pose_branch(t, 0, Pp, Op, v3_make(0, 0, 0), 1.8f, Pout, &Oout);
+    tree_pose_branch(t, 0, Pp, &fp, v3_make(0, 0, 0), 1.8f, 0.0f, Pout, &Oout);
     tree_store_points(s->P, 0, Pout);
     s->O[0] = Oout.x, s->O[1] = Oout.y, s->O[2] = Oout.z;
 }
@@ -412,8 +418,8 @@ static tsk_status grow_leaves(gen* g, size_t idx) {
 }
 
 static void free_tree_arrays(tsk_tree* t) {
-    void* arrays[] = {t->parent, t->level, t->depth, t->attach_v, t->attach_theta,
-                      t->attach_alpha, t->length, t->rest_seg, t->shape, t->local, t->root,
+    void* arrays[] = {t->seg12, t->parent, t->level, t->depth, t->attach_v, t->attach_theta,
+                      t->attach_alpha, t->trig, t->has_kids, t->frames, t->prev_frames, t->length, t->rest_seg, t->shape, t->local, t->root,
                       t->rest, t->rest_O, t->cur, t->cur_O, t->prev, t->prev_O,
                       t->leaf_parent, t->leaf_attach, t->leaf_size};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i) tsk_free(arrays[i]);
@@ -423,6 +429,16 @@ void tsk_tree_destroy(tsk_tree* tree) {
     if (tree == NULL) return;
     free_tree_arrays(tree);
     tsk_free(tree);
+}
+
+/* Sloan frames of the rest pose for every branch that carries children or leaves. */
+void tree_rest_frames(tsk_tree* t) {
+    for (size_t i = 0; i < t->n; ++i) {
+        if (!t->has_kids[i]) continue;
+        v3 P[4];
+        tree_load_points(t->rest, i, P);
+        sloan_build(P, tree_load3(t->rest_O, i), &t->frames[i]);
+    }
 }
 
 static tsk_status build_tree(gen* g, tsk_tree** out) {
@@ -438,8 +454,13 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
     t->attach_v = tsk_alloc(n * sizeof(float), "tree attachments");
     t->attach_theta = tsk_alloc(n * sizeof(float), "tree attachments");
     t->attach_alpha = tsk_alloc(n * sizeof(float), "tree attachments");
+    t->trig = tsk_alloc(4 * n * sizeof(float), "tree attachments");
+    t->has_kids = tsk_calloc(n, 1, "tree attachments");
+    t->frames = tsk_alloc(n * sizeof(sloan_frames), "tree frames");
+    t->prev_frames = tsk_alloc(n * sizeof(sloan_frames), "tree frames");
     t->length = tsk_alloc(n * sizeof(float), "tree lengths");
     t->rest_seg = tsk_alloc(n * sizeof(float), "tree lengths");
+    t->seg12 = tsk_alloc(n * sizeof(float), "tree lengths");
     t->shape = tsk_alloc(n * sizeof(tsk_branch_shape), "tree shapes");
     t->local = tsk_alloc(9 * n * sizeof(float), "tree local points");
     t->root = tsk_alloc(3 * n * sizeof(float), "tree roots");
@@ -453,7 +474,8 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
     t->leaf_attach = tsk_alloc(3 * m * sizeof(float), "tree leaves");
     t->leaf_size = tsk_alloc(2 * m * sizeof(float), "tree leaves");
     if (!t->parent || !t->level || !t->depth || !t->attach_v || !t->attach_theta ||
-        !t->attach_alpha || !t->length || !t->rest_seg || !t->shape || !t->local || !t->root ||
+        !t->attach_alpha || !t->trig || !t->has_kids || !t->frames || !t->prev_frames ||
+        !t->length || !t->rest_seg || !t->seg12 || !t->shape || !t->local || !t->root ||
         !t->rest || !t->rest_O || !t->cur || !t->cur_O || !t->prev || !t->prev_O ||
         !t->leaf_parent || !t->leaf_attach || !t->leaf_size) {
         tsk_tree_destroy(t);
@@ -473,6 +495,11 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
         t->attach_v[i] = s->v;
         t->attach_theta[i] = s->theta;
         t->attach_alpha[i] = s->alpha;
+        t->trig[4 * i] = cosf(s->theta);
+        t->trig[4 * i + 1] = sinf(s->theta);
+        t->trig[4 * i + 2] = cosf(s->alpha);
+        t->trig[4 * i + 3] = sinf(s->alpha);
+        if (s->parent >= 0) t->has_kids[s->parent] = 1;
         t->length[i] = s->length;
         memcpy(t->local + 9 * i, s->Q, sizeof s->Q);
         memcpy(t->root + 3 * i, s->root, sizeof s->root);
@@ -480,6 +507,8 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
         memcpy(t->rest_O + 3 * i, s->O, sizeof s->O);
         const float dq[3] = {s->Q[6] - s->Q[3], s->Q[7] - s->Q[4], s->Q[8] - s->Q[5]};
         t->rest_seg[i] = sqrtf(dq[0] * dq[0] + dq[1] * dq[1] + dq[2] * dq[2]);
+        const float dp[3] = {s->Q[3] - s->Q[0], s->Q[4] - s->Q[1], s->Q[5] - s->Q[2]};
+        t->seg12[i] = sqrtf(dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2]);
         tsk_branch_shape* sh = &t->shape[i];
         sh->radius = s->radius;
         sh->taper = s->taper;
@@ -498,12 +527,14 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
     for (size_t j = 0; j < m; ++j) {
         const gleaf* l = &g->l[j];
         t->leaf_parent[j] = l->parent;
+        t->has_kids[l->parent] = 1;
         t->leaf_attach[3 * j] = l->v;
         t->leaf_attach[3 * j + 1] = l->theta;
         t->leaf_attach[3 * j + 2] = l->alpha;
         t->leaf_size[2 * j] = l->length;
         t->leaf_size[2 * j + 1] = l->width;
     }
+    tree_rest_frames(t);
     *out = t;
     return TSK_OK;
 }

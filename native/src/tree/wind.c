@@ -20,8 +20,8 @@ typedef struct step_ctx {
     tsk_tree* t;
     const float* force;
     const float* parent_pts; /* where parents are read */
-    const float* parent_O;
-    float strength, power;
+    const sloan_frames* parent_frames;
+    float strength, power, b2_scale;
     size_t base; /* first branch of the range */
 } step_ctx;
 
@@ -32,18 +32,20 @@ static void step_range(size_t b, size_t e, size_t chunk, void* vctx) {
     for (size_t k = b; k < e; ++k) {
         const size_t i = c->base + k;
         v3 Pp[4] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-        v3 Op = v3_make(0, 0, 0);
+        const sloan_frames* fp = NULL;
         const int32_t p = t->parent[i];
         if (p >= 0) {
             tree_load_points(c->parent_pts, (size_t)p, Pp);
-            Op = tree_load3(c->parent_O, (size_t)p);
+            fp = &c->parent_frames[p];
         }
         v3 F = tree_load3(c->force, i);
         if (c->strength != 1.0f) F = v3_scale(F, c->strength);
         v3 P[4], O;
-        tree_pose_branch(t, i, Pp, Op, F, c->power, P, &O);
+        tree_pose_branch(t, i, Pp, fp, F, c->power, c->b2_scale, P, &O);
         tree_store_points(t->cur, i, P);
         tree_store3(t->cur_O, i, O);
+        /* the frames children and leaves attach to (seed eq. 8), once per parent */
+        if (t->has_kids[i]) sloan_build(P, O, &t->frames[i]);
     }
 }
 
@@ -66,7 +68,8 @@ tsk_status tsk_tree_wind_step(tsk_tree* t, const float* force, const tsk_tree_wi
                                  "component %zu of branch %zu is %g (must be finite, |F| <= 1e6)",
                                  i % 3, i / 3, (double)force[i]);
     }
-    step_ctx c = {t, force, NULL, NULL, w.strength, w.bend_power, 0};
+    step_ctx c = {t, force, NULL, NULL, w.strength, w.bend_power,
+                  powf(1.0f / 3.0f, w.bend_power), 0};
     if (w.mode == TSK_TREE_WIND_LAGGED) {
         /* seed §4: parents from the last step; swap so that prev holds the last pose */
         float* tmp = t->prev;
@@ -75,13 +78,16 @@ tsk_status tsk_tree_wind_step(tsk_tree* t, const float* force, const tsk_tree_wi
         tmp = t->prev_O;
         t->prev_O = t->cur_O;
         t->cur_O = tmp;
+        sloan_frames* ftmp = t->prev_frames;
+        t->prev_frames = t->frames;
+        t->frames = ftmp;
         c.parent_pts = t->prev;
-        c.parent_O = t->prev_O;
+        c.parent_frames = t->prev_frames;
         tsk_parallel_for(t->n, WIND_GRAIN, step_range, &c);
     } else {
         /* exact: depth by depth, parents of this step (earlier depths are already done) */
         c.parent_pts = t->cur;
-        c.parent_O = t->cur_O;
+        c.parent_frames = t->frames;
         for (int d = 0; d < t->depth_count; ++d) {
             c.base = t->depth_start[d];
             tsk_parallel_for(t->depth_start[d + 1] - t->depth_start[d], WIND_GRAIN, step_range, &c);
@@ -94,6 +100,7 @@ void tsk_tree_reset_pose(tsk_tree* t) {
     if (t == NULL) return;
     memcpy(t->cur, t->rest, 12 * t->n * sizeof(float));
     memcpy(t->cur_O, t->rest_O, 3 * t->n * sizeof(float));
+    tree_rest_frames(t);
 }
 
 tsk_status tsk_tree_attachment_gap(const tsk_tree* t, double* max_relative_gap) {
