@@ -239,6 +239,8 @@ typedef struct tsk_subdiv tsk_subdiv;
 tsk_status tsk_subdiv_create(const int32_t* quads, size_t face_count, size_t vertex_count,
                              int levels, tsk_subdiv** out);
 void tsk_subdiv_destroy(tsk_subdiv* sd);
+/// Vertices of the cage it was built for.
+size_t tsk_subdiv_cage_vertex_count(const tsk_subdiv* sd);
 /// Refined vertex and quad counts.
 size_t tsk_subdiv_vertex_count(const tsk_subdiv* sd);
 size_t tsk_subdiv_face_count(const tsk_subdiv* sd);
