@@ -104,7 +104,7 @@ static tsk_status push_leaf(gen* g, gleaf** out) {
     return TSK_OK;
 }
 
-/* Radius of stem s at v before flare/lobes: seed eq. 2 with the Weber–Penn taper amount. */
+/* Radius of stem s at v before flare/lobes: seed 001, eq. 2 with the Weber–Penn taper amount. */
 static float stem_radius_at(const tsk_tree_def* d, const gstem* s, float v) {
     return s->radius * (1.0f - s->taper * powf(v, d->taper_power));
 }

@@ -27,30 +27,36 @@ typedef struct radius_terms {
     float value, dv, dtheta;
 } radius_terms;
 
-/* Radius and its partial derivatives: seed eq. 2 (taper), 3 (flare), 4 (bulges), 5 (lobes),
+/* Radius and its partial derivatives: seed 001, eq. 2 (taper), 3 (flare), 4 (bulges), 5 (lobes),
  * multiplied as in eq. 6. */
 static radius_terms branch_radius_terms(const tsk_branch_shape* s, float v, float theta) {
     const float r = s->radius;
-    /* eq. 2: f_taper = r (1 - taper v^t); Weber–Penn's taper amount scales v^t */
-    const float vp = v > 1e-6f ? v : 1e-6f;
-    const float vt = powf(v, s->taper_power);
+    /* seed 001, eq. 2: f_taper = r (1 - taper v^t); Weber–Penn's taper amount scales v^t */
+    float vt, ft_v;
+    if (s->taper_power == 1.0f) { /* Weber–Penn's linear taper: no powf */
+        vt = v;
+        ft_v = -r * s->taper;
+    } else {
+        const float vp = v > 1e-6f ? v : 1e-6f;
+        vt = powf(v, s->taper_power);
+        ft_v = -r * s->taper * s->taper_power * powf(vp, s->taper_power - 1.0f);
+    }
     const float ft = r * (1.0f - s->taper * vt);
-    const float ft_v = -r * s->taper * s->taper_power * powf(vp, s->taper_power - 1.0f);
-    /* eq. 3: f_flare = f/100 * 100^(1-8v) + 1 */
+    /* seed 001, eq. 3: f_flare = f/100 * 100^(1-8v) + 1 */
     float ff = 1.0f, ff_v = 0.0f;
     if (s->flare != 0.0f) {
         const float e = s->flare / 100.0f * powf(100.0f, 1.0f - 8.0f * v);
         ff = e + 1.0f;
         ff_v = e * (-8.0f * 4.60517018598809f); /* d/dv 100^(1-8v) = -8 ln(100) 100^(1-8v) */
     }
-    /* eq. 4: f_bulges = 1 + b_d sin(b_n 2 pi v) */
+    /* seed 001, eq. 4: f_bulges = 1 + b_d sin(b_n 2 pi v) */
     float fb = 1.0f, fb_v = 0.0f;
     if (s->bulge_depth != 0.0f && s->bulges != 0.0f) {
         const float w = s->bulges * TWO_PI;
         fb = 1.0f + s->bulge_depth * sinf(w * v);
         fb_v = s->bulge_depth * w * cosf(w * v);
     }
-    /* eq. 5: f_lobes = 1 + l_d sin(l_n theta) (1 - v l_t) */
+    /* seed 001, eq. 5: f_lobes = 1 + l_d sin(l_n theta) (1 - v l_t) */
     float fl = 1.0f, fl_v = 0.0f, fl_t = 0.0f;
     if (s->lobe_depth != 0.0f && s->lobes != 0.0f) {
         const float sn = sinf(s->lobes * theta), cs = cosf(s->lobes * theta);
@@ -247,6 +253,7 @@ tsk_status tsk_tree_mesh_topology(const tsk_tree* t, const tsk_tree_mesh_def* m,
 typedef struct deform_ctx {
     const tsk_tree* t;
     const tsk_tree_mesh_def* m;
+    const float* sincos[TSK_TREE_MAX_LEVELS]; /* per level: sin, cos of 2 pi k / around */
     const size_t* vstart; /* first vertex of each branch */
     float* pos;
     float* nrm;
@@ -262,12 +269,8 @@ static void deform_branch(const deform_ctx* c, size_t i) {
     sloan_build(P, tree_load3(t->cur_O, i), &f);
     const tsk_branch_shape* sh = &t->shape[i];
     const int lobed = sh->lobe_depth != 0.0f && sh->lobes != 0.0f;
-    float st[256], ct[256];
-    for (int k = 0; k < C; ++k) {
-        const float th = TWO_PI * (float)k / (float)C;
-        st[k] = sinf(th);
-        ct[k] = cosf(th);
-    }
+    const float* st = c->sincos[l];
+    const float* ct = c->sincos[l] + C;
     size_t vi = c->vstart[i];
     for (int j = 0; j <= A; ++j) {
         const float v = (float)j / (float)A;
@@ -326,8 +329,24 @@ tsk_status tsk_tree_mesh_deform(const tsk_tree* t, const tsk_tree_mesh_def* m, f
         acc += branch_vertices(t, m, i);
     }
     vstart[t->n] = acc;
-    deform_ctx c = {t, m, vstart, positions, normals};
+    float* tables = tsk_alloc(2 * 256 * TSK_TREE_MAX_LEVELS * sizeof(float), "mesh tables");
+    if (tables == NULL) {
+        tsk_free(vstart);
+        return TSK_ERR_MEMORY;
+    }
+    deform_ctx c = {t, m, {NULL, NULL, NULL, NULL}, vstart, positions, normals};
+    for (int l = 0; l < TSK_TREE_MAX_LEVELS; ++l) {
+        float* tab = tables + 2 * 256 * l;
+        const int C = m->around[l];
+        for (int k = 0; k < C; ++k) {
+            const float th = TWO_PI * (float)k / (float)C;
+            tab[k] = sinf(th);
+            tab[C + k] = cosf(th);
+        }
+        c.sincos[l] = tab;
+    }
     tsk_parallel_for(t->n, 64, deform_range, &c);
+    tsk_free(tables);
     if (m->leaves) {
         leaf_ctx lc = {t, acc, positions, normals};
         tsk_parallel_for(t->leaf_n, 1024, leaf_range, &lc);

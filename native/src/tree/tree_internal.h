@@ -77,7 +77,7 @@ static inline void sloan_build(const v3* P, v3 O, sloan_frames* f) {
 }
 
 /* Quadratic Bernstein weights: how the three handles blend at parameter u in the
- * generalized de Casteljau evaluation (seed eq. 9). */
+ * generalized de Casteljau evaluation (seed 001, eq. 9). */
 static inline void bern2(float u, float* q) {
     const float s = 1.0f - u;
     q[0] = s * s;
@@ -118,7 +118,7 @@ struct tsk_tree {
     sloan_frames* frames;      /* current Sloan frames of branches with children */
     sloan_frames* prev_frames; /* those of the last step (lagged mode) */
     float* length;
-    float* rest_seg; /* |Q3 - Q2| of the rest shape, the l of seed eq. 14 */
+    float* rest_seg; /* |Q3 - Q2| of the rest shape, the l of seed 001, eq. 14 */
     float* seg12;    /* |Q2 - Q1| */
     tsk_branch_shape* shape;
     float* local;    /* 9n: Q1, Q2, Q3 in the attachment frame (Q0 = 0) */
@@ -168,7 +168,7 @@ static inline void tree_attach_frame(const v3* P, const sloan_frames* f, float v
     v3 chord = v3_norm_or(v3_sub(P[3], P[0]), v3_make(0, 0, 1));
     *U = v3_norm_or(bez_deriv(P, v), chord);
     /* the point of the parent's de Casteljau sweep surface at (v, theta) gives the radial
-     * direction the branch grows toward (seed eq. 1 and 9 with unit radius) */
+     * direction the branch grows toward (seed 001, eq. 1 and 9 with unit radius) */
     v3 S, T;
     sloan_at(f, v, &S, &T);
     v3 D = v3_comb(S, st, T, ct);
@@ -198,16 +198,16 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
         Q[k + 1] = v3_make(t->local[9 * i + 3 * k], t->local[9 * i + 3 * k + 1],
                            t->local[9 * i + 3 * k + 2]);
     if (force.x != 0.0f || force.y != 0.0f || force.z != 0.0f) {
-        /* seed eq. 14: the force is divided by the length l between control points */
+        /* seed 001, eq. 14: the force is divided by the length l between control points */
         const float inv_l = t->rest_seg[i] > 1e-12f ? 1.0f / t->rest_seg[i] : 0.0f;
         v3 f = v3_make(v3_dot(force, axis), v3_dot(force, side), v3_dot(force, W));
         f = v3_scale(f, inv_l);
         const float m = v3_len(f);
-        /* seed eq. 16: b3 = F^1.8 (magnitude raised, direction kept), b2 = F (1/3)^1.8 */
+        /* seed 001, eq. 16: b3 = F^1.8 (magnitude raised, direction kept), b2 = F (1/3)^1.8 */
         const float mag = m > 0.0f ? powf(m, bend_power - 1.0f) : 0.0f;
         const v3 b3 = v3_scale(f, mag);
         const v3 b2 = v3_scale(b3, b2_scale);
-        /* seed eq. 17, read as Shrek's bend: P_i' = P_{i-1}' + |d| normalize(d + b_i),
+        /* seed 001, eq. 17, read as Shrek's bend: P_i' = P_{i-1}' + |d| normalize(d + b_i),
          * d = P_i - P_{i-1}; segment lengths are kept, P0 and P1 stay */
         v3 d2 = v3_sub(Q[2], Q[1]), d3 = v3_sub(Q[3], Q[2]);
         const float l2 = t->seg12[i], l3 = t->rest_seg[i];
@@ -222,7 +222,7 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
                            origin.y + axis.y * q.x + side.y * q.y + W.y * q.z,
                            origin.z + axis.z * q.x + side.z * q.y + W.z * q.z);
     }
-    /* O of seed eq. 8: the parent's direction, made perpendicular to the branch's start so
+    /* O of seed 001, eq. 8: the parent's direction, made perpendicular to the branch's start so
      * that S0 = L0 x O never degenerates (for alpha > 0 it is parallel to L0 x U) */
     *O_out = v3_scale(side, -1.0f);
 }

@@ -44,7 +44,7 @@ static void step_range(size_t b, size_t e, size_t chunk, void* vctx) {
         tree_pose_branch(t, i, Pp, fp, F, c->power, c->b2_scale, P, &O);
         tree_store_points(t->cur, i, P);
         tree_store3(t->cur_O, i, O);
-        /* the frames children and leaves attach to (seed eq. 8), once per parent */
+        /* the frames children and leaves attach to (seed 001, eq. 8), once per parent */
         if (t->has_kids[i]) sloan_build(P, O, &t->frames[i]);
     }
 }
