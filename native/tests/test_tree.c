@@ -3,6 +3,7 @@
  * ground truth written here, OpenSubdiv refinement, and refusal of bad parameters. */
 #include "test.h"
 #include "tussock/tree.h"
+#include "tree/tree_internal.h"
 
 #include <stdint.h>
 #include <time.h>
@@ -738,6 +739,40 @@ TEST(test_wind_children_stay_attached) {
     tsk_tree_destroy(lag), tsk_tree_destroy(ex);
 }
 
+/* The 4-wide SSE path and the one-branch path give the same bytes, for both modes. */
+TEST(test_wind_simd_path_equals_scalar_path) {
+    tsk_tree_def def;
+    CHECK(tsk_tree_preset("black_tupelo", &def) == TSK_OK);
+    def.level[2].branches = 7, def.level[3].branches = 5;
+    for (int mode = 0; mode < 2; ++mode) {
+        uint64_t h[2] = {0, 0};
+        for (int path = 0; path < 2; ++path) {
+            tree_wind_force_scalar = path;
+            tsk_tree* t = NULL;
+            CHECK(tsk_tree_create(&def, &t) == TSK_OK);
+            if (!t) continue;
+            const size_t n = tsk_tree_branch_count(t);
+            float* tips = malloc(3 * n * sizeof(float));
+            float* force = malloc(3 * n * sizeof(float));
+            tsk_tree_wind_def w = tsk_default_tree_wind_def();
+            w.mode = mode;
+            for (int s = 0; s < 4; ++s) {
+                CHECK(tsk_tree_tip_positions(t, tips) == TSK_OK);
+                sines_force(tips, n, 0.25 * s, force);
+                if (s == 2) for (size_t i = 0; i < 3 * n; i += 7) force[i] = 0; /* mixed lanes */
+                CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
+            }
+            tree_data d = read_tree(t);
+            h[path] = fnv(d.points, 48 * n, fnv(d.orient, 12 * n, 1469598103934665603ull));
+            free_tree_data(&d);
+            free(tips), free(force);
+            tsk_tree_destroy(t);
+        }
+        CHECK_MSG(h[0] == h[1], "mode %d: SIMD and scalar paths differ", mode);
+    }
+    tree_wind_force_scalar = 0;
+}
+
 TEST(test_wind_rejects_bad_force) {
     tsk_tree_def def = plain_def(1);
     tsk_tree* t = NULL;
@@ -943,6 +978,7 @@ TEST_MAIN(TEST_ENTRY(test_tree_same_seed_same_bytes_1_and_2_threads),
           TEST_ENTRY(test_wind_zero_force_keeps_rest_pose_exactly),
           TEST_ENTRY(test_wind_bend_matches_eq_16_17),
           TEST_ENTRY(test_wind_children_stay_attached),
+          TEST_ENTRY(test_wind_simd_path_equals_scalar_path),
           TEST_ENTRY(test_wind_rejects_bad_force),
           TEST_ENTRY(test_tree_bad_parameters_are_named),
           TEST_ENTRY(test_subdiv_cube_once_gives_catmull_clark_points),

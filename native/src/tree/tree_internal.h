@@ -157,6 +157,26 @@ static inline void tree_store3(float* a, size_t i, v3 v) {
     a[3 * i + 2] = v.z;
 }
 
+/* m^e for m > 0 through exp2(e log2 m), with series that the SSE path of the wind step
+ * repeats operation for operation (so both give the same bytes); relative error < 1e-5.
+ * Used for the bend factor of seed 001, eq. 16, where powf was a third of the step. */
+static inline float bend_pow(float m, float e) {
+    union { float f; uint32_t u; } b = {m};
+    const float ex = (float)((int32_t)((b.u >> 23) & 255u) - 127);
+    b.u = (b.u & 0x7FFFFFu) | 0x3F800000u; /* mantissa in [1, 2) */
+    const float s = (b.f - 1.0f) / (b.f + 1.0f), s2 = s * s;
+    /* ln(mant) = 2 (s + s^3/3 + s^5/5 + s^7/7 + s^9/9) */
+    const float ln = 2.0f * s * (1.0f + s2 * (0.333333333f + s2 * (0.2f + s2 * (0.142857143f + s2 * 0.111111111f))));
+    float y = e * (ex + ln * 1.44269504f);
+    y = y < -126.0f ? -126.0f : (y > 126.0f ? 126.0f : y);
+    float n = (float)(int32_t)y; /* truncation, then floor */
+    if (n > y) n = n - 1.0f;
+    const float f = (y - n) * 0.693147181f; /* 2^(y-n) = e^f, f in [0, ln 2) */
+    const float p = 1.0f + f * (1.0f + f * (0.5f + f * (0.166666667f + f * (0.0416666667f + f * (0.00833333333f + f * (0.00138888889f + f * 0.000198412698f))))));
+    union { uint32_t u; float f; } sc = {(uint32_t)((int32_t)n + 127) << 23};
+    return p * sc.f;
+}
+
 /* ---- posing a branch on its parent (seed 001 §4.2) and bending it (§4.3, eq. 15–17). The
  * generator, the wind step and the attachment checks all go through these functions, so a
  * zero wind reproduces the generated rest pose bit for bit. Inline: the wind step's loop. */
@@ -204,7 +224,7 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
         f = v3_scale(f, inv_l);
         const float m = v3_len(f);
         /* seed 001, eq. 16: b3 = F^1.8 (magnitude raised, direction kept), b2 = F (1/3)^1.8 */
-        const float mag = m > 0.0f ? powf(m, bend_power - 1.0f) : 0.0f;
+        const float mag = m > 0.0f ? bend_pow(m, bend_power - 1.0f) : 0.0f;
         const v3 b3 = v3_scale(f, mag);
         const v3 b2 = v3_scale(b3, b2_scale);
         /* seed 001, eq. 17, read as Shrek's bend: P_i' = P_{i-1}' + |d| normalize(d + b_i),
@@ -226,6 +246,9 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
      * that S0 = L0 x O never degenerates (for alpha > 0 it is parallel to L0 x U) */
     *O_out = v3_scale(side, -1.0f);
 }
+
+/* Tests set this to 1 to run the wind step through the scalar path only. */
+extern int tree_wind_force_scalar;
 
 /* Recomputes the Sloan frames of the rest pose (branches with children or leaves). */
 void tree_rest_frames(struct tsk_tree* t);
