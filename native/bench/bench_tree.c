@@ -2,6 +2,7 @@
  * second of the seed 001 wind step (eq. 15–17, attach-to-parent); tree_mesh, million deformed
  * vertices (with normals) per second of the seed 001 deformer; plus generation time per
  * preset and the OpenSubdiv stencil application. Medians over repeats. */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime in bench.h */
 #include "bench.h"
 #include "tussock/tree.h"
 
