@@ -140,6 +140,65 @@ static void bench_mesh(int repeats) {
     tsk_tree_destroy(t);
 }
 
+/* A frame of playback for a tree with ~50k leaves (ca_black_oak): tips, wind forces (sum
+ * of sines), wind step, bark and leaf-card mesh with normals. Also the lag error of the
+ * seed's lagged mode after 48 frames of that wind (largest gap / parent radius). */
+static void bench_frame(int repeats) {
+    tsk_tree_def d;
+    tsk_tree_preset("ca_black_oak", &d);
+    tsk_tree* t = NULL;
+    if (tsk_tree_create(&d, &t) != TSK_OK) return;
+    const size_t n = tsk_tree_branch_count(t);
+    tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
+    size_t nv = 0, nf = 0;
+    tsk_tree_mesh_count(t, &m, &nv, &nf);
+    float* tips = malloc(3 * n * sizeof(float));
+    float* force = malloc(3 * n * sizeof(float));
+    float* pos = malloc(3 * nv * sizeof(float));
+    float* nrm = malloc(3 * nv * sizeof(float));
+    tsk_tree_wind_def w = tsk_default_tree_wind_def();
+    double samples[64];
+    for (int r = 0; r < repeats; ++r) {
+        double t0 = bench_now_s();
+        tsk_tree_tip_positions(t, tips);
+        sines(tips, n, r / 24.0, force);
+        tsk_tree_wind_step(t, force, &w);
+        tsk_tree_mesh_deform(t, &m, pos, nrm);
+        samples[r] = bench_now_s() - t0;
+    }
+    const double med = bench_median(samples, repeats);
+    char params[240];
+    snprintf(params, sizeof params,
+             "\"preset\": \"ca_black_oak\", \"branches\": %zu, \"leaves\": %zu, \"vertices\": %zu, "
+             "\"threads\": %d, \"fps\": %.1f",
+             n, tsk_tree_leaf_count(t), nv, tsk_get_threads(), 1.0 / med);
+    bench_emit("tree_frame_50k_leaves", med * 1e3, "ms per frame", params, NULL);
+    for (int mode = 0; mode < 2; ++mode) {
+        tsk_tree_reset_pose(t);
+        w.mode = mode;
+        double worst = 0, gap = 0, metres = 0, worst_m = 0;
+        /* from rest the first frame jumps straight to the bent pose (the step has no
+         * inertia), so measure after one second of warm-up, over the next two seconds */
+        for (int f = 0; f < 72; ++f) {
+            tsk_tree_tip_positions(t, tips);
+            sines(tips, n, f / 24.0, force);
+            tsk_tree_wind_step(t, force, &w);
+            if (f < 24) continue;
+            tsk_tree_attachment_gap(t, &gap, &metres);
+            if (gap > worst) worst = gap;
+            if (metres > worst_m) worst_m = metres;
+        }
+        snprintf(params, sizeof params,
+                 "\"preset\": \"ca_black_oak\", \"frames\": \"24-72\", \"fps\": 24, \"mode\": \"%s\", "
+                 "\"largest_gap_m\": %.4g",
+                 mode ? "exact" : "lagged", worst_m);
+        bench_emit(mode ? "tree_wind_gap_exact" : "tree_wind_gap_lagged", worst,
+                   "largest child gap / parent radius", params, NULL);
+    }
+    free(tips), free(force), free(pos), free(nrm);
+    tsk_tree_destroy(t);
+}
+
 static void bench_generate(int repeats) {
     for (int p = 0; p < tsk_tree_preset_count(); ++p) {
         const char* name = tsk_tree_preset_name(p);
@@ -166,6 +225,8 @@ int main(int argc, char** argv) {
     if (bench_wanted(argc, argv, "tree_wind_262k")) bench_wind("tree_wind_262k", 262144, 64, 21);
     if (bench_wanted(argc, argv, "tree_wind_65k")) bench_wind("tree_wind_65k", 65536, 32, 31);
     if (bench_wanted(argc, argv, "tree_mesh")) bench_mesh(15);
+    if (bench_wanted(argc, argv, "tree_frame") || bench_wanted(argc, argv, "tree_wind_gap"))
+        bench_frame(15);
     if (bench_wanted(argc, argv, "tree_generate")) bench_generate(5);
     return 0;
 }

@@ -296,7 +296,7 @@ TEST(test_tree_child_p0_on_parent_curve_at_v_with_alpha) {
         CHECK_MSG(worst < 1e-5 * def.scale, "%s: P0 gap %g m", presets[p], worst);
         CHECK_MSG(worst_angle < 2e-3, "%s: alpha error %g rad", presets[p], worst_angle);
         double gap = -1;
-        CHECK(tsk_tree_attachment_gap(t, &gap) == TSK_OK);
+        CHECK(tsk_tree_attachment_gap(t, &gap, NULL) == TSK_OK);
         CHECK(gap >= 0 && gap < 1e-3);
         free_tree_data(&d);
         tsk_tree_destroy(t);
@@ -704,8 +704,8 @@ TEST(test_wind_children_stay_attached) {
         sines_force(tips, n, 0.3 * s, force);
         CHECK(tsk_tree_wind_step(ex, force, &we) == TSK_OK);
         CHECK(tsk_tree_wind_step(lag, force, &wl) == TSK_OK);
-        CHECK(tsk_tree_attachment_gap(ex, &gap_ex) == TSK_OK);
-        CHECK(tsk_tree_attachment_gap(lag, &gap_lag) == TSK_OK);
+        CHECK(tsk_tree_attachment_gap(ex, &gap_ex, NULL) == TSK_OK);
+        CHECK(tsk_tree_attachment_gap(lag, &gap_lag, NULL) == TSK_OK);
         if (gap_ex > worst_ex) worst_ex = gap_ex;
     }
     /* exact mode: every child's P0 on its moved parent's curve (< 1 % of parent radius) */
@@ -884,7 +884,71 @@ TEST(test_subdiv_cube_once_gives_catmull_clark_points) {
     tsk_subdiv_destroy(sd);
 }
 
+/* One Catmull–Clark step of a closed quad mesh, by the textbook rules, for ground truth:
+ * face points, edge points (ends + adjacent face points)/4, vertex points
+ * (Q + 2R + (n-3)V)/n. Writes all new points into out (count returned). */
+static int catmull_clark_by_hand(const float* v, int nv, const int32_t* f, int nf, double* out) {
+    double fp[16][3];
+    int edges[64][4], ne = 0; /* a, b, face1, face2 */
+    for (int i = 0; i < nf; ++i) {
+        for (int c = 0; c < 3; ++c) {
+            fp[i][c] = 0;
+            for (int k = 0; k < 4; ++k) fp[i][c] += v[3 * f[4 * i + k] + c] / 4.0;
+        }
+        for (int k = 0; k < 4; ++k) {
+            int a = f[4 * i + k], b = f[4 * i + (k + 1) % 4], found = -1;
+            for (int e = 0; e < ne; ++e)
+                if ((edges[e][0] == a && edges[e][1] == b) || (edges[e][0] == b && edges[e][1] == a)) found = e;
+            if (found < 0) edges[ne][0] = a, edges[ne][1] = b, edges[ne][2] = i, edges[ne][3] = -1, ++ne;
+            else edges[found][3] = i;
+        }
+    }
+    int n = 0;
+    for (int i = 0; i < nf; ++i, ++n)
+        for (int c = 0; c < 3; ++c) out[3 * n + c] = fp[i][c];
+    for (int e = 0; e < ne; ++e, ++n)
+        for (int c = 0; c < 3; ++c)
+            out[3 * n + c] = (v[3 * edges[e][0] + c] + v[3 * edges[e][1] + c] + fp[edges[e][2]][c] +
+                              fp[edges[e][3]][c]) / 4.0;
+    for (int p = 0; p < nv; ++p, ++n) {
+        double Q[3] = {0, 0, 0}, R[3] = {0, 0, 0};
+        int nfaces = 0, nedges = 0;
+        for (int i = 0; i < nf; ++i)
+            for (int k = 0; k < 4; ++k)
+                if (f[4 * i + k] == p) {
+                    for (int c = 0; c < 3; ++c) Q[c] += fp[i][c];
+                    ++nfaces;
+                }
+        for (int e = 0; e < ne; ++e)
+            if (edges[e][0] == p || edges[e][1] == p) {
+                for (int c = 0; c < 3; ++c) R[c] += (v[3 * edges[e][0] + c] + v[3 * edges[e][1] + c]) / 2.0;
+                ++nedges;
+            }
+        const double val = nedges;
+        for (int c = 0; c < 3; ++c)
+            out[3 * n + c] = (Q[c] / nfaces + 2 * R[c] / nedges + (val - 3) * v[3 * p + c]) / val;
+    }
+    return n;
+}
+
 TEST(test_subdiv_stencils_on_moved_cage_equal_refining_it) {
+    /* stencils built once for the cube's topology, applied to a moved cage, give the
+     * Catmull–Clark points of the moved cage computed by hand */
+    {
+        tsk_subdiv* sd1 = NULL;
+        CHECK(tsk_subdiv_create(cube_f, 6, 8, 1, &sd1) == TSK_OK);
+        float mv[24];
+        for (int i = 0; i < 24; ++i) mv[i] = cube_v[i] * (1.0f + 0.1f * (float)(i % 5)) + 0.3f * (float)(i % 3);
+        float got[26 * 3];
+        double want[26 * 3];
+        CHECK(sd1 && tsk_subdiv_apply(sd1, cube_v, got) == TSK_OK); /* built on the rest cube */
+        CHECK(sd1 && tsk_subdiv_apply(sd1, mv, got) == TSK_OK);     /* applied to the moved one */
+        CHECK(catmull_clark_by_hand(mv, 8, cube_f, 6, want) == 26);
+        int all = 1;
+        for (int k = 0; k < 26; ++k) all &= has_point(got, 26, want[3 * k], want[3 * k + 1], want[3 * k + 2], 1e-5);
+        CHECK(all);
+        tsk_subdiv_destroy(sd1);
+    }
     /* stencils built once for the cube, applied to a moved cage == a refiner built for the
      * moved cage (topology only is shared, so this checks the stencils are linear in the cage) */
     tsk_subdiv* sd = NULL;

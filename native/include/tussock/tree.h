@@ -178,9 +178,12 @@ tsk_status tsk_tree_wind_step(tsk_tree* tree, const float* force, const tsk_tree
 /// Puts the tree back into its rest pose.
 void tsk_tree_reset_pose(tsk_tree* tree);
 
-/// Largest distance between a child's P0 and the point at its v on its parent's current
-/// curve, divided by the parent's radius there (the lag error of seed §5; 0 in exact mode).
-tsk_status tsk_tree_attachment_gap(const tsk_tree* tree, double* max_relative_gap);
+/// The lag error of seed §5 (0 in exact mode): the largest distance between a child's P0 and
+/// the point at its v on its parent's current curve, in metres (max_metres) and divided by
+/// the parent's radius there, that radius taken at least 10 % of the parent's base radius so
+/// that tapered tips do not divide by zero (max_relative_gap). Either pointer may be NULL.
+tsk_status tsk_tree_attachment_gap(const tsk_tree* tree, double* max_relative_gap,
+                                   double* max_metres);
 
 /* ---- mesh (seed 001 §3) ----------------------------------------------------------------- */
 

@@ -416,10 +416,10 @@ static PyObject* py_tree_attachment_gap(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "O:tree_attachment_gap", &cap)) return NULL;
     tsk_tree* t = get_tree(cap);
     if (t == NULL) return NULL;
-    double g = 0;
-    tsk_status s = tsk_tree_attachment_gap(t, &g);
+    double g = 0, m = 0;
+    tsk_status s = tsk_tree_attachment_gap(t, &g, &m);
     if (s != TSK_OK) return tsk_py_raise(s);
-    return PyFloat_FromDouble(g);
+    return Py_BuildValue("(dd)", g, m);
 }
 
 /* mesh options: along (4 ints), around (4 ints), leaves (bool) */
@@ -668,7 +668,7 @@ PyMethodDef tsk_py_tree_methods[] = {
      "the tips; mode 0 = lagged (seed), 1 = exact."},
     {"tree_reset", py_tree_reset, METH_VARARGS, "tree_reset(tree): back to the rest pose."},
     {"tree_attachment_gap", py_tree_attachment_gap, METH_VARARGS,
-     "tree_attachment_gap(tree) -> float: largest child gap / parent radius."},
+     "tree_attachment_gap(tree) -> (largest child gap / parent radius, largest gap in m)."},
     {"tree_mesh_count", (PyCFunction)(void (*)(void))py_tree_mesh_count,
      METH_VARARGS | METH_KEYWORDS,
      "tree_mesh_count(tree, along=None, around=None, leaves=True) -> (vertices, quads)."},

@@ -354,11 +354,10 @@ void tsk_tree_reset_pose(tsk_tree* t) {
     tree_rest_frames(t);
 }
 
-tsk_status tsk_tree_attachment_gap(const tsk_tree* t, double* max_relative_gap) {
+tsk_status tsk_tree_attachment_gap(const tsk_tree* t, double* max_relative_gap,
+                                   double* max_metres) {
     if (t == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "tree", "is NULL");
-    if (max_relative_gap == NULL)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "max_relative_gap", "is NULL");
-    double worst = 0.0;
+    double worst = 0.0, worst_m = 0.0;
     for (size_t i = 0; i < t->n; ++i) {
         const int32_t p = t->parent[i];
         if (p < 0) continue;
@@ -369,9 +368,13 @@ tsk_status tsk_tree_attachment_gap(const tsk_tree* t, double* max_relative_gap) 
         const v3 P0 = tree_load3(t->cur + 12 * i, 0);
         const double gap = v3_len(v3_sub(P0, on));
         double r = tsk_branch_radius(&t->shape[p], v, 0.0f);
-        if (r < 1e-6) r = 1e-6;
+        const double floor_r = 0.1 * (double)t->shape[p].radius;
+        if (r < floor_r) r = floor_r;
+        if (r < 1e-9) r = 1e-9;
         if (gap / r > worst) worst = gap / r;
+        if (gap > worst_m) worst_m = gap;
     }
-    *max_relative_gap = worst;
+    if (max_relative_gap) *max_relative_gap = worst;
+    if (max_metres) *max_metres = worst_m;
     return TSK_OK;
 }
