@@ -615,6 +615,32 @@ TEST(test_mesh_topology_faces_outward_and_uvs) {
     tsk_tree_destroy(t);
 }
 
+/* The 4-vertex SSE deformer and the one-vertex path give the same bytes. */
+TEST(test_mesh_simd_path_equals_scalar_path) {
+    tsk_tree_def def;
+    CHECK(tsk_tree_preset("ca_black_oak", &def) == TSK_OK);
+    def.level[2].branches = 10;
+    tsk_tree* t = NULL;
+    CHECK(tsk_tree_create(&def, &t) == TSK_OK);
+    if (!t) return;
+    tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
+    m.around[1] = 7; /* a ring that is not a multiple of 4 */
+    size_t nv = 0, nf = 0;
+    CHECK(tsk_tree_mesh_count(t, &m, &nv, &nf) == TSK_OK);
+    float *p[2], *n[2];
+    for (int path = 0; path < 2; ++path) {
+        tree_mesh_force_scalar = path;
+        p[path] = malloc(3 * nv * sizeof(float));
+        n[path] = malloc(3 * nv * sizeof(float));
+        CHECK(tsk_tree_mesh_deform(t, &m, p[path], n[path]) == TSK_OK);
+    }
+    tree_mesh_force_scalar = 0;
+    CHECK(memcmp(p[0], p[1], 3 * nv * sizeof(float)) == 0);
+    CHECK(memcmp(n[0], n[1], 3 * nv * sizeof(float)) == 0);
+    for (int path = 0; path < 2; ++path) free(p[path]), free(n[path]);
+    tsk_tree_destroy(t);
+}
+
 /* ---- wind ---------------------------------------------------------------------------------- */
 
 TEST(test_wind_zero_force_keeps_rest_pose_exactly) {
@@ -1039,6 +1065,7 @@ TEST_MAIN(TEST_ENTRY(test_tree_same_seed_same_bytes_1_and_2_threads),
           TEST_ENTRY(test_deformer_normals_unit_perpendicular_outward),
           TEST_ENTRY(test_deformer_bent_branch_follows_bezier),
           TEST_ENTRY(test_mesh_topology_faces_outward_and_uvs),
+          TEST_ENTRY(test_mesh_simd_path_equals_scalar_path),
           TEST_ENTRY(test_wind_zero_force_keeps_rest_pose_exactly),
           TEST_ENTRY(test_wind_bend_matches_eq_16_17),
           TEST_ENTRY(test_wind_children_stay_attached),

@@ -259,6 +259,66 @@ typedef struct deform_ctx {
     float* nrm;
 } deform_ctx;
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+/* surface_point for four consecutive vertices of one ring (same v, same radius terms),
+ * lane for lane the same operations as the scalar function; writes 4 xyz positions and
+ * normals. Returns 0 (writing nothing) if a lane needs the zero-radius fallback. */
+static int surface_point4(const ring_eval* r, const float* st, const float* ct, radius_terms rho,
+                          float* pos, float* nrm) {
+    typedef __m128 f4;
+#define A_ _mm_add_ps
+#define S_ _mm_sub_ps
+#define M_ _mm_mul_ps
+#define B1(x) _mm_set1_ps(x)
+    const f4 s4 = _mm_loadu_ps(st), c4 = _mm_loadu_ps(ct);
+    const f4 rv = B1(rho.value), rdv = B1(rho.dv), rdt = B1(rho.dtheta);
+    const f4 a = M_(s4, rv), b = M_(c4, rv);
+    const f4 px = A_(A_(B1(r->B.x), M_(B1(r->S.x), a)), M_(B1(r->T.x), b));
+    const f4 py = A_(A_(B1(r->B.y), M_(B1(r->S.y), a)), M_(B1(r->T.y), b));
+    const f4 pz = A_(A_(B1(r->B.z), M_(B1(r->S.z), a)), M_(B1(r->T.z), b));
+    f4 nx = px, ny = py, nz = pz;
+    if (nrm != NULL) {
+        const f4 jx = A_(A_(B1(r->dB.x), M_(B1(r->dS.x), a)), M_(B1(r->dT.x), b));
+        const f4 jy = A_(A_(B1(r->dB.y), M_(B1(r->dS.y), a)), M_(B1(r->dT.y), b));
+        const f4 jz = A_(A_(B1(r->dB.z), M_(B1(r->dS.z), a)), M_(B1(r->dT.z), b));
+        const f4 av = M_(s4, rdv), bv = M_(c4, rdv);
+        const f4 ns4 = M_(s4, B1(-1.0f));
+        const f4 at = A_(M_(c4, rv), M_(s4, rdt)), bt = A_(M_(ns4, rv), M_(c4, rdt));
+        const f4 tvx = A_(A_(jx, M_(B1(r->S.x), av)), M_(B1(r->T.x), bv));
+        const f4 tvy = A_(A_(jy, M_(B1(r->S.y), av)), M_(B1(r->T.y), bv));
+        const f4 tvz = A_(A_(jz, M_(B1(r->S.z), av)), M_(B1(r->T.z), bv));
+        const f4 ttx = A_(M_(B1(r->S.x), at), M_(B1(r->T.x), bt));
+        const f4 tty = A_(M_(B1(r->S.y), at), M_(B1(r->T.y), bt));
+        const f4 ttz = A_(M_(B1(r->S.z), at), M_(B1(r->T.z), bt));
+        const f4 cx = S_(M_(tty, tvz), M_(ttz, tvy));
+        const f4 cy = S_(M_(ttz, tvx), M_(ttx, tvz));
+        const f4 cz = S_(M_(ttx, tvy), M_(tty, tvx));
+        const f4 l2 = A_(A_(M_(cx, cx), M_(cy, cy)), M_(cz, cz));
+        const f4 tl2 = A_(A_(M_(tvx, tvx), M_(tvy, tvy)), M_(tvz, tvz));
+        const f4 ok = _mm_cmpgt_ps(l2, M_(B1(1e-24f), A_(M_(tl2, tl2), B1(1e-30f))));
+        if (_mm_movemask_ps(ok) != 15) return 0;
+        const f4 inv = _mm_div_ps(B1(1.0f), _mm_sqrt_ps(l2));
+        nx = M_(cx, inv), ny = M_(cy, inv), nz = M_(cz, inv);
+    }
+    /* 4 lanes of x, y, z -> 12 interleaved floats */
+    float X[4], Y[4], Z[4];
+    _mm_storeu_ps(X, px), _mm_storeu_ps(Y, py), _mm_storeu_ps(Z, pz);
+    for (int l = 0; l < 4; ++l) pos[3 * l] = X[l], pos[3 * l + 1] = Y[l], pos[3 * l + 2] = Z[l];
+    if (nrm != NULL) {
+        _mm_storeu_ps(X, nx), _mm_storeu_ps(Y, ny), _mm_storeu_ps(Z, nz);
+        for (int l = 0; l < 4; ++l) nrm[3 * l] = X[l], nrm[3 * l + 1] = Y[l], nrm[3 * l + 2] = Z[l];
+    }
+#undef A_
+#undef S_
+#undef M_
+#undef B1
+    return 1;
+}
+#endif
+
+int tree_mesh_force_scalar = 0;
+
 static void deform_branch(const deform_ctx* c, size_t i) {
     const tsk_tree* t = c->t;
     const int l = t->level[i];
@@ -277,7 +337,17 @@ static void deform_branch(const deform_ctx* c, size_t i) {
         ring_eval r;
         ring_setup(P, &f, v, &r);
         radius_terms rho = branch_radius_terms(sh, v, 0.0f);
-        for (int k = 0; k < C; ++k, ++vi) {
+        int k = 0;
+#if defined(__SSE2__)
+        if (!lobed && !tree_mesh_force_scalar) {
+            for (; k + 4 <= C; k += 4, vi += 4) {
+                if (!surface_point4(&r, st + k, ct + k, rho, c->pos + 3 * vi,
+                                    c->nrm ? c->nrm + 3 * vi : NULL))
+                    break; /* this group and the rest of the ring go one by one */
+            }
+        }
+#endif
+        for (; k < C; ++k, ++vi) {
             if (lobed) rho = branch_radius_terms(sh, v, TWO_PI * (float)k / (float)C);
             v3 p, n;
             surface_point(&r, st[k], ct[k], rho, &p, c->nrm ? &n : NULL);

@@ -247,8 +247,9 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
     *O_out = v3_scale(side, -1.0f);
 }
 
-/* Tests set this to 1 to run the wind step through the scalar path only. */
+/* Tests set these to 1 to run the wind step / the deformer through the scalar path only. */
 extern int tree_wind_force_scalar;
+extern int tree_mesh_force_scalar;
 
 /* Recomputes the Sloan frames of the rest pose (branches with children or leaves). */
 void tree_rest_frames(struct tsk_tree* t);
