@@ -862,6 +862,70 @@ TEST(test_tree_bad_parameters_are_named) {
     CHECK(t == NULL);
 }
 
+/* Random parameters, in and out of range: every call returns a status with a message or a
+ * tree whose wind step and mesh are finite. */
+TEST(test_tree_random_parameters_never_crash) {
+#ifdef TSK_ASAN
+    const int trials = 60;
+#else
+    const int trials = 200;
+#endif
+    int made = 0, refused = 0, finite = 1, messages = 1;
+    for (int k = 0; k < trials; ++k) {
+#define R(lo, hi) ((lo) + ((hi) - (lo)) * tsk_rand01(99, (uint64_t)k, __LINE__, 0))
+        tsk_tree_def d = tsk_default_tree_def();
+        d.seed = (uint64_t)k;
+        d.shape = (int)R(-1, 9);
+        d.levels = (int)R(0, 6);
+        d.base_size = R(-0.2f, 1.1f);
+        d.scale = R(-1, 40), d.scale_v = R(0, 10);
+        d.ratio = R(-0.01f, 0.1f), d.ratio_power = R(0, 3);
+        d.flare = R(0, 2), d.lobes = (int)R(0, 8), d.lobe_depth = R(0, 0.5f);
+        d.base_splits = (int)R(0, 4), d.attraction_up = R(-4, 4);
+        d.leaves = (int)R(-2, 20), d.leaf_scale = R(0, 0.5f);
+        d.prune_ratio = R(0, 1), d.prune_width = R(0.05f, 1);
+        d.bulges = (int)R(0, 6), d.bulge_depth = R(0, 0.2f), d.taper_power = R(0.2f, 3);
+        for (int l = 0; l < 4; ++l) {
+            tsk_tree_level_def* L = &d.level[l];
+            L->length = R(-0.1f, 1.2f), L->length_v = R(0, 0.3f), L->taper = R(0, 1.1f);
+            L->seg_splits = R(0, 1.5f), L->split_angle = R(-40, 60), L->split_angle_v = R(0, 20);
+            L->curve_res = (int)R(0, 12), L->curve = R(-200, 200), L->curve_back = R(-100, 100);
+            L->curve_v = R(-100, 200), L->down_angle = R(-90, 120), L->down_angle_v = R(-60, 60);
+            L->rotate = R(-200, 200), L->rotate_v = R(0, 90), L->branches = (int)R(-2, 25);
+        }
+        if (k % 17 == 0) d.level[1].curve = NAN;
+        d.max_branches = 20000, d.max_leaves = 40000;
+#undef R
+        tsk_tree* t = NULL;
+        tsk_clear_error();
+        tsk_status st = tsk_tree_create(&d, &t);
+        if (st != TSK_OK) {
+            ++refused;
+            messages &= t == NULL && tsk_last_error()[0] != '\0';
+            continue;
+        }
+        ++made;
+        const size_t n = tsk_tree_branch_count(t);
+        float* f = malloc(3 * n * sizeof(float));
+        for (size_t i = 0; i < 3 * n; ++i) f[i] = (i % 3 == 1) ? 0.7f : 0.2f;
+        tsk_tree_wind_def w = tsk_default_tree_wind_def();
+        w.mode = k & 1;
+        finite &= tsk_tree_wind_step(t, f, &w) == TSK_OK;
+        tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
+        size_t nv = 0, nf = 0;
+        finite &= tsk_tree_mesh_count(t, &m, &nv, &nf) == TSK_OK;
+        float* pos = malloc(3 * nv * sizeof(float) + 4);
+        float* nrm = malloc(3 * nv * sizeof(float) + 4);
+        finite &= tsk_tree_mesh_deform(t, &m, pos, nrm) == TSK_OK;
+        for (size_t i = 0; i < 3 * nv; ++i) finite &= isfinite(pos[i]) && isfinite(nrm[i]);
+        free(f), free(pos), free(nrm);
+        tsk_tree_destroy(t);
+    }
+    CHECK_MSG(made > 5 && refused > 5, "made %d, refused %d", made, refused);
+    CHECK(finite);
+    CHECK(messages);
+}
+
 /* ---- OpenSubdiv ----------------------------------------------------------------------------- */
 
 static const float cube_v[8 * 3] = {-1, -1, -1, 1, -1, -1, 1, 1, -1, -1, 1, -1,
@@ -1072,6 +1136,7 @@ TEST_MAIN(TEST_ENTRY(test_tree_same_seed_same_bytes_1_and_2_threads),
           TEST_ENTRY(test_wind_simd_path_equals_scalar_path),
           TEST_ENTRY(test_wind_rejects_bad_force),
           TEST_ENTRY(test_tree_bad_parameters_are_named),
+          TEST_ENTRY(test_tree_random_parameters_never_crash),
           TEST_ENTRY(test_subdiv_cube_once_gives_catmull_clark_points),
           TEST_ENTRY(test_subdiv_stencils_on_moved_cage_equal_refining_it),
           TEST_ENTRY(test_tree_smoothed_mesh_through_stencils))
