@@ -668,9 +668,7 @@ TEST(test_wind_zero_force_keeps_rest_pose_exactly) {
     tsk_tree_destroy(t);
 }
 
-/* Eq. 16–17 on a single trunk, recomputed here: P0, P1 stay; P2' = P1 + |d2| n(d2 + b2),
- * P3' = P2' + |d3| n(d3 + b3), b3 = F/l |F/l|^0.8, b2 = (1/3)^1.8 b3, l = |P3 - P2|. */
-TEST(test_wind_bend_matches_eq_16_17) {
+static void check_bend(float length_power, float bend_power) {
     tsk_tree_def def = plain_def(1);
     def.leaves = 0, def.level[0].curve = 30; /* a bent trunk */
     tsk_tree* t = NULL;
@@ -679,6 +677,7 @@ TEST(test_wind_bend_matches_eq_16_17) {
     tree_data d = read_tree(t);
     const float F[3] = {1.5f, -0.7f, 0.2f};
     tsk_tree_wind_def w = tsk_default_tree_wind_def();
+    w.length_power = length_power, w.bend_power = bend_power;
     CHECK(tsk_tree_wind_step(t, F, &w) == TSK_OK);
     float now[12];
     tsk_tree_branches b = {0};
@@ -688,8 +687,9 @@ TEST(test_wind_bend_matches_eq_16_17) {
     double d2[3], d3[3], l2, l3, P2[3], P3[3];
     for (int c = 0; c < 3; ++c) d2[c] = R[6 + c] - R[3 + c], d3[c] = R[9 + c] - R[6 + c];
     l2 = len3(d2), l3 = len3(d3);
-    const double f[3] = {F[0] / l3, F[1] / l3, F[2] / l3};
-    const double m = pow(len3(f), 0.8), s2 = pow(1.0 / 3.0, 1.8);
+    const double div = pow(l3, length_power);
+    const double f[3] = {F[0] / div, F[1] / div, F[2] / div};
+    const double m = pow(len3(f), bend_power - 1), s2 = pow(1.0 / 3.0, bend_power);
     double n2[3], n3[3];
     for (int c = 0; c < 3; ++c) n2[c] = d2[c] + s2 * m * f[c];
     const double ln2 = len3(n2);
@@ -709,6 +709,15 @@ TEST(test_wind_bend_matches_eq_16_17) {
     CHECK(dot3(moved, Fd) > 0.01);
     free_tree_data(&d);
     tsk_tree_destroy(t);
+}
+
+/* Eq. 16–17 on a single trunk, recomputed here: P0, P1 stay; P2' = P1 + |d2| n(d2 + b2),
+ * P3' = P2' + |d3| n(d3 + b3), b3 = f |f|^(p-1), b2 = (1/3)^p b3, f = F / l^e,
+ * l = |P3 - P2| (seed: p = 1.8, e = 1). */
+TEST(test_wind_bend_matches_eq_16_17) {
+    check_bend(1.0f, 1.8f);
+    check_bend(0.0f, 1.5f);
+    check_bend(2.0f, 2.2f);
 }
 
 TEST(test_wind_children_stay_attached) {

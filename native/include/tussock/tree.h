@@ -164,13 +164,16 @@ typedef struct tsk_tree_wind_def {
     int mode;           ///< tsk_tree_wind_mode
     float strength;     ///< multiplies every force (default 1)
     float bend_power;   ///< exponent of the bend factor, seed eq. 16 (default 1.8)
+    float length_power; ///< the force is divided by l^length_power, l = |P3 - P2| at rest;
+                        ///< 1 = seed eq. 14 (short twigs bend most), 0 = all alike (0..3)
 } tsk_tree_wind_def;
 
 tsk_tree_wind_def tsk_default_tree_wind_def(void);
 
 /// One wind step. `force` holds 3n floats: the wind force at each branch's tip (sampled by
 /// the caller, e.g. from the shared wind module at tsk_tree_tip_positions). Following seed
-/// eq. 14 the tree divides it by the branch's P2–P3 distance; eq. 16 turns it into bend
+/// eq. 14 the tree divides it by the branch's P2–P3 distance (to the power
+/// wind.length_power); eq. 16 turns it into bend
 /// vectors b3 = F|F|^(p-1), b2 = (1/3)^p b3, and eq. 17 moves P2 and P3 keeping the segment
 /// lengths. A force of exactly zero everywhere gives the rest pose exactly.
 tsk_status tsk_tree_wind_step(tsk_tree* tree, const float* force, const tsk_tree_wind_def* wind);

@@ -379,11 +379,11 @@ static PyObject* py_tree_tips(PyObject* self, PyObject* args) {
 
 static PyObject* py_tree_wind_step(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* kwlist[] = {"tree", "force", "mode", "strength", "bend_power", NULL};
+    static char* kwlist[] = {"tree", "force", "mode", "strength", "bend_power", "length_power", NULL};
     PyObject *cap, *force_obj;
     tsk_tree_wind_def w = tsk_default_tree_wind_def();
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|iff:tree_wind_step", kwlist, &cap, &force_obj,
-                                     &w.mode, &w.strength, &w.bend_power))
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|ifff:tree_wind_step", kwlist, &cap, &force_obj,
+                                     &w.mode, &w.strength, &w.bend_power, &w.length_power))
         return NULL;
     tsk_tree* t = get_tree(cap);
     if (t == NULL) return NULL;
@@ -664,8 +664,8 @@ PyMethodDef tsk_py_tree_methods[] = {
     {"tree_tips", py_tree_tips, METH_VARARGS,
      "tree_tips(tree, out): branch tips, float32 3n (where to sample the wind)."},
     {"tree_wind_step", (PyCFunction)(void (*)(void))py_tree_wind_step, METH_VARARGS | METH_KEYWORDS,
-     "tree_wind_step(tree, force, mode=0, strength=1.0, bend_power=1.8): force float32 3n at "
-     "the tips; mode 0 = lagged (seed), 1 = exact."},
+     "tree_wind_step(tree, force, mode=0, strength=1.0, bend_power=1.8, length_power=1.0): "
+     "force float32 3n at the tips; mode 0 = lagged (seed), 1 = exact."},
     {"tree_reset", py_tree_reset, METH_VARARGS, "tree_reset(tree): back to the rest pose."},
     {"tree_attachment_gap", py_tree_attachment_gap, METH_VARARGS,
      "tree_attachment_gap(tree) -> (largest child gap / parent radius, largest gap in m)."},

@@ -239,6 +239,7 @@ static void place_stem(gen* g, size_t idx) {
     t->root = s->root;
     t->rest_seg = &seg;
     t->seg12 = &seg;
+    t->inv_l = &seg;
     v3 Pp[4] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
     sloan_frames fp;
     memset(&fp, 0, sizeof fp);
@@ -418,7 +419,7 @@ static tsk_status grow_leaves(gen* g, size_t idx) {
 }
 
 static void free_tree_arrays(tsk_tree* t) {
-    void* arrays[] = {t->seg12, t->parent, t->level, t->depth, t->attach_v, t->attach_theta,
+    void* arrays[] = {t->seg12, t->inv_l, t->parent, t->level, t->depth, t->attach_v, t->attach_theta,
                       t->attach_alpha, t->trig, t->has_kids, t->frames, t->prev_frames, t->length, t->rest_seg, t->shape, t->local, t->root,
                       t->rest, t->rest_O, t->cur, t->cur_O, t->prev, t->prev_O,
                       t->leaf_parent, t->leaf_attach, t->leaf_size};
@@ -461,6 +462,7 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
     t->length = tsk_alloc(n * sizeof(float), "tree lengths");
     t->rest_seg = tsk_alloc(n * sizeof(float), "tree lengths");
     t->seg12 = tsk_alloc(n * sizeof(float), "tree lengths");
+    t->inv_l = tsk_alloc(n * sizeof(float), "tree lengths");
     t->shape = tsk_alloc(n * sizeof(tsk_branch_shape), "tree shapes");
     t->local = tsk_alloc(9 * n * sizeof(float), "tree local points");
     t->root = tsk_alloc(3 * n * sizeof(float), "tree roots");
@@ -475,7 +477,7 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
     t->leaf_size = tsk_alloc(2 * m * sizeof(float), "tree leaves");
     if (!t->parent || !t->level || !t->depth || !t->attach_v || !t->attach_theta ||
         !t->attach_alpha || !t->trig || !t->has_kids || !t->frames || !t->prev_frames ||
-        !t->length || !t->rest_seg || !t->seg12 || !t->shape || !t->local || !t->root ||
+        !t->length || !t->rest_seg || !t->seg12 || !t->inv_l || !t->shape || !t->local || !t->root ||
         !t->rest || !t->rest_O || !t->cur || !t->cur_O || !t->prev || !t->prev_O ||
         !t->leaf_parent || !t->leaf_attach || !t->leaf_size) {
         tsk_tree_destroy(t);
@@ -535,6 +537,7 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
         t->leaf_size[2 * j + 1] = l->width;
     }
     tree_rest_frames(t);
+    tree_set_length_power(t, 1.0f);
     *out = t;
     return TSK_OK;
 }

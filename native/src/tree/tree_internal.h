@@ -120,6 +120,8 @@ struct tsk_tree {
     float* length;
     float* rest_seg; /* |Q3 - Q2| of the rest shape, the l of seed 001, eq. 14 */
     float* seg12;    /* |Q2 - Q1| */
+    float* inv_l;    /* 1 / l^length_power (0 for l <= 1e-12): the divisor of seed 001, eq. 14 */
+    float inv_l_power; /* the length_power inv_l was made for */
     tsk_branch_shape* shape;
     float* local;    /* 9n: Q1, Q2, Q3 in the attachment frame (Q0 = 0) */
     float* root;     /* 3n: P0 of a trunk (parent -1); unused otherwise */
@@ -219,7 +221,7 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
                            t->local[9 * i + 3 * k + 2]);
     if (force.x != 0.0f || force.y != 0.0f || force.z != 0.0f) {
         /* seed 001, eq. 14: the force is divided by the length l between control points */
-        const float inv_l = t->rest_seg[i] > 1e-12f ? 1.0f / t->rest_seg[i] : 0.0f;
+        const float inv_l = t->inv_l[i];
         v3 f = v3_make(v3_dot(force, axis), v3_dot(force, side), v3_dot(force, W));
         f = v3_scale(f, inv_l);
         const float m = v3_len(f);
@@ -250,6 +252,9 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
 /* Tests set these to 1 to run the wind step / the deformer through the scalar path only. */
 extern int tree_wind_force_scalar;
 extern int tree_mesh_force_scalar;
+
+/* Makes t->inv_l for a length power (seed 001, eq. 14: power 1). */
+void tree_set_length_power(struct tsk_tree* t, float power);
 
 /* Recomputes the Sloan frames of the rest pose (branches with children or leaves). */
 void tree_rest_frames(struct tsk_tree* t);

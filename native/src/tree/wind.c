@@ -13,7 +13,16 @@ tsk_tree_wind_def tsk_default_tree_wind_def(void) {
     w.mode = TSK_TREE_WIND_LAGGED;
     w.strength = 1.0f;
     w.bend_power = 1.8f;
+    w.length_power = 1.0f;
     return w;
+}
+
+void tree_set_length_power(tsk_tree* t, float power) {
+    for (size_t i = 0; i < t->n; ++i) {
+        const float l = t->rest_seg[i];
+        t->inv_l[i] = l > 1e-12f ? (power == 1.0f ? 1.0f / l : 1.0f / powf(l, power)) : 0.0f;
+    }
+    t->inv_l_power = power;
 }
 
 typedef struct step_ctx {
@@ -229,8 +238,7 @@ static int step_block4(const step_ctx* c, size_t i) {
     if (bend_mask) {
         const f4 rs = _mm_loadu_ps(t->rest_seg + i);
         const f4 l2 = _mm_loadu_ps(t->seg12 + i);
-        const f4 okl = _mm_cmpgt_ps(rs, _mm_set1_ps(1e-12f));
-        const f4 inv_l = _mm_and_ps(okl, _mm_div_ps(one, rs));
+        const f4 inv_l = _mm_loadu_ps(t->inv_l + i);
         v4 f = {v4_dot(F, axis), v4_dot(F, side), v4_dot(F, W)};
         f = v4_scale(f, inv_l);
         const f4 m = _mm_sqrt_ps(v4_dot(f, f));
@@ -313,12 +321,16 @@ tsk_status tsk_tree_wind_step(tsk_tree* t, const float* force, const tsk_tree_wi
     if (!isfinite(w.bend_power) || w.bend_power < 0.5f || w.bend_power > 4.0f)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "wind.bend_power", "must be in [0.5, 4], got %g",
                              (double)w.bend_power);
+    if (!isfinite(w.length_power) || w.length_power < 0.0f || w.length_power > 3.0f)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "wind.length_power", "must be in [0, 3], got %g",
+                             (double)w.length_power);
     for (size_t i = 0; i < 3 * t->n; ++i) {
         if (!isfinite(force[i]) || fabsf(force[i]) > 1e6f)
             return tsk_error_arg(TSK_ERR_ARGUMENT, "force",
                                  "component %zu of branch %zu is %g (must be finite, |F| <= 1e6)",
                                  i % 3, i / 3, (double)force[i]);
     }
+    if (w.length_power != t->inv_l_power) tree_set_length_power(t, w.length_power);
     step_ctx c = {t, force, NULL, NULL, w.strength, w.bend_power,
                   powf(1.0f / 3.0f, w.bend_power), 0};
     if (w.mode == TSK_TREE_WIND_LAGGED) {
