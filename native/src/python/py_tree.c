@@ -1,0 +1,692 @@
+/* Binding of the tree module: definitions as dicts, a tree as a capsule handle, counts,
+ * filling caller-owned numpy buffers (branches, leaves, tips, mesh), the wind step and the
+ * OpenSubdiv smoothing handle. Argument and buffer checks only. */
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "binding.h"
+#include "tussock/tree.h"
+
+#define TREE_CAPSULE "tussock.tree"
+#define SUBDIV_CAPSULE "tussock.subdiv"
+
+/* ---- definition <-> dict ---------------------------------------------------------------- */
+
+typedef enum { F_FLOAT, F_INT, F_U32, F_U64 } field_type;
+typedef struct field {
+    const char* name;
+    size_t offset;
+    field_type type;
+} field;
+
+#define FD(n, t) {#n, offsetof(tsk_tree_def, n), t}
+static const field g_fields[] = {
+    FD(seed, F_U64),          FD(shape, F_INT),          FD(base_size, F_FLOAT),
+    FD(scale, F_FLOAT),       FD(scale_v, F_FLOAT),      FD(z_scale, F_FLOAT),
+    FD(z_scale_v, F_FLOAT),   FD(levels, F_INT),         FD(ratio, F_FLOAT),
+    FD(ratio_power, F_FLOAT), FD(lobes, F_INT),          FD(lobe_depth, F_FLOAT),
+    FD(flare, F_FLOAT),       FD(scale0, F_FLOAT),       FD(scale0_v, F_FLOAT),
+    FD(base_splits, F_INT),   FD(leaves, F_INT),         FD(leaf_shape, F_INT),
+    FD(leaf_scale, F_FLOAT),  FD(leaf_scale_x, F_FLOAT), FD(attraction_up, F_FLOAT),
+    FD(prune_ratio, F_FLOAT), FD(prune_width, F_FLOAT),  FD(prune_width_peak, F_FLOAT),
+    FD(prune_power_low, F_FLOAT), FD(prune_power_high, F_FLOAT), FD(taper_power, F_FLOAT),
+    FD(lobe_fade, F_FLOAT),   FD(bulges, F_INT),         FD(bulge_depth, F_FLOAT),
+    FD(max_branches, F_U32),  FD(max_leaves, F_U32),
+};
+#undef FD
+#define LD(n, t) {#n, offsetof(tsk_tree_level_def, n), t}
+static const field g_level_fields[] = {
+    LD(length, F_FLOAT),       LD(length_v, F_FLOAT),   LD(taper, F_FLOAT),
+    LD(seg_splits, F_FLOAT),   LD(split_angle, F_FLOAT), LD(split_angle_v, F_FLOAT),
+    LD(curve_res, F_INT),      LD(curve, F_FLOAT),      LD(curve_back, F_FLOAT),
+    LD(curve_v, F_FLOAT),      LD(down_angle, F_FLOAT), LD(down_angle_v, F_FLOAT),
+    LD(rotate, F_FLOAT),       LD(rotate_v, F_FLOAT),   LD(branches, F_INT),
+};
+#undef LD
+#define NFIELDS(a) (sizeof a / sizeof a[0])
+
+static int set_field_obj(PyObject* d, const field* f, const void* base) {
+    const char* p = (const char*)base + f->offset;
+    PyObject* v = NULL;
+    switch (f->type) {
+    case F_FLOAT: v = PyFloat_FromDouble(*(const float*)p); break;
+    case F_INT: v = PyLong_FromLong(*(const int*)p); break;
+    case F_U32: v = PyLong_FromUnsignedLong(*(const uint32_t*)p); break;
+    case F_U64: v = PyLong_FromUnsignedLongLong(*(const uint64_t*)p); break;
+    }
+    if (v == NULL) return 0;
+    int r = PyDict_SetItemString(d, f->name, v);
+    Py_DECREF(v);
+    return r == 0;
+}
+
+static PyObject* def_to_dict(const tsk_tree_def* def) {
+    PyObject* d = PyDict_New();
+    if (d == NULL) return NULL;
+    for (size_t i = 0; i < NFIELDS(g_fields); ++i)
+        if (!set_field_obj(d, &g_fields[i], def)) goto fail;
+    PyObject* levels = PyList_New(TSK_TREE_MAX_LEVELS);
+    if (levels == NULL) goto fail;
+    for (int l = 0; l < TSK_TREE_MAX_LEVELS; ++l) {
+        PyObject* ld = PyDict_New();
+        if (ld == NULL) {
+            Py_DECREF(levels);
+            goto fail;
+        }
+        PyList_SetItem(levels, l, ld); /* steals */
+        for (size_t i = 0; i < NFIELDS(g_level_fields); ++i)
+            if (!set_field_obj(ld, &g_level_fields[i], &def->level[l])) {
+                Py_DECREF(levels);
+                goto fail;
+            }
+    }
+    if (PyDict_SetItemString(d, "level", levels) != 0) {
+        Py_DECREF(levels);
+        goto fail;
+    }
+    Py_DECREF(levels);
+    return d;
+fail:
+    Py_DECREF(d);
+    return NULL;
+}
+
+/* Reads known keys of dict d into base; unknown keys are an error (typos must not pass). */
+static int read_fields(PyObject* d, const field* fields, size_t count, void* base,
+                       const char* prefix, int allow_level) {
+    PyObject *key, *value;
+    Py_ssize_t pos = 0;
+    while (PyDict_Next(d, &pos, &key, &value)) {
+        const char* k = PyUnicode_Check(key) ? PyUnicode_AsUTF8AndSize(key, NULL) : NULL;
+        if (k == NULL) {
+            PyErr_Clear();
+            tsk_py_raise_arg("def", "keys must be strings");
+            return 0;
+        }
+        if (allow_level && strcmp(k, "level") == 0) continue;
+        const field* f = NULL;
+        for (size_t i = 0; i < count; ++i)
+            if (strcmp(fields[i].name, k) == 0) f = &fields[i];
+        if (f == NULL) {
+            tsk_py_raise_arg(prefix, "unknown parameter '%s'", k);
+            return 0;
+        }
+        char* p = (char*)base + f->offset;
+        if (f->type == F_FLOAT) {
+            double x = PyFloat_AsDouble(value);
+            if (x == -1.0 && PyErr_Occurred()) {
+                PyErr_Clear();
+                tsk_py_raise_arg(k, "must be a number");
+                return 0;
+            }
+            *(float*)p = (float)x;
+        } else {
+            if (!PyLong_Check(value)) {
+                tsk_py_raise_arg(k, "must be an integer");
+                return 0;
+            }
+            if (f->type == F_U64) {
+                unsigned long long x = PyLong_AsUnsignedLongLongMask(value);
+                if (PyErr_Occurred()) return 0;
+                *(uint64_t*)p = (uint64_t)x;
+            } else {
+                long long x = PyLong_AsLongLong(value);
+                if (x == -1 && PyErr_Occurred()) {
+                    PyErr_Clear();
+                    tsk_py_raise_arg(k, "integer out of range");
+                    return 0;
+                }
+                if (f->type == F_U32) {
+                    if (x < 0 || x > 0xFFFFFFFFll) {
+                        tsk_py_raise_arg(k, "must be 0..4294967295");
+                        return 0;
+                    }
+                    *(uint32_t*)p = (uint32_t)x;
+                } else {
+                    if (x < -2147483647ll || x > 2147483647ll) {
+                        tsk_py_raise_arg(k, "integer out of range");
+                        return 0;
+                    }
+                    *(int*)p = (int)x;
+                }
+            }
+        }
+    }
+    return 1;
+}
+
+/* dict -> def, starting from the defaults (missing keys keep their default). */
+static int dict_to_def(PyObject* d, tsk_tree_def* def) {
+    *def = tsk_default_tree_def();
+    if (!PyDict_Check(d)) {
+        tsk_py_raise_arg("def", "must be a dict (see tree_default_def())");
+        return 0;
+    }
+    if (!read_fields(d, g_fields, NFIELDS(g_fields), def, "def", 1)) return 0;
+    PyObject* levels = PyDict_GetItemString(d, "level"); /* borrowed */
+    if (levels != NULL) {
+        if (!PyList_Check(levels) || PyList_Size(levels) > TSK_TREE_MAX_LEVELS) {
+            tsk_py_raise_arg("level", "must be a list of at most %d dicts", TSK_TREE_MAX_LEVELS);
+            return 0;
+        }
+        for (Py_ssize_t l = 0; l < PyList_Size(levels); ++l) {
+            PyObject* ld = PyList_GetItem(levels, l);
+            char name[16];
+            snprintf(name, sizeof name, "level[%d]", (int)l);
+            if (!PyDict_Check(ld)) {
+                tsk_py_raise_arg(name, "must be a dict");
+                return 0;
+            }
+            if (!read_fields(ld, g_level_fields, NFIELDS(g_level_fields), &def->level[l], name, 0))
+                return 0;
+        }
+    }
+    return 1;
+}
+
+/* ---- handles ----------------------------------------------------------------------------- */
+
+static void tree_capsule_free(PyObject* cap) {
+    tsk_tree_destroy(PyCapsule_GetPointer(cap, TREE_CAPSULE));
+}
+static void subdiv_capsule_free(PyObject* cap) {
+    tsk_subdiv_destroy(PyCapsule_GetPointer(cap, SUBDIV_CAPSULE));
+}
+
+static tsk_tree* get_tree(PyObject* cap) {
+    tsk_tree* t = PyCapsule_IsValid(cap, TREE_CAPSULE) ? PyCapsule_GetPointer(cap, TREE_CAPSULE)
+                                                       : NULL;
+    if (t == NULL) tsk_py_raise_arg("tree", "expected a handle from tree_create()");
+    return t;
+}
+static tsk_subdiv* get_subdiv(PyObject* cap) {
+    tsk_subdiv* s = PyCapsule_IsValid(cap, SUBDIV_CAPSULE)
+                        ? PyCapsule_GetPointer(cap, SUBDIV_CAPSULE)
+                        : NULL;
+    if (s == NULL) tsk_py_raise_arg("subdiv", "expected a handle from subdiv_create()");
+    return s;
+}
+
+/* Optional buffer: None -> no view (*ok stays 1, returns NULL pointer). */
+typedef struct optbuf {
+    Py_buffer view;
+    int have;
+} optbuf;
+
+static int opt_buffer(PyObject* obj, const char* name, tsk_py_dtype dt, Py_ssize_t count,
+                      optbuf* b) {
+    b->have = 0;
+    if (obj == Py_None) return 1;
+    if (!tsk_py_buffer(obj, name, dt, count, 1, &b->view)) return 0;
+    b->have = 1;
+    return 1;
+}
+static void* opt_ptr(optbuf* b) { return b->have ? b->view.buf : NULL; }
+static void opt_release(optbuf* b) {
+    if (b->have) PyBuffer_Release(&b->view);
+    b->have = 0;
+}
+
+/* ---- functions ----------------------------------------------------------------------------- */
+
+static PyObject* py_tree_default_def(PyObject* self, PyObject* args) {
+    (void)self, (void)args;
+    tsk_tree_def d = tsk_default_tree_def();
+    return def_to_dict(&d);
+}
+
+static PyObject* py_tree_presets(PyObject* self, PyObject* args) {
+    (void)self, (void)args;
+    PyObject* l = PyList_New(0);
+    if (l == NULL) return NULL;
+    for (int i = 0; i < tsk_tree_preset_count(); ++i) {
+        PyObject* s = PyUnicode_FromString(tsk_tree_preset_name(i));
+        if (s == NULL || PyList_Append(l, s) != 0) {
+            Py_XDECREF(s);
+            Py_DECREF(l);
+            return NULL;
+        }
+        Py_DECREF(s);
+    }
+    return l;
+}
+
+static PyObject* py_tree_preset(PyObject* self, PyObject* args) {
+    (void)self;
+    const char* name;
+    if (!PyArg_ParseTuple(args, "s:tree_preset", &name)) return NULL;
+    tsk_tree_def d;
+    tsk_status s = tsk_tree_preset(name, &d);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    return def_to_dict(&d);
+}
+
+static PyObject* py_tree_create(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* dict;
+    if (!PyArg_ParseTuple(args, "O:tree_create", &dict)) return NULL;
+    tsk_tree_def def;
+    if (!dict_to_def(dict, &def)) return NULL;
+    tsk_tree* t = NULL;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_tree_create(&def, &t);
+    Py_END_ALLOW_THREADS
+    if (s != TSK_OK) return tsk_py_raise(s);
+    PyObject* cap = PyCapsule_New(t, TREE_CAPSULE, tree_capsule_free);
+    if (cap == NULL) tsk_tree_destroy(t);
+    return cap;
+}
+
+static PyObject* py_tree_counts(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* cap;
+    if (!PyArg_ParseTuple(args, "O:tree_counts", &cap)) return NULL;
+    tsk_tree* t = get_tree(cap);
+    if (t == NULL) return NULL;
+    return Py_BuildValue("{s:n,s:n,s:(nnnn)}", "branches", (Py_ssize_t)tsk_tree_branch_count(t),
+                         "leaves", (Py_ssize_t)tsk_tree_leaf_count(t), "levels",
+                         (Py_ssize_t)tsk_tree_level_branch_count(t, 0),
+                         (Py_ssize_t)tsk_tree_level_branch_count(t, 1),
+                         (Py_ssize_t)tsk_tree_level_branch_count(t, 2),
+                         (Py_ssize_t)tsk_tree_level_branch_count(t, 3));
+}
+
+static PyObject* py_tree_branches(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* kwlist[] = {"tree", "parent", "level", "points", "rest", "attach",
+                             "radius", "length", "orient", "depth", NULL};
+    PyObject *cap, *o[9] = {Py_None, Py_None, Py_None, Py_None, Py_None,
+                            Py_None, Py_None, Py_None, Py_None};
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "O|OOOOOOOOO:tree_branches", kwlist, &cap, &o[0],
+                                     &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8]))
+        return NULL;
+    tsk_tree* t = get_tree(cap);
+    if (t == NULL) return NULL;
+    const Py_ssize_t n = (Py_ssize_t)tsk_tree_branch_count(t);
+    static const char* names[9] = {"parent", "level", "points", "rest", "attach",
+                                   "radius", "length", "orient", "depth"};
+    const tsk_py_dtype types[9] = {TSK_PY_I32, TSK_PY_I32, TSK_PY_F32, TSK_PY_F32, TSK_PY_F32,
+                                   TSK_PY_F32, TSK_PY_F32, TSK_PY_F32, TSK_PY_I32};
+    const Py_ssize_t per[9] = {1, 1, 12, 12, 3, 2, 1, 3, 1};
+    optbuf b[9];
+    int ok = 1;
+    for (int i = 0; i < 9; ++i) b[i].have = 0;
+    for (int i = 0; i < 9 && ok; ++i) ok = opt_buffer(o[i], names[i], types[i], per[i] * n, &b[i]);
+    if (ok) {
+        tsk_tree_branches out = {opt_ptr(&b[0]), opt_ptr(&b[1]), opt_ptr(&b[8]), opt_ptr(&b[2]),
+                                 opt_ptr(&b[3]), opt_ptr(&b[4]), opt_ptr(&b[5]), opt_ptr(&b[6]),
+                                 opt_ptr(&b[7])};
+        tsk_status s;
+        Py_BEGIN_ALLOW_THREADS
+        s = tsk_tree_get_branches(t, &out);
+        Py_END_ALLOW_THREADS
+        if (s != TSK_OK) ok = 0, tsk_py_raise(s);
+    }
+    for (int i = 0; i < 9; ++i) opt_release(&b[i]);
+    if (!ok) return NULL;
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_tree_leaves(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* kwlist[] = {"tree", "position", "direction", "normal", "size", "parent", NULL};
+    PyObject *cap, *o[5] = {Py_None, Py_None, Py_None, Py_None, Py_None};
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "O|OOOOO:tree_leaves", kwlist, &cap, &o[0], &o[1],
+                                     &o[2], &o[3], &o[4]))
+        return NULL;
+    tsk_tree* t = get_tree(cap);
+    if (t == NULL) return NULL;
+    const Py_ssize_t m = (Py_ssize_t)tsk_tree_leaf_count(t);
+    static const char* names[5] = {"position", "direction", "normal", "size", "parent"};
+    const tsk_py_dtype types[5] = {TSK_PY_F32, TSK_PY_F32, TSK_PY_F32, TSK_PY_F32, TSK_PY_I32};
+    const Py_ssize_t per[5] = {3, 3, 3, 2, 1};
+    optbuf b[5];
+    int ok = 1;
+    for (int i = 0; i < 5; ++i) b[i].have = 0;
+    for (int i = 0; i < 5 && ok; ++i) ok = opt_buffer(o[i], names[i], types[i], per[i] * m, &b[i]);
+    if (ok) {
+        tsk_status s;
+        Py_BEGIN_ALLOW_THREADS
+        s = tsk_tree_get_leaves(t, opt_ptr(&b[0]), opt_ptr(&b[1]), opt_ptr(&b[2]), opt_ptr(&b[3]),
+                                opt_ptr(&b[4]));
+        Py_END_ALLOW_THREADS
+        if (s != TSK_OK) ok = 0, tsk_py_raise(s);
+    }
+    for (int i = 0; i < 5; ++i) opt_release(&b[i]);
+    if (!ok) return NULL;
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_tree_tips(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *cap, *out_obj;
+    if (!PyArg_ParseTuple(args, "OO:tree_tips", &cap, &out_obj)) return NULL;
+    tsk_tree* t = get_tree(cap);
+    if (t == NULL) return NULL;
+    Py_buffer out;
+    if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, 3 * (Py_ssize_t)tsk_tree_branch_count(t), 1, &out))
+        return NULL;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_tree_tip_positions(t, out.buf);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&out);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_tree_wind_step(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* kwlist[] = {"tree", "force", "mode", "strength", "bend_power", "length_power", NULL};
+    PyObject *cap, *force_obj;
+    tsk_tree_wind_def w = tsk_default_tree_wind_def();
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|ifff:tree_wind_step", kwlist, &cap, &force_obj,
+                                     &w.mode, &w.strength, &w.bend_power, &w.length_power))
+        return NULL;
+    tsk_tree* t = get_tree(cap);
+    if (t == NULL) return NULL;
+    Py_buffer f;
+    if (!tsk_py_buffer(force_obj, "force", TSK_PY_F32, 3 * (Py_ssize_t)tsk_tree_branch_count(t), 0,
+                       &f))
+        return NULL;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_tree_wind_step(t, f.buf, &w);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&f);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_tree_reset(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* cap;
+    if (!PyArg_ParseTuple(args, "O:tree_reset", &cap)) return NULL;
+    tsk_tree* t = get_tree(cap);
+    if (t == NULL) return NULL;
+    tsk_tree_reset_pose(t);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_tree_attachment_gap(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* cap;
+    if (!PyArg_ParseTuple(args, "O:tree_attachment_gap", &cap)) return NULL;
+    tsk_tree* t = get_tree(cap);
+    if (t == NULL) return NULL;
+    double g = 0, m = 0;
+    tsk_status s = tsk_tree_attachment_gap(t, &g, &m);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    return Py_BuildValue("(dd)", g, m);
+}
+
+/* mesh options: along (4 ints), around (4 ints), leaves (bool) */
+static int parse_mesh(PyObject* along, PyObject* around, int leaves, tsk_tree_mesh_def* m) {
+    *m = tsk_default_tree_mesh_def();
+    m->leaves = leaves != 0;
+    PyObject* src[2] = {along, around};
+    int* dst[2] = {m->along, m->around};
+    const char* names[2] = {"along", "around"};
+    for (int k = 0; k < 2; ++k) {
+        if (src[k] == Py_None) continue;
+        if (!PyTuple_Check(src[k]) && !PyList_Check(src[k])) {
+            tsk_py_raise_arg(names[k], "must be a tuple of %d ints", TSK_TREE_MAX_LEVELS);
+            return 0;
+        }
+        PyObject* seq = PySequence_Tuple(src[k]);
+        if (seq == NULL) return 0;
+        if (PyTuple_Size(seq) != TSK_TREE_MAX_LEVELS) {
+            Py_DECREF(seq);
+            tsk_py_raise_arg(names[k], "must have %d entries (one per level)", TSK_TREE_MAX_LEVELS);
+            return 0;
+        }
+        for (int l = 0; l < TSK_TREE_MAX_LEVELS; ++l) {
+            long v = PyLong_AsLong(PyTuple_GetItem(seq, l));
+            if (v == -1 && PyErr_Occurred()) {
+                PyErr_Clear();
+                Py_DECREF(seq);
+                tsk_py_raise_arg(names[k], "entries must be integers");
+                return 0;
+            }
+            dst[k][l] = v > 100000 ? 100000 : v < -100000 ? -100000 : (int)v;
+        }
+        Py_DECREF(seq);
+    }
+    return 1;
+}
+
+static PyObject* py_tree_mesh_count(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* kwlist[] = {"tree", "along", "around", "leaves", NULL};
+    PyObject *cap, *along = Py_None, *around = Py_None;
+    int leaves = 1;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "O|OOp:tree_mesh_count", kwlist, &cap, &along,
+                                     &around, &leaves))
+        return NULL;
+    tsk_tree* t = get_tree(cap);
+    tsk_tree_mesh_def m;
+    if (t == NULL || !parse_mesh(along, around, leaves, &m)) return NULL;
+    size_t nv = 0, nf = 0;
+    tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    return Py_BuildValue("(nn)", (Py_ssize_t)nv, (Py_ssize_t)nf);
+}
+
+static PyObject* py_tree_mesh_topology(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* kwlist[] = {"tree", "faces", "uvs", "along", "around", "leaves", NULL};
+    PyObject *cap, *faces_obj, *uv_obj = Py_None, *along = Py_None, *around = Py_None;
+    int leaves = 1;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|OOOp:tree_mesh_topology", kwlist, &cap,
+                                     &faces_obj, &uv_obj, &along, &around, &leaves))
+        return NULL;
+    tsk_tree* t = get_tree(cap);
+    tsk_tree_mesh_def m;
+    if (t == NULL || !parse_mesh(along, around, leaves, &m)) return NULL;
+    size_t nv = 0, nf = 0;
+    tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_buffer faces;
+    optbuf uv;
+    if (!tsk_py_buffer(faces_obj, "faces", TSK_PY_I32, 4 * (Py_ssize_t)nf, 1, &faces)) return NULL;
+    if (!opt_buffer(uv_obj, "uvs", TSK_PY_F32, 8 * (Py_ssize_t)nf, &uv)) {
+        PyBuffer_Release(&faces);
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_tree_mesh_topology(t, &m, faces.buf, opt_ptr(&uv));
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&faces);
+    opt_release(&uv);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_tree_mesh_deform(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* kwlist[] = {"tree", "positions", "normals", "along", "around", "leaves", NULL};
+    PyObject *cap, *pos_obj, *nrm_obj = Py_None, *along = Py_None, *around = Py_None;
+    int leaves = 1;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|OOOp:tree_mesh_deform", kwlist, &cap, &pos_obj,
+                                     &nrm_obj, &along, &around, &leaves))
+        return NULL;
+    tsk_tree* t = get_tree(cap);
+    tsk_tree_mesh_def m;
+    if (t == NULL || !parse_mesh(along, around, leaves, &m)) return NULL;
+    size_t nv = 0, nf = 0;
+    tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_buffer pos;
+    optbuf nrm;
+    if (!tsk_py_buffer(pos_obj, "positions", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, &pos)) return NULL;
+    if (!opt_buffer(nrm_obj, "normals", TSK_PY_F32, 3 * (Py_ssize_t)nv, &nrm)) {
+        PyBuffer_Release(&pos);
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_tree_mesh_deform(t, &m, pos.buf, opt_ptr(&nrm));
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&pos);
+    opt_release(&nrm);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_subdiv_create(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* faces_obj;
+    Py_ssize_t nv;
+    int levels;
+    if (!PyArg_ParseTuple(args, "Oni:subdiv_create", &faces_obj, &nv, &levels)) return NULL;
+    if (nv < 0) return tsk_py_raise_arg("vertex_count", "must be >= 0");
+    Py_buffer faces;
+    if (!tsk_py_buffer(faces_obj, "faces", TSK_PY_I32, -1, 0, &faces)) return NULL;
+    const Py_ssize_t count = tsk_py_count(&faces);
+    if (count % 4 != 0) {
+        PyBuffer_Release(&faces);
+        return tsk_py_raise_arg("faces", "length must be a multiple of 4 (quads), got %zd", count);
+    }
+    tsk_subdiv* sd = NULL;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_subdiv_create(faces.buf, (size_t)count / 4, (size_t)nv, levels, &sd);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&faces);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    PyObject* cap = PyCapsule_New(sd, SUBDIV_CAPSULE, subdiv_capsule_free);
+    if (cap == NULL) tsk_subdiv_destroy(sd);
+    return cap;
+}
+
+static PyObject* py_subdiv_counts(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* cap;
+    if (!PyArg_ParseTuple(args, "O:subdiv_counts", &cap)) return NULL;
+    tsk_subdiv* sd = get_subdiv(cap);
+    if (sd == NULL) return NULL;
+    return Py_BuildValue("(nn)", (Py_ssize_t)tsk_subdiv_vertex_count(sd),
+                         (Py_ssize_t)tsk_subdiv_face_count(sd));
+}
+
+static PyObject* py_subdiv_faces(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *cap, *out_obj;
+    if (!PyArg_ParseTuple(args, "OO:subdiv_faces", &cap, &out_obj)) return NULL;
+    tsk_subdiv* sd = get_subdiv(cap);
+    if (sd == NULL) return NULL;
+    Py_buffer out;
+    if (!tsk_py_buffer(out_obj, "out", TSK_PY_I32, 4 * (Py_ssize_t)tsk_subdiv_face_count(sd), 1, &out))
+        return NULL;
+    tsk_status s = tsk_subdiv_faces(sd, out.buf);
+    PyBuffer_Release(&out);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_subdiv_apply(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *cap, *cage_obj, *out_obj;
+    if (!PyArg_ParseTuple(args, "OOO:subdiv_apply", &cap, &cage_obj, &out_obj)) return NULL;
+    tsk_subdiv* sd = get_subdiv(cap);
+    if (sd == NULL) return NULL;
+    Py_buffer cage, out;
+    if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, 3 * (Py_ssize_t)tsk_subdiv_vertex_count(sd), 1,
+                       &out))
+        return NULL;
+    if (!tsk_py_buffer(cage_obj, "cage", TSK_PY_F32,
+                       3 * (Py_ssize_t)tsk_subdiv_cage_vertex_count(sd), 0, &cage)) {
+        PyBuffer_Release(&out);
+        return NULL;
+    }
+    tsk_status s = TSK_OK;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_subdiv_apply(sd, cage.buf, out.buf);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&cage);
+    PyBuffer_Release(&out);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_quad_normals(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *pos_obj, *faces_obj, *out_obj;
+    if (!PyArg_ParseTuple(args, "OOO:quad_normals", &pos_obj, &faces_obj, &out_obj)) return NULL;
+    Py_buffer pos, faces, out;
+    if (!tsk_py_buffer(pos_obj, "positions", TSK_PY_F32, -1, 0, &pos)) return NULL;
+    const Py_ssize_t n3 = tsk_py_count(&pos);
+    if (n3 % 3 != 0) {
+        PyBuffer_Release(&pos);
+        return tsk_py_raise_arg("positions", "length must be a multiple of 3");
+    }
+    if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, n3, 1, &out)) {
+        PyBuffer_Release(&pos);
+        return NULL;
+    }
+    if (!tsk_py_buffer(faces_obj, "faces", TSK_PY_I32, -1, 0, &faces)) {
+        PyBuffer_Release(&pos), PyBuffer_Release(&out);
+        return NULL;
+    }
+    const Py_ssize_t nq = tsk_py_count(&faces);
+    tsk_status s = TSK_OK;
+    if (nq % 4 != 0) {
+        PyBuffer_Release(&pos), PyBuffer_Release(&out), PyBuffer_Release(&faces);
+        return tsk_py_raise_arg("faces", "length must be a multiple of 4 (quads)");
+    }
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_quad_normals(pos.buf, (size_t)n3 / 3, faces.buf, (size_t)nq / 4, out.buf);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&pos), PyBuffer_Release(&out), PyBuffer_Release(&faces);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+PyMethodDef tsk_py_tree_methods[] = {
+    {"tree_default_def", py_tree_default_def, METH_NOARGS,
+     "tree_default_def() -> dict: every Weber-Penn parameter with its default; 'level' is a "
+     "list of 4 per-level dicts."},
+    {"tree_presets", py_tree_presets, METH_NOARGS, "tree_presets() -> list of preset names."},
+    {"tree_preset", py_tree_preset, METH_VARARGS, "tree_preset(name) -> dict of that preset."},
+    {"tree_create", py_tree_create, METH_VARARGS,
+     "tree_create(def: dict) -> tree handle. Missing keys keep their defaults; unknown keys "
+     "and bad values raise tussock.Error naming the parameter."},
+    {"tree_counts", py_tree_counts, METH_VARARGS,
+     "tree_counts(tree) -> {'branches', 'leaves', 'levels': (n0, n1, n2, n3)}."},
+    {"tree_branches", (PyCFunction)(void (*)(void))py_tree_branches, METH_VARARGS | METH_KEYWORDS,
+     "tree_branches(tree, parent=None, level=None, points=None, rest=None, attach=None, "
+     "radius=None, length=None, orient=None, depth=None): fills the given buffers (int32 n, "
+     "int32 n, float32 12n, 12n, 3n, 2n, n, 3n, int32 n)."},
+    {"tree_leaves", (PyCFunction)(void (*)(void))py_tree_leaves, METH_VARARGS | METH_KEYWORDS,
+     "tree_leaves(tree, position=None, direction=None, normal=None, size=None, parent=None): "
+     "float32 3m, 3m, 3m, 2m, int32 m."},
+    {"tree_tips", py_tree_tips, METH_VARARGS,
+     "tree_tips(tree, out): branch tips, float32 3n (where to sample the wind)."},
+    {"tree_wind_step", (PyCFunction)(void (*)(void))py_tree_wind_step, METH_VARARGS | METH_KEYWORDS,
+     "tree_wind_step(tree, force, mode=0, strength=1.0, bend_power=1.8, length_power=1.0): "
+     "force float32 3n at the tips; mode 0 = lagged (seed), 1 = exact."},
+    {"tree_reset", py_tree_reset, METH_VARARGS, "tree_reset(tree): back to the rest pose."},
+    {"tree_attachment_gap", py_tree_attachment_gap, METH_VARARGS,
+     "tree_attachment_gap(tree) -> (largest child gap / parent radius, largest gap in m)."},
+    {"tree_mesh_count", (PyCFunction)(void (*)(void))py_tree_mesh_count,
+     METH_VARARGS | METH_KEYWORDS,
+     "tree_mesh_count(tree, along=None, around=None, leaves=True) -> (vertices, quads)."},
+    {"tree_mesh_topology", (PyCFunction)(void (*)(void))py_tree_mesh_topology,
+     METH_VARARGS | METH_KEYWORDS,
+     "tree_mesh_topology(tree, faces, uvs=None, along=None, around=None, leaves=True): faces "
+     "int32 4q, uvs float32 8q (per corner)."},
+    {"tree_mesh_deform", (PyCFunction)(void (*)(void))py_tree_mesh_deform,
+     METH_VARARGS | METH_KEYWORDS,
+     "tree_mesh_deform(tree, positions, normals=None, along=None, around=None, leaves=True): "
+     "float32 3v each, for the current pose."},
+    {"subdiv_create", py_subdiv_create, METH_VARARGS,
+     "subdiv_create(faces, vertex_count, levels) -> handle (OpenSubdiv stencils, built once)."},
+    {"subdiv_counts", py_subdiv_counts, METH_VARARGS, "subdiv_counts(h) -> (vertices, quads)."},
+    {"subdiv_faces", py_subdiv_faces, METH_VARARGS, "subdiv_faces(h, out): int32 4q."},
+    {"subdiv_apply", py_subdiv_apply, METH_VARARGS,
+     "subdiv_apply(h, cage, out): cage float32 3*cage_vertices, out float32 3*vertices."},
+    {"quad_normals", py_quad_normals, METH_VARARGS,
+     "quad_normals(positions, faces, out): area-weighted vertex normals."},
+    {NULL, NULL, 0, NULL},
+};
