@@ -1,6 +1,6 @@
 """Renders the pictures of docs/ with Tussock itself, in background Blender:
   blender_run.py tools/docs_pictures.py -- OUT_DIR [FEATURE...]
-Features: meadow. Each writes PNGs named <feature>_<view>.png into OUT_DIR."""
+Features: capture, refine, meadow. Each writes PNGs named <feature>_<view>.png into OUT_DIR."""
 
 import math
 import os
@@ -83,7 +83,84 @@ def meadow():
     render("meadow_birdseye")
 
 
-FEATURES = {"meadow": meadow}
+SAMPLE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "samples",
+                      "blades", "depth_####.png")
+
+
+def save_rgba(name, rgba, crop=None, zoom=1):
+    """Writes an (h, w, 4) float image, top row first, as an 8-bit PNG; `crop` is
+    (top, bottom, left, right) and `zoom` an integer enlargement (nearest pixel)."""
+    import numpy as np
+    if crop is not None:
+        t, b, l, r = crop
+        rgba = rgba[t:b, l:r]
+    if zoom > 1:
+        rgba = np.repeat(np.repeat(rgba, zoom, axis=0), zoom, axis=1)
+    h, w, _ = rgba.shape
+    img = bpy.data.images.new(name, w, h, alpha=False)
+    img.pixels.foreach_set(np.ascontiguousarray(rgba[::-1], np.float32).ravel())
+    img.filepath_raw = os.path.join(OUT, name + ".png")
+    img.file_format = "PNG"
+    img.save()
+    print(f"[pictures] {img.filepath_raw}", flush=True)
+
+
+def capture():
+    import numpy as np
+    from tussock import native
+    from tussock.capture import pipeline, preview
+    reset()
+    lib = native.require()
+    src = lib.depth_open_files(SAMPLE)
+    info = lib.depth_info(src)
+    w, h = info["width"], info["height"]
+    depth = np.empty(w * h, np.float32)
+    lib.depth_read(src, depth)
+    lib.depth_close(src)
+    r = pipeline.process(depth, w, h, 0.0, 0.0, info["fx"], info["fy"], info["cx"], info["cy"], 150)
+    im = r["images"]
+    blank = np.zeros_like(im["DEPTH"])
+    rows, cols = np.nonzero(im["MASK"])
+    crop = (max(rows.min() - 12, 0), rows.max() + 12, max(cols.min() - 12, 0), cols.max() + 12)
+    views = {
+        "capture_depth": (im["DEPTH"], blank, blank, blank),
+        "capture_mask": (im["DEPTH"], im["MASK"], blank, blank),
+        "capture_partition": (im["DEPTH"], im["MASK"], im["LABELS"], blank),
+        "capture_skeletons": (im["DEPTH"], im["MASK"], im["LABELS"], im["OVERLAY"]),
+    }
+    for name, layers in views.items():
+        save_rgba(name, preview.compose(*layers), crop=crop, zoom=2)
+    bpy.ops.tussock.capture_blades(source="FILES", filepath=SAMPLE)
+    sky_and_sun(sun_angle=(1.2, 0.0, 0.4))
+    camera((0.0, -0.55, 0.07), (math.radians(88), 0, 0), lens=50.0)
+    render("capture_blades", res=(480, 360), samples=16)
+
+
+def refine():
+    reset()
+    bpy.ops.tussock.capture_blades(source="FILES", filepath=SAMPLE)
+    coll = bpy.data.collections["Tussock Blades"]
+    originals = sorted(coll.objects, key=lambda o: o.name)
+    # four copies of the cluster side by side: full, 32, 16 and 8 knots (seed Fig. 6)
+    for column, knots in enumerate((0, 32, 16, 8)):
+        copies = []
+        for o in originals:
+            c = o if column == 0 else o.copy()
+            if column:
+                c.data = o.data.copy()
+                coll.objects.link(c)
+            c.location.x += 0.3 * column
+            copies.append(c)
+        if knots:
+            for o in coll.objects:
+                o.select_set(o in copies)
+            bpy.ops.tussock.refine_blades(knots=str(knots), movement="TRACKED", frames=12)
+    sky_and_sun(sun_angle=(1.2, 0.0, 0.4))
+    camera((0.45, -1.6, 0.07), (math.radians(88), 0, 0), lens=50.0)
+    render("refine_levels", res=(720, 300), samples=16)
+
+
+FEATURES = {"capture": capture, "refine": refine, "meadow": meadow}
 
 os.makedirs(OUT, exist_ok=True)
 for name, fn in FEATURES.items():

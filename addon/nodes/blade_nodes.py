@@ -7,7 +7,8 @@ import bpy
 from .. import compat
 
 GROUP_NAME = "Tussock Blade Ribbon"
-GROUP_VERSION = 1
+GROUP_VERSION = 2
+MATERIAL = "Tussock Blade"
 MODIFIER = "Tussock Ribbon"
 
 
@@ -20,6 +21,7 @@ def _build(ng):
         ng.inputs.clear()
         ng.outputs.clear()
     compat.node_group_add_socket(ng, "INPUT", "NodeSocketGeometry", "Geometry")
+    compat.node_group_add_socket(ng, "INPUT", "NodeSocketMaterial", "Material")
     compat.node_group_add_socket(ng, "OUTPUT", "NodeSocketGeometry", "Geometry")
     n, link = ng.nodes, ng.links.new
     gin, gout = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
@@ -39,8 +41,12 @@ def _build(ng):
     link(compat.enabled_output(width), radius.inputs["Radius"])
     link(radius.outputs[0], to_mesh.inputs["Curve"])
     link(profile.outputs[0], to_mesh.inputs["Profile Curve"])
-    link(to_mesh.outputs[0], gout.inputs[0])
-    for i, node in enumerate((gin, to_curve, radius, to_mesh, gout)):
+    # curves carry no material: give the ribbon the blade material
+    set_mat = n.new("GeometryNodeSetMaterial")
+    link(to_mesh.outputs[0], set_mat.inputs["Geometry"])
+    link(gin.outputs["Material"], set_mat.inputs["Material"])
+    link(set_mat.outputs[0], gout.inputs[0])
+    for i, node in enumerate((gin, to_curve, radius, to_mesh, set_mat, gout)):
         node.location = (220 * i, 0)
     width.location, profile.location = (220, -200), (440, -250)
     ng["tussock_version"] = GROUP_VERSION
@@ -55,10 +61,26 @@ def ribbon_group():
     return ng
 
 
+def blade_material():
+    """A plain two-sided leaf-green material for blade ribbons (artists may replace it)."""
+    mat = bpy.data.materials.get(MATERIAL)
+    if mat is None:
+        mat = bpy.data.materials.new(MATERIAL)
+        mat.use_nodes = True
+        nodes = mat.node_tree.nodes
+        bsdf = nodes["Principled BSDF"]
+        bsdf.inputs["Base Color"].default_value = (0.10, 0.38, 0.06, 1.0)
+        bsdf.inputs["Roughness"].default_value = 0.5
+        mat.diffuse_color = (0.10, 0.38, 0.06, 1.0)
+    return mat
+
+
 def show_ribbon(obj):
     """Adds (once) the ribbon display modifier to a blade object."""
     mod = obj.modifiers.get(MODIFIER)
     if mod is None:
         mod = obj.modifiers.new(MODIFIER, "NODES")
     mod.node_group = ribbon_group()
+    if compat.get_modifier_input(mod, "Material") is None:
+        compat.set_modifier_input(mod, "Material", blade_material())
     return mod
