@@ -114,8 +114,8 @@ typedef struct tsk_wind_source {
     float strength;     ///< 0..1, normalised speed set at the centre
     float radius;       ///< m, > 0
     float interval;     ///< s between pushes, >= 0 (0 = every step); the "frequency" of
-                        ///< seed 004. A push happens in the step that crosses time
-                        ///< start + n * interval (n = 0, 1, ...).
+                        ///< seed 004. A push happens in the step [t, t + dt) that
+                        ///< contains a time start + n * interval (n = 0, 1, ...).
     float start;        ///< s, time of the first push
 } tsk_wind_source;
 

@@ -329,12 +329,13 @@ void tsk_fluid_finish(tsk_fluid* f) {
 
 /* ---- sources (seed 004, III-C: pushes of strength 0..1 every `interval` seconds) ------ */
 
-static int pushes_in(const tsk_wind_source* s, double t0, double t1) {
-    if (t1 < s->start) return 0;
+/* 1 if a push time start + n * interval (n >= 0) lies in the step [t0, t1) */
+int tsk_fluid_source_pushes(const tsk_wind_source* s, double t0, double t1) {
+    if (t1 <= s->start) return 0;
     if (!(s->interval > 0.0f)) return 1;
-    const double n0 = floor((t0 - s->start) / s->interval);
-    const double n1 = floor((t1 - s->start) / s->interval);
-    return n1 > n0 || t0 < s->start;
+    double n = ceil((t0 - s->start) / s->interval);
+    if (n < 0.0) n = 0.0;
+    return s->start + n * s->interval < t1;
 }
 
 /* v <- v + falloff (target - v) on the faces of one component inside the radius */
@@ -366,7 +367,7 @@ void tsk_fluid_apply_sources(tsk_fluid* f, float origin_x, float origin_y,
                              const tsk_wind_source* sources, int count, double t0, double t1) {
     for (int k = 0; k < count; ++k) {
         const tsk_wind_source* s = &sources[k];
-        if (!pushes_in(s, t0, t1)) continue;
+        if (!tsk_fluid_source_pushes(s, t0, t1)) continue;
         const double len = sqrt((double)s->dir_x * s->dir_x + (double)s->dir_y * s->dir_y);
         const float tx = (float)(s->strength * s->dir_x / len);
         const float ty = (float)(s->strength * s->dir_y / len);

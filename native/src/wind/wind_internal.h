@@ -34,9 +34,11 @@ int tsk_fluid_project(tsk_fluid* f);
 float tsk_fluid_max_divergence(const tsk_fluid* f);
 /* Velocity decay and the component clamp |u|, |v| <= 1. */
 void tsk_fluid_finish(tsk_fluid* f);
-/* Pushes of the sources whose push time lies in (t0, t1]. */
+/* Pushes of the sources whose push time lies in the step [t0, t1). */
 void tsk_fluid_apply_sources(tsk_fluid* f, float origin_x, float origin_y,
                              const tsk_wind_source* sources, int count, double t0, double t1);
+/* 1 if source s pushes in the step [t0, t1). */
+int tsk_fluid_source_pushes(const tsk_wind_source* s, double t0, double t1);
 /* Bilinear velocity at a point in cell units (x = world offset / h), |v| clamped to 1. */
 void tsk_fluid_sample_cells(const tsk_fluid* f, float cx, float cy, float* vx, float* vy);
 /* Cell-centre velocities (nx*ny each), magnitude clamped to 1. */
