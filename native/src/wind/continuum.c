@@ -53,9 +53,7 @@ tsk_status tsk_continuum_init(tsk_continuum* w, int nx, int ny, float h, float d
         w->y[k] = tsk_calloc(n, sizeof(float), "wind continuum");
         ok = ok && w->x[k] && w->y[k];
     }
-    w->wind_x = tsk_calloc((size_t)nx * (size_t)ny, sizeof(float), "wind continuum drive");
-    w->wind_y = tsk_calloc((size_t)nx * (size_t)ny, sizeof(float), "wind continuum drive");
-    if (!ok || !w->wind_x || !w->wind_y) {
+    if (!ok) {
         tsk_continuum_free(w);
         return TSK_ERR_MEMORY;
     }
@@ -67,8 +65,6 @@ void tsk_continuum_free(tsk_continuum* w) {
         tsk_free(w->x[k]);
         tsk_free(w->y[k]);
     }
-    tsk_free(w->wind_x);
-    tsk_free(w->wind_y);
     memset(w, 0, sizeof *w);
 }
 

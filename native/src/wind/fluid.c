@@ -32,8 +32,10 @@ tsk_status tsk_fluid_init(tsk_fluid* f, const tsk_wind_fluid_def* def) {
     f->phi_tmp = tsk_calloc(np, sizeof(float), "wind fluid pressure");
     f->div = tsk_calloc(nx * ny, sizeof(float), "wind fluid divergence");
     f->scratch = tsk_calloc(np, sizeof(float), "wind fluid scratch");
+    f->cx = tsk_calloc(nx * ny, sizeof(float), "wind fluid centres");
+    f->cy = tsk_calloc(nx * ny, sizeof(float), "wind fluid centres");
     if (!f->u || !f->v || !f->u_tmp || !f->v_tmp || !f->phi || !f->phi_tmp || !f->div ||
-        !f->scratch) {
+        !f->scratch || !f->cx || !f->cy) {
         tsk_fluid_free(f);
         return TSK_ERR_MEMORY;
     }
@@ -49,6 +51,8 @@ void tsk_fluid_free(tsk_fluid* f) {
     tsk_free(f->phi_tmp);
     tsk_free(f->div);
     tsk_free(f->scratch);
+    tsk_free(f->cx);
+    tsk_free(f->cy);
     memset(f, 0, sizeof *f);
 }
 
@@ -388,12 +392,12 @@ static inline void clamp_unit(float* x, float* y) {
 }
 
 void tsk_fluid_sample_cells(const tsk_fluid* f, float cx, float cy, float* vx, float* vy) {
-    float a = bilinear(f->u, f->nx + 1, f->ny, cx, cy - 0.5f);
-    float b = bilinear(f->v, f->nx, f->ny + 1, cx - 0.5f, cy);
-    clamp_unit(&a, &b);
-    *vx = a;
-    *vy = b;
+    /* centre (i, j) sits at cell coordinates (i + 0.5, j + 0.5) */
+    *vx = bilinear(f->cx, f->nx, f->ny, cx - 0.5f, cy - 0.5f);
+    *vy = bilinear(f->cy, f->nx, f->ny, cx - 0.5f, cy - 0.5f);
 }
+
+void tsk_fluid_update_centres(tsk_fluid* f) { tsk_fluid_centres(f, f->cx, f->cy); }
 
 void tsk_fluid_centres(const tsk_fluid* f, float* vx, float* vy) {
     const int nx = f->nx, ny = f->ny;

@@ -6,27 +6,6 @@
 #include <math.h>
 #include <string.h>
 
-/* sin(x) for |x| / pi < 2^22: reduce by the nearest multiple of pi (Cody-Waite, three
- * parts), then a degree-11 Taylor polynomial on [-pi/2, pi/2] (error < 1e-7). */
-static inline float fast_sin(float x) {
-    const float inv_pi = 0.318309886183790671f;
-    const float magic = 12582912.0f; /* 1.5 * 2^23: adding it rounds to an integer */
-    float q = (x * inv_pi + magic) - magic;
-    int qi = (int)q;
-    float r = x - q * 3.140625f;
-    r = r - q * 9.67502593994140625e-4f;
-    r = r - q * 1.509957990978376432e-7f;
-    const float r2 = r * r;
-    float p = -2.50521084e-8f;
-    p = p * r2 + 2.75573192e-6f;
-    p = p * r2 - 1.98412698e-4f;
-    p = p * r2 + 8.33333333e-3f;
-    p = p * r2 - 1.66666667e-1f;
-    float s = r + r * r2 * p;
-    const float sign = 1.0f - 2.0f * (float)(qi & 1);
-    return s * sign;
-}
-
 static inline int32_t f2i_bits(float f) {
     int32_t i;
     memcpy(&i, &f, sizeof i);
@@ -40,15 +19,17 @@ static inline float i2f_bits(int32_t i) {
 
 /* u^k for u in [0, 1], k > 0: exp2(k log2 u) with log2 from the exponent bits and an
  * atanh series on [sqrt(1/2), sqrt(2)], exp2 from the exponent bits and a degree-7
- * polynomial on [-1/2, 1/2]. Relative error < 1e-6; u <= 2^-100 gives (almost) 0. */
+ * polynomial on [-1/2, 1/2]. Relative error < 1e-5; results below 2^-100 are clamped
+ * to about 2^-100 (zero for the wind). Integer selects only, so that loops vectorise. */
 static inline float fast_pow01(float u, float k) {
-    u = u > 1e-30f ? u : 1e-30f;
-    const int32_t bits = f2i_bits(u);
-    int32_t e = ((bits >> 23) & 255) - 127;
-    float m = i2f_bits((bits & 0x007FFFFF) | 0x3F800000); /* [1, 2) */
-    const int32_t big = m > 1.41421356f;
-    m = big ? m * 0.5f : m;
-    e += big;
+    int32_t bits = f2i_bits(u);
+    const int32_t tiny = 0x0DA24260; /* 1e-30f: also catches u <= 0 */
+    bits = bits < tiny ? tiny : bits;
+    /* u = 2^e * m with m in [sqrt(1/2), sqrt(2)) */
+    const int32_t mant = (bits & 0x007FFFFF) | 0x3F800000; /* [1, 2) */
+    const int32_t big = mant > 0x3FB504F3 ? 1 : 0;        /* m > sqrt(2) */
+    const int32_t e = ((bits >> 23) & 255) - 127 + big;
+    const float m = i2f_bits(mant - (big << 23));
     const float z = (m - 1.0f) / (m + 1.0f);
     const float z2 = z * z;
     float ln = 1.0f / 9.0f;
@@ -57,11 +38,10 @@ static inline float fast_pow01(float u, float k) {
     ln = ln * z2 + 1.0f / 3.0f;
     ln = ln * z2 + 1.0f;
     ln = 2.0f * z * ln;
-    float y = k * ((float)e + ln * 1.44269504088896341f);
-    y = y > -100.0f ? y : -100.0f;
+    const float y = k * ((float)e + ln * 1.44269504088896341f); /* k log2(u) <= 0 */
     const float magic = 12582912.0f;
-    const float n = (y + magic) - magic;
-    const float f = (y - n) * 0.693147180559945309f; /* ln 2 * [-1/2, 1/2] */
+    const float nf = (y + magic) - magic; /* round(y) */
+    const float f = (y - nf) * 0.693147180559945309f; /* ln 2 * [-1/2, 1/2] */
     float p = 1.0f / 5040.0f;
     p = p * f + 1.0f / 720.0f;
     p = p * f + 1.0f / 120.0f;
@@ -70,10 +50,12 @@ static inline float fast_pow01(float u, float k) {
     p = p * f + 0.5f;
     p = p * f + 1.0f;
     p = p * f + 1.0f;
-    return p * i2f_bits(((int32_t)n + 127) << 23);
+    int32_t n = (int32_t)nf;
+    n = n < -100 ? -100 : n; /* 2^-100: zero for the wind, and no denormals */
+    return p * i2f_bits((n + 127) << 23);
 }
 
-float tsk_wind_sin(float x) { return fast_sin(x); }
+float tsk_wind_sin(float x) { return tsk_fast_sin(x); }
 float tsk_wind_pow01(float u, float k) { return fast_pow01(u, k); }
 
 void tsk_sines_eval_add(tsk_sines_eval* ev, const tsk_wind_sines_def* def, float weight,
@@ -113,6 +95,7 @@ void tsk_sines_eval_add(tsk_sines_eval* ev, const tsk_wind_sines_def* def, float
 
 /* seed 001, eq. 14 with the [Fer04] offset: F += D A ((sin(theta) + 1) / 2)^k. The 1/l of
  * eq. 14 (branch segment length) belongs to the tree module that turns wind into bend. */
+TSK_WIND_CLONES
 void tsk_sines_accumulate(const tsk_sines_eval* ev, size_t count, const float* restrict x,
                           const float* restrict y, float* restrict vx, float* restrict vy) {
     for (int w = 0; w < ev->wave_count; ++w) {
@@ -120,20 +103,20 @@ void tsk_sines_accumulate(const tsk_sines_eval* ev, size_t count, const float* r
         const float ax = ev->amp_x[w], ay = ev->amp_y[w], k = ev->power[w];
         if (k == 1.0f) {
             for (size_t i = 0; i < count; ++i) {
-                const float u = (fast_sin(kx * x[i] + ky * y[i] + ph) + 1.0f) * 0.5f;
+                const float u = (tsk_fast_sin(kx * x[i] + ky * y[i] + ph) + 1.0f) * 0.5f;
                 vx[i] += ax * u;
                 vy[i] += ay * u;
             }
         } else if (k == 2.0f) {
             for (size_t i = 0; i < count; ++i) {
-                const float u = (fast_sin(kx * x[i] + ky * y[i] + ph) + 1.0f) * 0.5f;
+                const float u = (tsk_fast_sin(kx * x[i] + ky * y[i] + ph) + 1.0f) * 0.5f;
                 const float p = u * u;
                 vx[i] += ax * p;
                 vy[i] += ay * p;
             }
         } else {
             for (size_t i = 0; i < count; ++i) {
-                const float u = (fast_sin(kx * x[i] + ky * y[i] + ph) + 1.0f) * 0.5f;
+                const float u = (tsk_fast_sin(kx * x[i] + ky * y[i] + ph) + 1.0f) * 0.5f;
                 const float p = fast_pow01(u, k);
                 vx[i] += ax * p;
                 vy[i] += ay * p;

@@ -90,11 +90,9 @@ tsk_status tsk_wind_step(tsk_wind* w, int steps) {
             tsk_fluid_advect(f);
             tsk_fluid_project(f);
             tsk_fluid_finish(f);
-            if (w->has_continuum) {
-                tsk_continuum* c = &w->continuum;
-                tsk_fluid_centres(f, c->wind_x, c->wind_y);
-                tsk_continuum_step(c, c->wind_x, c->wind_y);
-            }
+            tsk_fluid_update_centres(f);
+            /* seed 004, III-D: the continuum is driven by the fluid at its cell centres */
+            if (w->has_continuum) tsk_continuum_step(&w->continuum, f->cx, f->cy);
         }
         ++w->steps;
     }
@@ -129,7 +127,8 @@ static tsk_status check_grid_out(const tsk_wind* w, const float* a, const float*
 tsk_status tsk_wind_read_fluid(const tsk_wind* w, float* vx, float* vy, size_t count) {
     tsk_status s = check_grid_out(w, vx, vy, count, "vx", "vy");
     if (s != TSK_OK) return s;
-    tsk_fluid_centres(&w->fluid, vx, vy);
+    memcpy(vx, w->fluid.cx, count * sizeof(float));
+    memcpy(vy, w->fluid.cy, count * sizeof(float));
     return TSK_OK;
 }
 

@@ -17,6 +17,7 @@ typedef struct tsk_fluid {
     int iterations, diffusion_iterations;
     float *u, *v, *u_tmp, *v_tmp;
     float *phi, *phi_tmp, *div, *scratch;
+    float *cx, *cy;          /* centre velocities, |v| <= 1, refreshed after each step */
     int last_iterations;     /* iterations run by the last projection */
     float last_divergence;   /* max |div| after the last projection (when measured) */
 } tsk_fluid;
@@ -39,10 +40,13 @@ void tsk_fluid_apply_sources(tsk_fluid* f, float origin_x, float origin_y,
                              const tsk_wind_source* sources, int count, double t0, double t1);
 /* 1 if source s pushes in the step [t0, t1). */
 int tsk_fluid_source_pushes(const tsk_wind_source* s, double t0, double t1);
-/* Bilinear velocity at a point in cell units (x = world offset / h), |v| clamped to 1. */
+/* Bilinear velocity of the centre grid (cx, cy) at a point in cell units (x = world
+ * offset / h); a convex mix of vectors with |v| <= 1, so |v| <= 1. */
 void tsk_fluid_sample_cells(const tsk_fluid* f, float cx, float cy, float* vx, float* vy);
 /* Cell-centre velocities (nx*ny each), magnitude clamped to 1. */
 void tsk_fluid_centres(const tsk_fluid* f, float* vx, float* vy);
+/* Refreshes f->cx, f->cy (the centre velocities that sampling reads). */
+void tsk_fluid_update_centres(tsk_fluid* f);
 
 /* ---- wave continuum (continuum.c) ---------------------------------------------------- */
 
@@ -53,8 +57,7 @@ typedef struct tsk_continuum {
     float h, dt, c, gamma, drive;
     float* x[3];
     float* y[3];
-    int cur;               /* index of the current level; prev = (cur+2)%3 */
-    float *wind_x, *wind_y; /* nx*ny scratch: fluid at centres */
+    int cur; /* index of the current level; prev = (cur+2)%3 */
 } tsk_continuum;
 
 /* Checks stability: dt^2 (8 c^2 / h^2 + drive) < 2 (1 + gamma). */
@@ -75,6 +78,16 @@ float* tsk_continuum_prev_y(tsk_continuum* w);
 /* Bilinear Vp at a point in cell units. */
 void tsk_continuum_sample_cells(const tsk_continuum* w, float cx, float cy, float* px,
                                 float* py);
+
+/* Hot point loops are compiled twice, for AVX2 and for the x86-64 baseline, and picked at
+ * load time. Both versions do the same IEEE operations in the same order (no FMA: the
+ * build uses -ffp-contract=off), so they give the same bytes. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_ADDRESS__) &&             \
+    !defined(TSK_NO_CLONES)
+#define TSK_WIND_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define TSK_WIND_CLONES
+#endif
 
 /* ---- sines (sines.c, gust.c, blend.c) ------------------------------------------------- */
 
@@ -120,6 +133,27 @@ void tsk_sines_history_push(tsk_sines_history* h, const tsk_wind_sines_def* def,
                             double blend);
 /* The blended wind of the history at time t. */
 void tsk_sines_history_eval(const tsk_sines_history* h, double t, tsk_sines_eval* ev);
+
+/* sin(x) for |x| / pi < 2^22: reduce by the nearest multiple of pi (Cody-Waite, three
+ * parts), then a degree-11 Taylor polynomial on [-pi/2, pi/2] (error < 1e-7). */
+static inline float tsk_fast_sin(float x) {
+    const float inv_pi = 0.318309886183790671f;
+    const float magic = 12582912.0f; /* 1.5 * 2^23: adding it rounds to an integer */
+    float q = (x * inv_pi + magic) - magic;
+    int qi = (int)q;
+    float r = x - q * 3.140625f;
+    r = r - q * 9.67502593994140625e-4f;
+    r = r - q * 1.509957990978376432e-7f;
+    const float r2 = r * r;
+    float p = -2.50521084e-8f;
+    p = p * r2 + 2.75573192e-6f;
+    p = p * r2 - 1.98412698e-4f;
+    p = p * r2 + 8.33333333e-3f;
+    p = p * r2 - 1.66666667e-1f;
+    float s = r + r * r2 * p;
+    const float sign = 1.0f - 2.0f * (float)(qi & 1);
+    return s * sign;
+}
 
 /* ---- the handle (wind.c) -------------------------------------------------------------- */
 
