@@ -81,6 +81,7 @@ typedef struct step_ctx {
     float* next[2];
 } step_ctx;
 
+TSK_WIND_CLONES
 static void step_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     (void)chunk;
     const step_ctx* s = vctx;

@@ -60,59 +60,83 @@ static inline int clampi(int a, int lo, int hi) { return a < lo ? lo : (a > hi ?
 
 /* Bilinear value of a w x h row-major field at index coordinates (fx, fy); beyond the
  * edge the edge value repeats (zero gradient). */
-static inline float bilinear(const float* q, int w, int h, float fx, float fy) {
-    fx = fx < 0.0f ? 0.0f : (fx > (float)(w - 1) ? (float)(w - 1) : fx);
-    fy = fy < 0.0f ? 0.0f : (fy > (float)(h - 1) ? (float)(h - 1) : fy);
+static inline float bilinear(const float* restrict q, int w, int h, float fx, float fy) {
+    fx = fx > 0.0f ? fx : 0.0f;
+    fx = fx < (float)(w - 1) ? fx : (float)(w - 1);
+    fy = fy > 0.0f ? fy : 0.0f;
+    fy = fy < (float)(h - 1) ? fy : (float)(h - 1);
     int i0 = (int)fx, j0 = (int)fy;
-    if (i0 > w - 2) i0 = w - 2;
-    if (j0 > h - 2) j0 = h - 2;
+    i0 = i0 < w - 2 ? i0 : w - 2;
+    j0 = j0 < h - 2 ? j0 : h - 2;
     const float tx = fx - (float)i0, ty = fy - (float)j0;
-    const float* r0 = q + (size_t)j0 * (size_t)w + (size_t)i0;
-    const float* r1 = r0 + w;
-    const float a = r0[0] + (r0[1] - r0[0]) * tx;
-    const float b = r1[0] + (r1[1] - r1[0]) * tx;
+    const int k = j0 * w + i0, k2 = k + w; /* grids <= 1025 wide: int fits */
+    const float a = q[k] + (q[k + 1] - q[k]) * tx;
+    const float b = q[k2] + (q[k2 + 1] - q[k2]) * tx;
     return a + (b - a) * ty;
 }
 
 /* ---- advection (Stam 1999: trace back along the velocity, interpolate) ---------------- */
 
+/* One row of each advection. The row is built in a local buffer so that the compiler can
+ * prove its gathers from the old field never see what is being written, and vectorises. */
+TSK_WIND_CLONES
+static void advect_u_row(const float* restrict u, const float* restrict vr0,
+                         const float* restrict vr1, float* restrict out, int nx, int ny, int j,
+                         float k) {
+    const float* restrict ur = u + (size_t)j * (nx + 1);
+    const float fj = (float)j; /* index coords of u: y - 0.5 */
+    float row[TSK_WIND_MAX_GRID + 1];
+    /* edge faces: the v average repeats the edge column (zero gradient) */
+    {
+        const float vv = 0.5f * (vr0[0] + vr1[0]);
+        row[0] = bilinear(u, nx + 1, ny, 0.0f - k * ur[0], fj - k * vv);
+    }
+    for (int i = 1; i < nx; ++i) {
+        const float vv = 0.25f * ((vr0[i - 1] + vr0[i]) + (vr1[i - 1] + vr1[i]));
+        row[i] = bilinear(u, nx + 1, ny, (float)i - k * ur[i], fj - k * vv);
+    }
+    {
+        const float vv = 0.5f * (vr0[nx - 1] + vr1[nx - 1]);
+        row[nx] = bilinear(u, nx + 1, ny, (float)nx - k * ur[nx], fj - k * vv);
+    }
+    memcpy(out, row, (size_t)(nx + 1) * sizeof(float));
+}
+
+TSK_WIND_CLONES
+static void advect_v_row(const float* restrict v, const float* restrict ur0,
+                         const float* restrict ur1, float* restrict out, int nx, int ny, int j,
+                         float k) {
+    const float* restrict vr = v + (size_t)j * nx;
+    const float fj = (float)j;
+    float row[TSK_WIND_MAX_GRID];
+    for (int i = 0; i < nx; ++i) {
+        const float uu = 0.25f * ((ur0[i] + ur0[i + 1]) + (ur1[i] + ur1[i + 1]));
+        /* index coords of v: x - 0.5 */
+        row[i] = bilinear(v, nx, ny + 1, (float)i - k * uu, fj - k * vr[i]);
+    }
+    memcpy(out, row, (size_t)nx * sizeof(float));
+}
+
 static void advect_u_rows(size_t b, size_t e, size_t chunk, void* ctx) {
     (void)chunk;
-    tsk_fluid* f = ctx;
+    const tsk_fluid* f = ctx;
     const int nx = f->nx, ny = f->ny;
     const float k = f->dt * f->speed / f->h; /* cells per unit velocity */
     for (int j = (int)b; j < (int)e; ++j) {
         const float* vr0 = f->v + (size_t)j * nx;
-        const float* vr1 = vr0 + nx;
-        float* out = f->u_tmp + (size_t)j * (nx + 1);
-        const float* ur = f->u + (size_t)j * (nx + 1);
-        for (int i = 0; i <= nx; ++i) {
-            const int il = i > 0 ? i - 1 : 0, ir = i < nx ? i : nx - 1;
-            const float vv = 0.25f * (vr0[il] + vr0[ir] + vr1[il] + vr1[ir]);
-            const float px = (float)i - k * ur[i];
-            const float py = (float)j - k * vv; /* index coords of u: y - 0.5 */
-            out[i] = bilinear(f->u, nx + 1, ny, px, py);
-        }
+        advect_u_row(f->u, vr0, vr0 + nx, f->u_tmp + (size_t)j * (nx + 1), nx, ny, j, k);
     }
 }
 
 static void advect_v_rows(size_t b, size_t e, size_t chunk, void* ctx) {
     (void)chunk;
-    tsk_fluid* f = ctx;
+    const tsk_fluid* f = ctx;
     const int nx = f->nx, ny = f->ny;
     const float k = f->dt * f->speed / f->h;
     for (int j = (int)b; j < (int)e; ++j) {
         const int jd = j > 0 ? j - 1 : 0, ju = j < ny ? j : ny - 1;
-        const float* ur0 = f->u + (size_t)jd * (nx + 1);
-        const float* ur1 = f->u + (size_t)ju * (nx + 1);
-        const float* vr = f->v + (size_t)j * nx;
-        float* out = f->v_tmp + (size_t)j * nx;
-        for (int i = 0; i < nx; ++i) {
-            const float uu = 0.25f * (ur0[i] + ur0[i + 1] + ur1[i] + ur1[i + 1]);
-            const float px = (float)i - k * uu; /* index coords of v: x - 0.5 */
-            const float py = (float)j - k * vr[i];
-            out[i] = bilinear(f->v, nx, ny + 1, px, py);
-        }
+        advect_v_row(f->v, f->u + (size_t)jd * (nx + 1), f->u + (size_t)ju * (nx + 1),
+                     f->v_tmp + (size_t)j * nx, nx, ny, j, k);
     }
 }
 
@@ -137,6 +161,7 @@ typedef struct diffuse_ctx {
     float a, inv;
 } diffuse_ctx;
 
+TSK_WIND_CLONES
 static void diffuse_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     (void)chunk;
     const diffuse_ctx* c = vctx;
@@ -184,6 +209,7 @@ void tsk_fluid_diffuse(tsk_fluid* f) {
 
 /* ---- projection: solve lap(phi) = div, subtract grad(phi) (seed 004, eq. 1) ---------- */
 
+TSK_WIND_CLONES
 static void divergence_rows(size_t b, size_t e, size_t chunk, void* ctx) {
     (void)chunk;
     tsk_fluid* f = ctx;
@@ -205,6 +231,7 @@ typedef struct jacobi_ctx {
 } jacobi_ctx;
 
 /* one Jacobi sweep: phi' = (sum of 4 neighbours - div) / 4, ghost ring 0 (p = 0 outside) */
+TSK_WIND_CLONES
 static void jacobi_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     (void)chunk;
     const jacobi_ctx* c = vctx;
@@ -223,6 +250,7 @@ static void jacobi_rows(size_t b, size_t e, size_t chunk, void* vctx) {
 
 /* max over cells of |lap(phi) - div|: exactly the divergence left after subtracting
  * grad(phi) */
+TSK_WIND_CLONES
 static void residual_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     const jacobi_ctx* c = vctx;
     const int nx = c->f->nx;
@@ -241,6 +269,7 @@ static void residual_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     c->partial[chunk] = mx;
 }
 
+TSK_WIND_CLONES
 static void gradient_rows(size_t b, size_t e, size_t chunk, void* ctx) {
     (void)chunk;
     tsk_fluid* f = ctx;
@@ -310,19 +339,24 @@ float tsk_fluid_max_divergence(const tsk_fluid* f) {
 
 /* ---- decay and the bound |v| <= 1 of seed 004 ------------------------------------------ */
 
+TSK_WIND_CLONES
+static void finish_range(float* restrict q, size_t n, float keep) {
+    for (size_t i = 0; i < n; ++i) {
+        const float a = q[i] * keep;
+        const float b = a < 1.0f ? a : 1.0f;
+        q[i] = b > -1.0f ? b : -1.0f;
+    }
+}
+
 static void finish_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     (void)chunk;
     tsk_fluid* f = vctx;
     const float keep = expf(-f->decay * f->dt);
     const size_t nu = (size_t)(f->nx + 1) * (size_t)f->ny;
-    for (size_t i = b; i < e; ++i) {
-        if (i < nu) {
-            float a = f->u[i] * keep;
-            f->u[i] = a > 1.0f ? 1.0f : (a < -1.0f ? -1.0f : a);
-        } else {
-            float a = f->v[i - nu] * keep;
-            f->v[i - nu] = a > 1.0f ? 1.0f : (a < -1.0f ? -1.0f : a);
-        }
+    if (b < nu) finish_range(f->u + b, (e < nu ? e : nu) - b, keep);
+    if (e > nu) {
+        const size_t vb = b > nu ? b - nu : 0;
+        finish_range(f->v + vb, e - nu - vb, keep);
     }
 }
 
@@ -399,6 +433,7 @@ void tsk_fluid_sample_cells(const tsk_fluid* f, float cx, float cy, float* vx, f
 
 void tsk_fluid_update_centres(tsk_fluid* f) { tsk_fluid_centres(f, f->cx, f->cy); }
 
+TSK_WIND_CLONES
 void tsk_fluid_centres(const tsk_fluid* f, float* vx, float* vy) {
     const int nx = f->nx, ny = f->ny;
     for (int j = 0; j < ny; ++j) {
