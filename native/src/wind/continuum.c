@@ -92,13 +92,17 @@ static void step_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     for (int comp = 0; comp < 2; ++comp) {
         for (size_t j = b; j < e; ++j) {
             const float* restrict p = s->cur[comp] + (j + 1) * stride + 1;
+            const float* restrict pl = p - 1;
+            const float* restrict pr = p + 1;
+            const float* restrict pd = p - stride;
+            const float* restrict pu = p + stride;
             const float* restrict q = s->prev[comp] + (j + 1) * stride + 1;
             float* restrict r = s->next[comp] + (j + 1) * stride + 1;
             const float* restrict f = s->wind[comp] ? s->wind[comp] + j * nx : NULL;
             if (f) {
                 for (size_t i = 0; i < nx; ++i) {
                     /* seed 004, eq. 3 plus the drive spring towards the wind */
-                    const float lap = ((p[i - 1] + p[i + 1]) + (p[i - stride] + p[i + stride])) -
+                    const float lap = ((pl[i] + pr[i]) + (pd[i] + pu[i])) -
                                       4.0f * p[i];
                     const float a = c2 * lap + drive * (f[i] - p[i]);
                     /* seed 004, eq. 4 */
@@ -106,7 +110,7 @@ static void step_rows(size_t b, size_t e, size_t chunk, void* vctx) {
                 }
             } else {
                 for (size_t i = 0; i < nx; ++i) {
-                    const float lap = ((p[i - 1] + p[i + 1]) + (p[i - stride] + p[i + stride])) -
+                    const float lap = ((pl[i] + pr[i]) + (pd[i] + pu[i])) -
                                       4.0f * p[i];
                     const float a = c2 * lap - drive * p[i];
                     r[i] = (g1 * p[i] - g * q[i]) + a * dt2;

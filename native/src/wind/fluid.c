@@ -241,10 +241,10 @@ static void jacobi_rows(size_t b, size_t e, size_t chunk, void* vctx) {
         const float* restrict m = c->in + j * w;
         const float* restrict dn = m - w;
         const float* restrict up = m + w;
-        const float* restrict d = c->f->div + (j - 1) * (size_t)nx - 1;
+        const float* restrict d = c->f->div + (j - 1) * (size_t)nx;
         float* restrict o = c->out + j * w;
         for (size_t i = 1; i <= (size_t)nx; ++i)
-            o[i] = 0.25f * (((m[i - 1] + m[i + 1]) + (dn[i] + up[i])) - d[i]);
+            o[i] = 0.25f * (((m[i - 1] + m[i + 1]) + (dn[i] + up[i])) - d[i - 1]);
     }
 }
 
@@ -258,10 +258,11 @@ static void residual_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     float mx = 0.0f;
     for (size_t j = b + 1; j < e + 1; ++j) {
         const float* m = c->in + j * w;
-        const float* d = c->f->div + (j - 1) * (size_t)nx - 1;
+        const float* dn = m - w;
+        const float* up = m + w;
+        const float* d = c->f->div + (j - 1) * (size_t)nx;
         for (size_t i = 1; i <= (size_t)nx; ++i) {
-            const float r =
-                ((m[i - 1] + m[i + 1]) + (m[i - w] + m[i + w])) - 4.0f * m[i] - d[i];
+            const float r = ((m[i - 1] + m[i + 1]) + (dn[i] + up[i])) - 4.0f * m[i] - d[i - 1];
             const float a = fabsf(r);
             mx = a > mx ? a : mx;
         }
