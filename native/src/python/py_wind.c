@@ -1,0 +1,464 @@
+/* Binding of the wind: a handle in a PyCapsule, keyword parameters mapped onto the
+ * definition structs, and sampling / grid read-out into caller numpy float32 buffers.
+ * Argument and buffer checks only; the C library validates every value. */
+#include "binding.h"
+
+#include <string.h>
+
+#include "tussock/wind.h"
+
+static const char* CAPSULE_NAME = "tussock.wind";
+
+/* The capsule holds this box, so that wind_destroy can free the wind before Python drops
+ * the capsule, and a call that runs without the GIL marks the handle busy. */
+typedef struct wind_box {
+    tsk_wind* wind;
+    int busy;
+} wind_box;
+
+static void capsule_free(PyObject* capsule) {
+    wind_box* box = PyCapsule_GetPointer(capsule, CAPSULE_NAME);
+    if (box == NULL) {
+        PyErr_Clear();
+        return;
+    }
+    tsk_wind_destroy(box->wind);
+    PyMem_Free(box);
+}
+
+/* Returns the box of a live, idle handle (and marks it busy), or NULL with an error set. */
+static wind_box* acquire(PyObject* capsule) {
+    wind_box* box = PyCapsule_IsValid(capsule, CAPSULE_NAME)
+                        ? PyCapsule_GetPointer(capsule, CAPSULE_NAME)
+                        : NULL;
+    if (box == NULL) {
+        PyErr_Clear();
+        tsk_py_raise_arg("wind", "expected a wind handle from wind_create");
+        return NULL;
+    }
+    if (box->wind == NULL) {
+        tsk_py_raise_arg("wind", "this wind was destroyed");
+        return NULL;
+    }
+    if (box->busy) {
+        tsk_py_raise_arg("wind", "this wind is in use by another thread");
+        return NULL;
+    }
+    box->busy = 1;
+    return box;
+}
+
+static void release(wind_box* box) { box->busy = 0; }
+
+/* ---- keyword parameters -> definition ---------------------------------------------- */
+
+enum { WAVE_FIELDS = 7, SOURCE_FIELDS = 8 };
+
+static int get_float(PyObject* value, const char* key, float* out) {
+    double d = PyFloat_AsDouble(value);
+    if (d == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        tsk_py_raise_arg(key, "must be a number");
+        return 0;
+    }
+    *out = (float)d;
+    return 1;
+}
+
+static int get_int(PyObject* value, const char* key, int* out) {
+    long v = PyLong_AsLong(value);
+    if (v == -1 && PyErr_Occurred()) {
+        PyErr_Clear();
+        tsk_py_raise_arg(key, "must be an integer");
+        return 0;
+    }
+    if (v < -2147483647L || v > 2147483647L) {
+        tsk_py_raise_arg(key, "is out of range");
+        return 0;
+    }
+    *out = (int)v;
+    return 1;
+}
+
+/* waves: float32 buffer of 7 * n values (amplitude, dir_x, dir_y, wavelength, speed,
+ * phase, power) per wave, n <= 8 */
+static int get_waves(PyObject* value, tsk_wind_sines_def* s) {
+    Py_buffer view;
+    if (!tsk_py_buffer(value, "waves", TSK_PY_F32, -1, 0, &view)) return 0;
+    const Py_ssize_t n = tsk_py_count(&view);
+    if (n % WAVE_FIELDS != 0 || n / WAVE_FIELDS > TSK_WIND_MAX_WAVES) {
+        PyBuffer_Release(&view);
+        tsk_py_raise_arg("waves", "must hold 7 floats per wave (amplitude, dir_x, dir_y, "
+                                  "wavelength, speed, phase, power) for 0..%d waves, got %zd floats",
+                         TSK_WIND_MAX_WAVES, n);
+        return 0;
+    }
+    const float* f = view.buf;
+    s->wave_count = (int)(n / WAVE_FIELDS);
+    for (int i = 0; i < s->wave_count; ++i) {
+        const float* w = f + WAVE_FIELDS * i;
+        s->waves[i].amplitude = w[0];
+        s->waves[i].dir_x = w[1];
+        s->waves[i].dir_y = w[2];
+        s->waves[i].wavelength = w[3];
+        s->waves[i].speed = w[4];
+        s->waves[i].phase = w[5];
+        s->waves[i].power = w[6];
+    }
+    PyBuffer_Release(&view);
+    return 1;
+}
+
+/* Sets one sines field; returns 1 if handled, 0 on error, -1 if the key is not a sines key. */
+static int set_sines_key(tsk_wind_sines_def* s, const char* key, PyObject* value) {
+    struct {
+        const char* name;
+        float* field;
+    } floats[] = {{"base_x", &s->base_x},
+                  {"base_y", &s->base_y},
+                  {"gust_strength", &s->gust.strength},
+                  {"gust_interval", &s->gust.interval},
+                  {"gust_duration", &s->gust.duration},
+                  {"gust_dir_x", &s->gust.dir_x},
+                  {"gust_dir_y", &s->gust.dir_y},
+                  {"gust_front_speed", &s->gust.front_speed}};
+    for (size_t i = 0; i < sizeof floats / sizeof floats[0]; ++i)
+        if (strcmp(key, floats[i].name) == 0) return get_float(value, key, floats[i].field);
+    if (strcmp(key, "waves") == 0) return get_waves(value, s);
+    if (strcmp(key, "seed") == 0) {
+        unsigned long long v = PyLong_AsUnsignedLongLongMask(value);
+        if (PyErr_Occurred()) {
+            PyErr_Clear();
+            tsk_py_raise_arg(key, "must be an integer");
+            return 0;
+        }
+        s->gust.seed = v;
+        return 1;
+    }
+    return -1;
+}
+
+static int set_def_key(tsk_wind_def* d, const char* key, PyObject* value) {
+    int r = set_sines_key(&d->sines, key, value);
+    if (r >= 0) return r;
+    tsk_wind_fluid_def* f = &d->fluid;
+    tsk_wind_continuum_def* c = &d->continuum;
+    struct {
+        const char* name;
+        float* field;
+    } floats[] = {{"origin_x", &f->origin_x},   {"origin_y", &f->origin_y},
+                  {"cell_size", &f->cell_size}, {"dt", &f->dt},
+                  {"speed", &f->speed},         {"viscosity", &f->viscosity},
+                  {"decay", &f->decay},         {"pressure_tolerance", &f->pressure_tolerance},
+                  {"c", &c->c},                 {"gamma", &c->gamma},
+                  {"drive", &c->drive}};
+    for (size_t i = 0; i < sizeof floats / sizeof floats[0]; ++i)
+        if (strcmp(key, floats[i].name) == 0) return get_float(value, key, floats[i].field);
+    struct {
+        const char* name;
+        int* field;
+    } ints[] = {{"nx", &f->nx},
+                {"ny", &f->ny},
+                {"pressure_iterations", &f->pressure_iterations},
+                {"diffusion_iterations", &f->diffusion_iterations}};
+    for (size_t i = 0; i < sizeof ints / sizeof ints[0]; ++i)
+        if (strcmp(key, ints[i].name) == 0) return get_int(value, key, ints[i].field);
+    if (strcmp(key, "continuum") == 0) {
+        int t = PyObject_IsTrue(value);
+        if (t < 0) return 0;
+        c->enabled = t;
+        return 1;
+    }
+    return -1;
+}
+
+/* Applies every keyword; unknown keywords are an error naming them. */
+static int apply_kwargs(PyObject* kwargs, void* target, int sines_only) {
+    if (kwargs == NULL) return 1;
+    PyObject *key, *value;
+    Py_ssize_t pos = 0;
+    while (PyDict_Next(kwargs, &pos, &key, &value)) {
+        const char* k = PyUnicode_AsUTF8AndSize(key, NULL);
+        if (k == NULL) return 0;
+        int r = sines_only ? set_sines_key(target, k, value) : set_def_key(target, k, value);
+        if (r == 0) return 0;
+        if (r < 0) {
+            tsk_py_raise_arg(k, "is not a wind parameter");
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* ---- functions ------------------------------------------------------------------------ */
+
+static PyObject* py_wind_create(PyObject* self, PyObject* args, PyObject* kwargs) {
+    (void)self;
+    if (PyTuple_Size(args) != 0)
+        return tsk_py_raise_arg("wind_create", "takes keyword arguments only");
+    tsk_wind_def def = tsk_default_wind_def();
+    if (!apply_kwargs(kwargs, &def, 0)) return NULL;
+    tsk_wind* w = NULL;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_wind_create(&def, &w);
+    Py_END_ALLOW_THREADS
+    if (s != TSK_OK) return tsk_py_raise(s);
+    wind_box* box = PyMem_Malloc(sizeof *box);
+    if (box == NULL) {
+        tsk_wind_destroy(w);
+        return PyErr_NoMemory();
+    }
+    box->wind = w;
+    box->busy = 0;
+    PyObject* cap = PyCapsule_New(box, CAPSULE_NAME, capsule_free);
+    if (cap == NULL) {
+        tsk_wind_destroy(w);
+        PyMem_Free(box);
+    }
+    return cap;
+}
+
+static PyObject* py_wind_destroy(PyObject* self, PyObject* capsule) {
+    (void)self;
+    wind_box* box = acquire(capsule);
+    if (box == NULL) return NULL;
+    tsk_wind_destroy(box->wind);
+    box->wind = NULL;
+    release(box);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_wind_set_sines(PyObject* self, PyObject* args, PyObject* kwargs) {
+    (void)self;
+    PyObject* capsule;
+    double start, blend;
+    if (!PyArg_ParseTuple(args, "Odd:wind_set_sines", &capsule, &start, &blend)) return NULL;
+    tsk_wind_sines_def sd = tsk_default_wind_sines_def();
+    if (!apply_kwargs(kwargs, &sd, 1)) return NULL;
+    wind_box* box = acquire(capsule);
+    if (box == NULL) return NULL;
+    tsk_status s = tsk_wind_set_sines(box->wind, &sd, start, blend);
+    release(box);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_wind_set_sources(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *capsule, *obj;
+    if (!PyArg_ParseTuple(args, "OO:wind_set_sources", &capsule, &obj)) return NULL;
+    Py_buffer view;
+    if (!tsk_py_buffer(obj, "sources", TSK_PY_F32, -1, 0, &view)) return NULL;
+    const Py_ssize_t n = tsk_py_count(&view);
+    if (n % SOURCE_FIELDS != 0) {
+        PyBuffer_Release(&view);
+        return tsk_py_raise_arg("sources",
+                                "must hold 8 floats per source (x, y, dir_x, dir_y, strength, "
+                                "radius, interval, start), got %zd floats",
+                                n);
+    }
+    const size_t count = (size_t)(n / SOURCE_FIELDS);
+    if (count > TSK_WIND_MAX_SOURCES) {
+        PyBuffer_Release(&view);
+        return tsk_py_raise_arg("sources", "at most %d sources, got %zu", TSK_WIND_MAX_SOURCES,
+                                count);
+    }
+    tsk_wind_source src[TSK_WIND_MAX_SOURCES];
+    const float* f = view.buf;
+    for (size_t i = 0; i < count; ++i) {
+        const float* q = f + SOURCE_FIELDS * i;
+        src[i].x = q[0];
+        src[i].y = q[1];
+        src[i].dir_x = q[2];
+        src[i].dir_y = q[3];
+        src[i].strength = q[4];
+        src[i].radius = q[5];
+        src[i].interval = q[6];
+        src[i].start = q[7];
+    }
+    PyBuffer_Release(&view);
+    wind_box* box = acquire(capsule);
+    if (box == NULL) return NULL;
+    tsk_status s = tsk_wind_set_sources(box->wind, src, count);
+    release(box);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_wind_step(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* capsule;
+    int steps;
+    if (!PyArg_ParseTuple(args, "Oi:wind_step", &capsule, &steps)) return NULL;
+    wind_box* box = acquire(capsule);
+    if (box == NULL) return NULL;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_wind_step(box->wind, steps);
+    Py_END_ALLOW_THREADS
+    release(box);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_wind_time(PyObject* self, PyObject* capsule) {
+    (void)self;
+    wind_box* box = acquire(capsule);
+    if (box == NULL) return NULL;
+    const double t = tsk_wind_time(box->wind);
+    release(box);
+    return PyFloat_FromDouble(t);
+}
+
+static PyObject* py_wind_grid_size(PyObject* self, PyObject* capsule) {
+    (void)self;
+    wind_box* box = acquire(capsule);
+    if (box == NULL) return NULL;
+    int nx, ny;
+    tsk_wind_grid_size(box->wind, &nx, &ny);
+    release(box);
+    return Py_BuildValue("(ii)", nx, ny);
+}
+
+static PyObject* py_wind_sample(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *capsule, *xo, *yo, *vxo, *vyo, *sxo = Py_None, *syo = Py_None;
+    double t;
+    if (!PyArg_ParseTuple(args, "OdOOOO|OO:wind_sample", &capsule, &t, &xo, &yo, &vxo, &vyo, &sxo,
+                          &syo))
+        return NULL;
+    if ((sxo == Py_None) != (syo == Py_None))
+        return tsk_py_raise_arg("sway_x", "sway_x and sway_y must both be given or both be None");
+    Py_buffer x, y, vx, vy, sx, sy;
+    if (!tsk_py_buffer(xo, "x", TSK_PY_F32, -1, 0, &x)) return NULL;
+    const Py_ssize_t n = tsk_py_count(&x);
+    int got = 1, ny = 0, nvx = 0, nvy = 0, nsx = 0, nsy = 0;
+    got = got && (ny = tsk_py_buffer(yo, "y", TSK_PY_F32, n, 0, &y));
+    got = got && (nvx = tsk_py_buffer(vxo, "vx", TSK_PY_F32, n, 1, &vx));
+    got = got && (nvy = tsk_py_buffer(vyo, "vy", TSK_PY_F32, n, 1, &vy));
+    if (sxo != Py_None) {
+        got = got && (nsx = tsk_py_buffer(sxo, "sway_x", TSK_PY_F32, n, 1, &sx));
+        got = got && (nsy = tsk_py_buffer(syo, "sway_y", TSK_PY_F32, n, 1, &sy));
+    }
+    wind_box* box = got ? acquire(capsule) : NULL;
+    tsk_status s = TSK_OK;
+    if (box != NULL) {
+        Py_BEGIN_ALLOW_THREADS
+        s = tsk_wind_sample(box->wind, t, (size_t)n, x.buf, y.buf, vx.buf, vy.buf,
+                            nsx ? sx.buf : NULL, nsy ? sy.buf : NULL);
+        Py_END_ALLOW_THREADS
+        release(box);
+    }
+    PyBuffer_Release(&x);
+    if (ny) PyBuffer_Release(&y);
+    if (nvx) PyBuffer_Release(&vx);
+    if (nvy) PyBuffer_Release(&vy);
+    if (nsx) PyBuffer_Release(&sx);
+    if (nsy) PyBuffer_Release(&sy);
+    if (box == NULL) return NULL;
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_wind_sample_xyz(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *capsule, *po, *vo, *so = Py_None;
+    double t;
+    if (!PyArg_ParseTuple(args, "OdOO|O:wind_sample_xyz", &capsule, &t, &po, &vo, &so)) return NULL;
+    Py_buffer p, v, sw;
+    if (!tsk_py_buffer(po, "xyz", TSK_PY_F32, -1, 0, &p)) return NULL;
+    const Py_ssize_t n3 = tsk_py_count(&p);
+    if (n3 % 3 != 0) {
+        PyBuffer_Release(&p);
+        return tsk_py_raise_arg("xyz", "must hold 3 floats per point, got %zd floats", n3);
+    }
+    int got = 1, nv = 0, ns = 0;
+    got = got && (nv = tsk_py_buffer(vo, "vel_xyz", TSK_PY_F32, n3, 1, &v));
+    if (so != Py_None) got = got && (ns = tsk_py_buffer(so, "sway_xyz", TSK_PY_F32, n3, 1, &sw));
+    wind_box* box = got ? acquire(capsule) : NULL;
+    tsk_status s = TSK_OK;
+    if (box != NULL) {
+        Py_BEGIN_ALLOW_THREADS
+        s = tsk_wind_sample_xyz(box->wind, t, (size_t)(n3 / 3), p.buf, v.buf, ns ? sw.buf : NULL);
+        Py_END_ALLOW_THREADS
+        release(box);
+    }
+    PyBuffer_Release(&p);
+    if (nv) PyBuffer_Release(&v);
+    if (ns) PyBuffer_Release(&sw);
+    if (box == NULL) return NULL;
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* read_grid(PyObject* args, const char* fmt, int continuum) {
+    PyObject *capsule, *ao, *bo;
+    if (!PyArg_ParseTuple(args, fmt, &capsule, &ao, &bo)) return NULL;
+    wind_box* box = acquire(capsule);
+    if (box == NULL) return NULL;
+    int nx, ny;
+    tsk_wind_grid_size(box->wind, &nx, &ny);
+    const Py_ssize_t n = (Py_ssize_t)nx * ny;
+    Py_buffer a, b;
+    if (!tsk_py_buffer(ao, continuum ? "px" : "vx", TSK_PY_F32, n, 1, &a)) {
+        release(box);
+        return NULL;
+    }
+    if (!tsk_py_buffer(bo, continuum ? "py" : "vy", TSK_PY_F32, n, 1, &b)) {
+        PyBuffer_Release(&a);
+        release(box);
+        return NULL;
+    }
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = continuum ? tsk_wind_read_continuum(box->wind, a.buf, b.buf, (size_t)n)
+                  : tsk_wind_read_fluid(box->wind, a.buf, b.buf, (size_t)n);
+    Py_END_ALLOW_THREADS
+    release(box);
+    PyBuffer_Release(&a);
+    PyBuffer_Release(&b);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_wind_read_fluid(PyObject* self, PyObject* args) {
+    (void)self;
+    return read_grid(args, "OOO:wind_read_fluid", 0);
+}
+
+static PyObject* py_wind_read_continuum(PyObject* self, PyObject* args) {
+    (void)self;
+    return read_grid(args, "OOO:wind_read_continuum", 1);
+}
+
+PyMethodDef tsk_py_wind_methods[] = {
+    {"wind_create", (PyCFunction)(void (*)(void))py_wind_create, METH_VARARGS | METH_KEYWORDS,
+     "wind_create(**params) -> handle. Keywords (defaults from tsk_default_wind_def): base_x, "
+     "base_y, waves (float32, 7 per wave: amplitude, dir_x, dir_y, wavelength, speed, phase, "
+     "power), gust_strength, gust_interval, gust_duration, gust_dir_x, gust_dir_y, "
+     "gust_front_speed, seed; nx, ny (0, 0 = no grid), origin_x, origin_y, cell_size, dt, speed, "
+     "viscosity, decay, pressure_iterations, pressure_tolerance, diffusion_iterations; "
+     "continuum (bool), c, gamma, drive."},
+    {"wind_destroy", py_wind_destroy, METH_O, "wind_destroy(handle): frees the wind now."},
+    {"wind_set_sines", (PyCFunction)(void (*)(void))py_wind_set_sines,
+     METH_VARARGS | METH_KEYWORDS,
+     "wind_set_sines(handle, start_time, blend_time, **sines): cross-fades to new breeze, waves "
+     "and gusts (same keywords as wind_create; unset ones take the defaults)."},
+    {"wind_set_sources", py_wind_set_sources, METH_VARARGS,
+     "wind_set_sources(handle, sources): float32, 8 per source: x, y, dir_x, dir_y, strength, "
+     "radius, interval, start."},
+    {"wind_step", py_wind_step, METH_VARARGS, "wind_step(handle, steps): advances fluid+continuum."},
+    {"wind_time", py_wind_time, METH_O, "wind_time(handle) -> float: simulation time, s."},
+    {"wind_grid_size", py_wind_grid_size, METH_O, "wind_grid_size(handle) -> (nx, ny)."},
+    {"wind_sample", py_wind_sample, METH_VARARGS,
+     "wind_sample(handle, t, x, y, vx, vy[, sway_x, sway_y]): float32 arrays of one length; "
+     "writes the wind (m/s) and optionally the continuum sway."},
+    {"wind_sample_xyz", py_wind_sample_xyz, METH_VARARGS,
+     "wind_sample_xyz(handle, t, xyz, vel_xyz[, sway_xyz]): float32, 3 per point."},
+    {"wind_read_fluid", py_wind_read_fluid, METH_VARARGS,
+     "wind_read_fluid(handle, vx, vy): float32 nx*ny each, normalised fluid velocity at centres."},
+    {"wind_read_continuum", py_wind_read_continuum, METH_VARARGS,
+     "wind_read_continuum(handle, px, py): float32 nx*ny each, continuum Vp at centres."},
+    {NULL, NULL, 0, NULL},
+};
