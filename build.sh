@@ -125,6 +125,8 @@ cmd_demo() {
 
 cmd_bench() {
   cmd_build
+  # as inside Blender (addon/native.py): OpenMP waiters sleep instead of spinning
+  export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-PASSIVE}"
   local b
   for b in "$BUILD/release"/bench_*; do
     [ -x "$b" ] || continue

@@ -3,6 +3,13 @@ registration: it becomes one clear message that the panel shows and operators re
 
 BUILD_HINT = "run ./build.sh build in the Tussock source folder, then restart Blender"
 
+import os
+
+# OpenMP threads that spin while waiting steal the core from Blender's own threads and from
+# each other on small machines; sleeping waiters are 2-3x faster there (docs/performance.md).
+# Only effective when set before the OpenMP runtime starts, i.e. before _tussock loads.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
 lib = None
 error = ""
 

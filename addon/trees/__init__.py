@@ -1,0 +1,1 @@
+"""Weber-Penn trees that sway in the shared wind (seed 001)."""

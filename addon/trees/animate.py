@@ -1,0 +1,37 @@
+"""Trees sway on the timeline: after every frame change each tree in the scene is bent by
+the scene's wind at that frame."""
+
+import bpy
+
+from .. import handlers, native
+
+
+@bpy.app.handlers.persistent
+def on_frame_change(scene, depsgraph=None):
+    if not native.available():
+        return
+    from . import build
+    for obj in scene.objects:  # one pose per tree object
+        s = getattr(obj, "tussock_tree", None)
+        if s is None or not s.is_tree:
+            continue
+        try:
+            build.pose(obj, scene, scene.frame_current)
+        except (native.Error, ValueError) as exc:
+            s.last_error = str(exc)
+
+
+@bpy.app.handlers.persistent
+def on_load(*_args):
+    from . import build
+    from ..wind import runtime
+    build.forget()
+    runtime.clear()
+
+
+classes = ()
+
+
+def register_extra():
+    handlers.add("frame_change_post", on_frame_change)
+    handlers.add("load_post", on_load)

@@ -1,0 +1,156 @@
+"""A tree's Blender mesh from its Weber-Penn definition, and its pose at a frame.
+
+The native tree (branches as Bézier segments) is kept per object in a cache keyed by the
+definition, so a frame change only bends branches and writes vertex positions. The pose
+of a frame depends only on that frame's wind (exact mode of seed 001 §4: children sit on
+the moved parent), so scrubbing, jumping and farm frame splits all agree."""
+
+import json
+
+import bpy
+import numpy as np
+
+from .. import native
+from ..wind import runtime as wind_runtime
+from . import materials, params
+
+_cache = {}  # object name -> dict(key, tree, rest_tips, smooth, cage_vertices, ...)
+
+
+def definition(settings):
+    d = params.to_dict(settings.params)
+    d["seed"] = int(settings.seed)
+    if not settings.leaves:
+        d["leaves"] = 0
+    return d
+
+
+def _key(d, settings):
+    return json.dumps(d, sort_keys=True) + f"|{settings.smooth_levels}"
+
+
+def compute(settings):
+    """Native work for a tree: generate, mesh topology, rest pose. No Blender data touched."""
+    lib = native.require()
+    d = definition(settings)
+    tree = lib.tree_create(d)
+    counts = lib.tree_counts(tree)
+    nv, nq = lib.tree_mesh_count(tree, leaves=True)
+    faces = np.empty(nq * 4, np.int32)
+    uvs = np.empty(nq * 8, np.float32)
+    lib.tree_mesh_topology(tree, faces, uvs, leaves=True)
+    positions = np.empty(nv * 3, np.float32)
+    lib.tree_mesh_deform(tree, positions, leaves=True)
+    leaf_quads = counts["leaves"]
+    data = dict(key=_key(d, settings), tree=tree, counts=counts, faces=faces.reshape(-1, 4),
+                uvs=uvs, positions=positions, leaf_quads=leaf_quads, smooth=None)
+    tips = np.empty(counts["branches"] * 3, np.float32)
+    lib.tree_tips(tree, tips)
+    data["rest_tips"] = tips.reshape(-1, 3)
+    if settings.smooth_levels > 0:
+        cage_v, cage_q = lib.tree_mesh_count(tree, leaves=False)
+        h = lib.subdiv_create(np.ascontiguousarray(faces[:cage_q * 4]), cage_v, settings.smooth_levels)
+        sv, sq = lib.subdiv_counts(h)
+        sfaces = np.empty(sq * 4, np.int32)
+        lib.subdiv_faces(h, sfaces)
+        data["smooth"] = dict(handle=h, cage_vertices=cage_v, cage_quads=cage_q,
+                              vertices=sv, faces=sfaces.reshape(-1, 4))
+    return data
+
+
+def _mesh_arrays(data, positions):
+    """(vertex positions (V, 3), quads (Q, 4), uvs per corner or None) for the mesh, with
+    the smoothed branches when the tree is smooth."""
+    if data["smooth"] is None:
+        return positions.reshape(-1, 3), data["faces"], data["uvs"]
+    lib = native.require()
+    s = data["smooth"]
+    cage = np.ascontiguousarray(positions[:s["cage_vertices"] * 3])
+    refined = np.empty(s["vertices"] * 3, np.float32)
+    lib.subdiv_apply(s["handle"], cage, refined)
+    leaves_pos = positions[s["cage_vertices"] * 3:].reshape(-1, 3)
+    leaf_faces = data["faces"][s["cage_quads"]:] - s["cage_vertices"] + s["vertices"]
+    verts = np.concatenate([refined.reshape(-1, 3), leaves_pos])
+    quads = np.concatenate([s["faces"], leaf_faces])
+    return verts, quads, None
+
+
+def write(obj, data):
+    """Replaces the object's mesh with the tree's (materials: bark 0, leaves 1)."""
+    verts, quads, uvs = _mesh_arrays(data, data["positions"])
+    mesh = obj.data
+    mesh.clear_geometry()
+    mesh.vertices.add(len(verts))
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(verts, np.float32).ravel())
+    nq = len(quads)
+    mesh.loops.add(nq * 4)
+    mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(quads, np.int32).ravel())
+    mesh.polygons.add(nq)
+    mesh.polygons.foreach_set("loop_start", np.arange(0, nq * 4, 4, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(nq, 4, np.int32))
+    index = np.zeros(nq, np.int32)
+    if data["leaf_quads"]:
+        index[nq - data["leaf_quads"]:] = 1
+    mesh.polygons.foreach_set("material_index", index)
+    mesh.polygons.foreach_set("use_smooth", index == 0)
+    if uvs is not None:
+        layer = mesh.uv_layers.new(name="UVMap")
+        layer.data.foreach_set("uv", uvs)
+    mesh.update()
+    if len(mesh.materials) == 0:
+        mesh.materials.append(materials.bark())
+        mesh.materials.append(materials.leaf())
+    _cache[obj.name] = data
+    obj["tussock_branches"] = int(data["counts"]["branches"])
+    obj["tussock_leaves"] = int(data["counts"]["leaves"])
+    obj["tussock_vertices"] = len(verts)
+
+
+def rebuild(obj):
+    data = compute(obj.tussock_tree)
+    write(obj, data)
+    pose(obj, bpy.context.scene, bpy.context.scene.frame_current)
+
+
+def _data(obj):
+    """The cached native tree of obj, rebuilt after a file load or a change."""
+    s = obj.tussock_tree
+    data = _cache.get(obj.name)
+    if data is None or data["key"] != _key(definition(s), s):
+        data = compute(s)
+        _cache[obj.name] = data
+    return data
+
+
+def pose(obj, scene, frame):
+    """Bends the tree by the scene's wind at `frame` and writes the vertex positions."""
+    lib = native.require()
+    s = obj.tussock_tree
+    data = _data(obj)
+    tree = data["tree"]
+    if s.wind_strength > 0.0:
+        # the wind at the rest tips, in world space, turned into the tree's local frame
+        m = np.array(obj.matrix_world, np.float64)
+        tips_world = data["rest_tips"] @ m[:3, :3].T + m[:3, 3]
+        vel = wind_runtime.sample(scene, frame, tips_world)
+        force = np.ascontiguousarray(vel @ np.linalg.inv(m[:3, :3]).T, np.float32)
+        lib.tree_reset(tree)
+        lib.tree_wind_step(tree, force.ravel(), mode=1, strength=float(s.wind_strength))
+    else:
+        lib.tree_reset(tree)
+    positions = np.empty(len(data["positions"]), np.float32)
+    lib.tree_mesh_deform(tree, positions, leaves=True)
+    verts, _, _ = _mesh_arrays(data, positions)
+    mesh = obj.data
+    if len(mesh.vertices) != len(verts):
+        write(obj, data)
+        mesh = obj.data
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(verts, np.float32).ravel())
+    mesh.update()
+
+
+def forget(name=None):
+    if name is None:
+        _cache.clear()
+    else:
+        _cache.pop(name, None)

@@ -1,0 +1,122 @@
+"""tussock.add_tree and the preset operators."""
+
+import bpy
+
+from .. import errors, native
+from . import build, params, presets
+
+
+class TUSSOCK_OT_add_tree(bpy.types.Operator):
+    """Grow a Weber-Penn tree at the 3D cursor; it sways in the scene's wind"""
+    bl_idname = "tussock.add_tree"
+    bl_label = "Add Tree"
+    bl_options = {"REGISTER", "UNDO"}
+
+    preset: bpy.props.EnumProperty(name="Preset", items=presets.items)
+    seed: bpy.props.IntProperty(name="Seed", default=1, min=0)
+    leaves: bpy.props.BoolProperty(name="Leaves", default=True)
+    smooth_levels: bpy.props.IntProperty(name="Smooth", default=0, min=0, max=3)
+
+    def execute(self, context):
+        return errors.run(self, self._add, context)
+
+    def _add(self, context):
+        native.require()
+        d = presets.load(self.preset)
+        obj = bpy.data.objects.new(self.preset.replace("user:", "").replace("_", " ").title(),
+                                   bpy.data.meshes.new("Tree"))
+        s = obj.tussock_tree
+        try:
+            params.from_dict(s.params, d)   # is_tree is False: no rebuild yet
+            s.seed, s.leaves, s.smooth_levels = self.seed, self.leaves, self.smooth_levels
+            data = build.compute(s)          # raises before the object joins the scene
+        except Exception:
+            mesh = obj.data
+            bpy.data.objects.remove(obj)
+            bpy.data.meshes.remove(mesh)
+            raise
+        obj.location = context.scene.cursor.location
+        context.collection.objects.link(obj)
+        build.write(obj, data)
+        s.is_tree = True
+        build.pose(obj, context.scene, context.scene.frame_current)
+        for o in context.selected_objects:
+            o.select_set(False)
+        obj.select_set(True)
+        context.view_layer.objects.active = obj
+        self.report({"INFO"}, f"{obj.name}: {obj['tussock_branches']:,} branches, "
+                              f"{obj['tussock_leaves']:,} leaves")
+        return {"FINISHED"}
+
+
+class TUSSOCK_OT_tree_preset_add(bpy.types.Operator):
+    """Save the active tree's parameters as a preset of your own"""
+    bl_idname = "tussock.tree_preset_add"
+    bl_label = "Save Tree Preset"
+
+    name: bpy.props.StringProperty(name="Name", default="My tree")
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        return obj is not None and obj.tussock_tree.is_tree
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        return errors.run(self, self._save, context)
+
+    def _save(self, context):
+        d = build.definition(context.active_object.tussock_tree)
+        name = presets.save(self.name, d)
+        self.report({"INFO"}, f"Saved tree preset '{name}'")
+        return {"FINISHED"}
+
+
+class TUSSOCK_OT_tree_preset_remove(bpy.types.Operator):
+    """Remove one of your tree presets"""
+    bl_idname = "tussock.tree_preset_remove"
+    bl_label = "Remove Tree Preset"
+
+    preset: bpy.props.EnumProperty(name="Preset", items=presets.items)
+
+    def execute(self, context):
+        return errors.run(self, self._remove)
+
+    def _remove(self):
+        presets.remove(self.preset)
+        self.report({"INFO"}, f"Removed tree preset '{self.preset[5:]}'")
+        return {"FINISHED"}
+
+
+class TUSSOCK_OT_tree_apply_preset(bpy.types.Operator):
+    """Load a preset's parameters into the active tree"""
+    bl_idname = "tussock.tree_apply_preset"
+    bl_label = "Apply Tree Preset"
+    bl_options = {"REGISTER", "UNDO"}
+
+    preset: bpy.props.EnumProperty(name="Preset", items=presets.items)
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        return obj is not None and obj.tussock_tree.is_tree
+
+    def execute(self, context):
+        return errors.run(self, self._apply, context)
+
+    def _apply(self, context):
+        obj = context.active_object
+        s = obj.tussock_tree
+        d = presets.load(self.preset)
+        native.require().tree_create(d)  # check it before changing anything
+        s.is_tree = False
+        params.from_dict(s.params, d)
+        s.is_tree = True
+        build.rebuild(obj)
+        return {"FINISHED"}
+
+
+classes = (TUSSOCK_OT_add_tree, TUSSOCK_OT_tree_preset_add, TUSSOCK_OT_tree_preset_remove,
+           TUSSOCK_OT_tree_apply_preset)

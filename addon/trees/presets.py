@@ -1,0 +1,72 @@
+"""Tree presets: the native library's built-in species and the artist's own, saved as
+JSON files in Blender's user folder (presets/tussock_trees)."""
+
+import json
+import os
+import re
+
+import bpy
+
+from .. import native
+
+_items = []  # kept alive: Blender needs enum item strings to outlive the callback
+
+
+def user_dir(create=False):
+    return bpy.utils.user_resource("SCRIPTS", path=os.path.join("presets", "tussock_trees"),
+                                   create=create)
+
+
+def user_presets():
+    d = user_dir()
+    if not d or not os.path.isdir(d):
+        return []
+    return sorted(f[:-5] for f in os.listdir(d) if f.endswith(".json"))
+
+
+def builtin_presets():
+    return list(native.lib.tree_presets()) if native.available() else []
+
+
+def items(_self=None, _context=None):
+    _items.clear()
+    for name in builtin_presets():
+        _items.append((name, name.replace("_", " ").title(), "Built-in preset"))
+    for name in user_presets():
+        _items.append(("user:" + name, name, "Your preset"))
+    if not _items:
+        _items.append(("NONE", "None", "The native library is missing"))
+    return _items
+
+
+def load(name):
+    """The definition dict of a preset (built-in name or 'user:NAME')."""
+    if name.startswith("user:"):
+        path = os.path.join(user_dir(), name[5:] + ".json")
+        try:
+            with open(path) as f:
+                d = json.load(f)
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"preset '{name[5:]}': cannot read {path}: {exc}") from None
+        if not isinstance(d, dict):
+            raise ValueError(f"preset '{name[5:]}': {path} does not hold a tree definition")
+        return d
+    return native.require().tree_preset(name)
+
+
+def save(name, d):
+    clean = re.sub(r"[^A-Za-z0-9 _-]", "", name).strip()
+    if not clean:
+        raise ValueError("name: use letters, digits, spaces, - or _")
+    path = os.path.join(user_dir(create=True), clean + ".json")
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        json.dump(d, f, indent=1, sort_keys=True)
+    os.replace(tmp, path)
+    return clean
+
+
+def remove(name):
+    if not name.startswith("user:"):
+        raise ValueError(f"'{name}' is a built-in preset and cannot be removed")
+    os.remove(os.path.join(user_dir(), name[5:] + ".json"))

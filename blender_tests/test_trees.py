@@ -1,0 +1,162 @@
+"""Trees in Blender: presets grow with the counts the native generator gives, the same seed
+gives the same mesh, a tree sways in the scene's wind with every child on its parent
+(exact mode) and revisited frames are identical, no wind is a still tree, smoothing goes
+through OpenSubdiv, presets save and load, and bad input is refused with the scene kept."""
+
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import harness  # noqa: E402
+from harness import expect_cancel, test  # noqa: E402
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+harness.enable_addon()
+from tussock import native  # noqa: E402
+from tussock.trees import build, presets  # noqa: E402
+
+lib = native.require()
+
+
+def fresh():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    harness.enable_addon()
+
+
+def co(obj):
+    a = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", a)
+    return a
+
+
+def add(preset="quaking_aspen", **kw):
+    assert bpy.ops.tussock.add_tree(preset=preset, **kw) == {"FINISHED"}
+    return bpy.context.active_object
+
+
+def windy(scene, speed=5.0):
+    w = scene.tussock_wind
+    w.base_speed = speed
+    wave = w.waves.add()
+    wave.amplitude, wave.wavelength, wave.speed = 3.0, 6.0, 4.0
+
+
+@test
+def test_every_preset_grows_with_native_counts():
+    fresh()
+    for name in lib.tree_presets():
+        obj = add(name, seed=2)
+        d = lib.tree_preset(name)
+        d["seed"] = 2
+        counts = lib.tree_counts(lib.tree_create(d))
+        assert obj["tussock_branches"] == counts["branches"], name
+        assert obj["tussock_leaves"] == counts["leaves"], name
+        assert len(obj.data.polygons) > counts["branches"], name
+        leaf_faces = np.empty(len(obj.data.polygons), np.int32)
+        obj.data.polygons.foreach_get("material_index", leaf_faces)
+        assert int((leaf_faces == 1).sum()) == counts["leaves"], name
+
+
+@test
+def test_same_seed_same_mesh_other_seed_differs():
+    fresh()
+    a = co(add(seed=5))
+    b = co(add(seed=5))
+    c = co(add(seed=6))
+    assert a.tobytes() == b.tobytes()
+    assert len(a) != len(c) or not np.array_equal(a, c)
+
+
+@test
+def test_no_wind_still_tree():
+    fresh()
+    scene = bpy.context.scene
+    scene.tussock_wind.base_speed = 0.0
+    obj = add()
+    rest = co(obj)
+    for f in (2, 17, 40):
+        scene.frame_set(f)
+        assert np.array_equal(co(obj), rest), f
+
+
+@test
+def test_tree_sways_children_stay_attached_frames_repeat():
+    fresh()
+    scene = bpy.context.scene
+    windy(scene)
+    obj = add("black_tupelo", seed=3)
+    frames = {}
+    for f in (1, 8, 15, 22):
+        scene.frame_set(f)
+        frames[f] = co(obj)
+        gap_rel, gap_m = lib.tree_attachment_gap(build._cache[obj.name]["tree"])
+        assert gap_rel < 0.01, (f, gap_rel, gap_m)  # exact mode: < 1 % of the parent radius
+    assert np.abs(frames[8] - frames[1]).max() > 0.01  # it moves
+    assert np.abs(frames[15] - frames[8]).max() > 0.01
+    scene.frame_set(30)
+    scene.frame_set(8)  # back again: the same pose, bit for bit
+    assert np.array_equal(co(obj), frames[8])
+    obj.tussock_tree.wind_strength = 0.0
+    scene.frame_set(9)
+    rest = build._cache[obj.name]["positions"]  # the generated rest pose
+    assert np.array_equal(co(obj), rest)  # no response: the rest pose, whatever the wind
+
+
+@test
+def test_smooth_tree_uses_opensubdiv_counts():
+    fresh()
+    obj = add(leaves=False, smooth_levels=1)
+    d = lib.tree_preset("quaking_aspen")
+    d["seed"], d["leaves"] = 1, 0
+    tree = lib.tree_create(d)
+    cage_v, _ = lib.tree_mesh_count(tree, leaves=False)
+    nv, nq = lib.tree_mesh_count(tree, leaves=False)
+    faces = np.empty(nq * 4, np.int32)
+    lib.tree_mesh_topology(tree, faces, leaves=False)
+    h = lib.subdiv_create(faces, cage_v, 1)
+    sv, sq = lib.subdiv_counts(h)
+    assert len(obj.data.vertices) == sv and len(obj.data.polygons) == sq
+    assert sq == 4 * nq  # one Catmull-Clark level quadruples the quads
+
+
+@test
+def test_presets_save_apply_remove():
+    fresh()
+    obj = add("weeping_willow", seed=4)
+    obj.tussock_tree.params.scale = 7.5
+    assert bpy.ops.tussock.tree_preset_add(name="Short willow") == {"FINISHED"}
+    assert "Short willow" in presets.user_presets()
+    other = add("quaking_aspen")
+    assert bpy.ops.tussock.tree_apply_preset(preset="user:Short willow") == {"FINISHED"}
+    assert abs(other.tussock_tree.params.scale - 7.5) < 1e-6
+    assert bpy.ops.tussock.tree_preset_remove(preset="user:Short willow") == {"FINISHED"}
+    assert "Short willow" not in presets.user_presets()
+
+
+@test
+def test_bad_input_refused():
+    fresh()
+    obj = add()
+    branches = obj["tussock_branches"]
+    obj.tussock_tree.params.levels = 9  # refused by C with a message, tree kept
+    assert "levels" in obj.tussock_tree.last_error and obj["tussock_branches"] == branches
+    obj.tussock_tree.params.levels = 3
+    obj.tussock_tree.params.level_1.branches = 100000000  # explodes: refused before memory
+    assert obj.tussock_tree.last_error and obj["tussock_branches"] == branches
+    obj.tussock_tree.params.level_1.branches = 20
+    obj.tussock_tree.params.scale = float("nan")
+    assert "scale" in obj.tussock_tree.last_error
+    # a broken user preset: the operator cancels and nothing is added
+    path = os.path.join(presets.user_dir(create=True), "broken.json")
+    with open(path, "w") as f:
+        f.write('{"levels": -3}')
+    expect_cancel(bpy.ops.tussock.add_tree, "levels", preset="user:broken")
+    with open(path, "w") as f:
+        f.write("not json")
+    expect_cancel(bpy.ops.tussock.add_tree, "cannot read", preset="user:broken")
+    os.remove(path)
+
+
+harness.main()
