@@ -1,0 +1,281 @@
+/* The warp grid (seed 004, §III-E): corner displacements from the continuum by eq. 5-7 and
+ * inverse warping with bilinear sampling by eq. 8, delivered as a warped RGBA image and as
+ * a UV pass for Blender's compositor Map UV node. */
+#include "picture_internal.h"
+
+#include <math.h>
+
+tsk_warp_def tsk_default_warp_def(void) {
+    tsk_warp_def d;
+    d.cell_x = 16;
+    d.cell_y = 16;
+    d.lambda_x = 4.0f;
+    d.lambda_y = 4.0f;
+    d.dt = 1.0f / 24.0f;
+    d.rigidity = 1.0f;
+    d.root = TSK_ROOT_BOTTOM;
+    d.auto_root = 1;
+    d.root_y = 0.0f;
+    d.height = 1.0f;
+    return d;
+}
+
+static tsk_status check_cells(int cell_x, int cell_y) {
+    if (cell_x < 1 || cell_x > TSK_PICTURE_MAX_CELL)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "cell_x", "must be 1..%d pixels, got %d",
+                             TSK_PICTURE_MAX_CELL, cell_x);
+    if (cell_y < 1 || cell_y > TSK_PICTURE_MAX_CELL)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "cell_y", "must be 1..%d pixels, got %d",
+                             TSK_PICTURE_MAX_CELL, cell_y);
+    return TSK_OK;
+}
+
+tsk_status tsk_warp_grid_size(int width, int height, int cell_x, int cell_y, int* corners_x,
+                              int* corners_y) {
+    tsk_status s = tsk_picture_check_size(width, height, 1, "width, height");
+    if (s == TSK_OK) s = check_cells(cell_x, cell_y);
+    if (s != TSK_OK) return s;
+    if (corners_x == NULL || corners_y == NULL)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "corners_x, corners_y", "is NULL");
+    *corners_x = (width + cell_x - 1) / cell_x + 1;
+    *corners_y = (height + cell_y - 1) / cell_y + 1;
+    return TSK_OK;
+}
+
+static tsk_status check_def(const tsk_warp_def* d) {
+    tsk_status s = check_cells(d->cell_x, d->cell_y);
+    if (s != TSK_OK) return s;
+    if (!isfinite(d->lambda_x))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "lambda_x", "must be finite, got %g",
+                             (double)d->lambda_x);
+    if (!isfinite(d->lambda_y))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "lambda_y", "must be finite, got %g",
+                             (double)d->lambda_y);
+    if (!(d->dt >= 0.0f && d->dt <= 1e6f))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "dt", "must be 0..1e6 s, got %g", (double)d->dt);
+    if (!(d->rigidity >= 0.0f && d->rigidity <= 10.0f))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "rigidity", "must be 0..10 (eq. 6), got %g",
+                             (double)d->rigidity);
+    if (d->root != TSK_ROOT_NONE && d->root != TSK_ROOT_BOTTOM && d->root != TSK_ROOT_TOP)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "root", "must be none, bottom or top, got %d",
+                             (int)d->root);
+    if (d->root != TSK_ROOT_NONE) {
+        if (!isfinite(d->root_y) || fabsf(d->root_y) > 1e7f)
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "root_y", "must be finite, got %g",
+                                 (double)d->root_y);
+        if (!(d->height > 0.0f && d->height <= 1e7f))
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "height", "must be > 0 pixels, got %g",
+                                 (double)d->height);
+    }
+    return TSK_OK;
+}
+
+static tsk_status check_field(const tsk_picture_field* f) {
+    if (f == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "field", "is NULL");
+    if (f->width < 1 || f->width > 4096 || f->height < 1 || f->height > 4096)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "field", "size %dx%d must be 1..4096 per side",
+                             f->width, f->height);
+    if (f->vx == NULL || f->vy == NULL)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "field", "vx or vy is NULL");
+    const size_t n = (size_t)f->width * (size_t)f->height;
+    for (size_t i = 0; i < n; ++i)
+        if (!isfinite(f->vx[i]) || !isfinite(f->vy[i]))
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "field", "value %zu is not finite", i);
+    return TSK_OK;
+}
+
+/* Bilinear sample of a plane of w*h values with samples at (a + 0.5, b + 0.5) in its own
+ * cell units, clamped to the outermost samples. (fx, fy) are in cell units. */
+static float sample_plane(const float* v, int w, int h, float fx, float fy) {
+    fx -= 0.5f;
+    fy -= 0.5f;
+    if (fx < 0.0f) fx = 0.0f;
+    if (fy < 0.0f) fy = 0.0f;
+    if (fx > (float)(w - 1)) fx = (float)(w - 1);
+    if (fy > (float)(h - 1)) fy = (float)(h - 1);
+    int x0 = (int)fx, y0 = (int)fy;
+    int x1 = x0 + 1 < w ? x0 + 1 : x0, y1 = y0 + 1 < h ? y0 + 1 : y0;
+    const float tx = fx - (float)x0, ty = fy - (float)y0;
+    const float a = v[(size_t)y0 * w + x0], b = v[(size_t)y0 * w + x1];
+    const float c = v[(size_t)y1 * w + x0], d = v[(size_t)y1 * w + x1];
+    const float top = a + tx * (b - a), bottom = c + tx * (d - c);
+    return top + ty * (bottom - top);
+}
+
+tsk_status tsk_warp_corners(const tsk_warp_def* def, int width, int height,
+                            const tsk_picture_field* field, const float* scale_map,
+                            size_t scale_count, float* corner_dx, float* corner_dy,
+                            size_t corner_count) {
+    if (def == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "def", "is NULL");
+    tsk_status s = check_def(def);
+    if (s != TSK_OK) return s;
+    int cx, cy;
+    if ((s = tsk_warp_grid_size(width, height, def->cell_x, def->cell_y, &cx, &cy)) != TSK_OK)
+        return s;
+    if ((s = check_field(field)) != TSK_OK) return s;
+    const size_t npix = (size_t)width * (size_t)height;
+    if (scale_map != NULL) {
+        if (scale_count != npix)
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "scale_map",
+                                 "size %zu does not match the %dx%d picture (%zu values)",
+                                 scale_count, width, height, npix);
+        for (size_t i = 0; i < npix; ++i)
+            if (!(scale_map[i] >= 0.0f && scale_map[i] <= 1e6f))
+                return tsk_error_arg(TSK_ERR_ARGUMENT, "scale_map",
+                                     "value %zu is %g; it must be finite and >= 0", i,
+                                     (double)scale_map[i]);
+    }
+    if (corner_dx == NULL || corner_dy == NULL)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_dx, corner_dy", "is NULL");
+    if (corner_count != (size_t)cx * (size_t)cy)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_count",
+                             "must be %d*%d = %zu corners, got %zu", cx, cy,
+                             (size_t)cx * (size_t)cy, corner_count);
+    const float fsx = (float)field->width / (float)width;
+    const float fsy = (float)field->height / (float)height;
+    for (int ky = 0; ky < cy; ++ky) {
+        const float y = (float)ky * (float)def->cell_y;
+        /* eq. 6: R from the distance l to the root line over the layer height h */
+        float R = 1.0f;
+        if (def->root != TSK_ROOT_NONE) {
+            float l = def->root == TSK_ROOT_BOTTOM ? def->root_y - y : y - def->root_y;
+            float q = l / def->height;
+            q = q < 0.0f ? 0.0f : q > 1.0f ? 1.0f : q;
+            R = def->rigidity == 0.0f ? 1.0f : powf(q, def->rigidity);
+        }
+        for (int kx = 0; kx < cx; ++kx) {
+            const float x = (float)kx * (float)def->cell_x;
+            float fy = y * fsy;
+            float vy_sign = 1.0f;
+            if (field->y_up) {
+                fy = (float)field->height - fy;
+                vy_sign = -1.0f;
+            }
+            const float vpx = sample_plane(field->vx, field->width, field->height, x * fsx, fy);
+            const float vpy =
+                vy_sign * sample_plane(field->vy, field->width, field->height, x * fsx, fy);
+            float scale = 1.0f;
+            if (scale_map != NULL) scale = sample_plane(scale_map, width, height, x, y);
+            /* eq. 5: n = lambda R Vp dt (lambda scaled by the scale map) */
+            const float nx = def->lambda_x * scale * R * vpx * def->dt;
+            const float ny = def->lambda_y * scale * R * vpy * def->dt;
+            /* eq. 7: corners move against the velocity (inverse warping) */
+            const size_t k = (size_t)ky * (size_t)cx + (size_t)kx;
+            corner_dx[k] = -nx * (float)def->cell_x;
+            corner_dy[k] = -ny * (float)def->cell_y;
+        }
+    }
+    return TSK_OK;
+}
+
+/* ---- eq. 8: inverse warping ----------------------------------------------------------- */
+
+typedef struct warp_ctx {
+    int width, height, cell_x, cell_y, cx;
+    const float* src;
+    const float* dx;
+    const float* dy;
+    float* dst;
+    float* uv;
+    int uv_bottom_up;
+} warp_ctx;
+
+static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx) {
+    (void)chunk;
+    const warp_ctx* c = vctx;
+    const int W = c->width, H = c->height;
+    const float maxx = (float)W - 0.5f, maxy = (float)H - 0.5f;
+    const float fw = (float)W, fh = (float)H;
+    for (size_t jr = row_begin; jr < row_end; ++jr) {
+        const int j = (int)jr;
+        const int ky = (2 * j + 1) / (2 * c->cell_y);
+        const float py = (float)j + 0.5f;
+        const float v = (py - (float)(ky * c->cell_y)) / (float)c->cell_y;
+        const float* dx0 = c->dx + (size_t)ky * c->cx;
+        const float* dx1 = dx0 + c->cx;
+        const float* dy0 = c->dy + (size_t)ky * c->cx;
+        const float* dy1 = dy0 + c->cx;
+        float* out = c->dst ? c->dst + (size_t)j * W * 4 : NULL;
+        const int uv_row = c->uv_bottom_up ? H - 1 - j : j;
+        float* uvo = c->uv ? c->uv + (size_t)uv_row * W * 4 : NULL;
+        for (int kx = 0; kx * c->cell_x < W; ++kx) {
+            /* displacement along the cell's left and right edges at this row */
+            const float ax = dx0[kx] + v * (dx1[kx] - dx0[kx]);
+            const float bx = dx0[kx + 1] + v * (dx1[kx + 1] - dx0[kx + 1]);
+            const float ay = dy0[kx] + v * (dy1[kx] - dy0[kx]);
+            const float by = dy0[kx + 1] + v * (dy1[kx + 1] - dy0[kx + 1]);
+            const int i0 = kx * c->cell_x;
+            const int i1 = i0 + c->cell_x < W ? i0 + c->cell_x : W;
+            for (int i = i0; i < i1; ++i) {
+                const float px = (float)i + 0.5f;
+                const float u = (px - (float)i0) / (float)c->cell_x;
+                float sx = px + (ax + u * (bx - ax));
+                float sy = py + (ay + u * (by - ay));
+                sx = sx < 0.5f ? 0.5f : sx > maxx ? maxx : sx;
+                sy = sy < 0.5f ? 0.5f : sy > maxy ? maxy : sy;
+                if (uvo) {
+                    uvo[4 * i + 0] = sx / fw;
+                    uvo[4 * i + 1] = (fh - sy) / fh;
+                    uvo[4 * i + 2] = 1.0f;
+                    uvo[4 * i + 3] = 1.0f;
+                }
+                if (out) {
+                    const float fx = sx - 0.5f, fy = sy - 0.5f;
+                    int x0 = (int)fx, y0 = (int)fy;
+                    if (x0 > W - 2) x0 = W > 1 ? W - 2 : 0;
+                    if (y0 > H - 2) y0 = H > 1 ? H - 2 : 0;
+                    const int x1 = x0 + 1 < W ? x0 + 1 : x0, y1 = y0 + 1 < H ? y0 + 1 : y0;
+                    const float tx = fx - (float)x0, ty = fy - (float)y0;
+                    const float* a = c->src + ((size_t)y0 * W + x0) * 4;
+                    const float* b = c->src + ((size_t)y0 * W + x1) * 4;
+                    const float* cc = c->src + ((size_t)y1 * W + x0) * 4;
+                    const float* d = c->src + ((size_t)y1 * W + x1) * 4;
+                    const float w00 = (1.0f - tx) * (1.0f - ty), w10 = tx * (1.0f - ty);
+                    const float w01 = (1.0f - tx) * ty, w11 = tx * ty;
+                    for (int ch = 0; ch < 4; ++ch)
+                        out[4 * i + ch] = (w00 * a[ch] + w10 * b[ch]) + (w01 * cc[ch] + w11 * d[ch]);
+                }
+            }
+        }
+    }
+}
+
+tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_count,
+                          int cell_x, int cell_y, const float* corner_dx,
+                          const float* corner_dy, size_t corner_count, float* dst,
+                          size_t dst_count, float* uv, size_t uv_count, int uv_bottom_up) {
+    int cx, cy;
+    tsk_status s = tsk_warp_grid_size(width, height, cell_x, cell_y, &cx, &cy);
+    if (s != TSK_OK) return s;
+    const size_t n4 = (size_t)width * (size_t)height * 4;
+    if (dst == NULL && uv == NULL)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "dst, uv", "both are NULL: nothing to compute");
+    if (dst != NULL) {
+        if (src == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "src", "is NULL");
+        if (src_count != n4)
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "src", "must have 4*%d*%d = %zu values, got %zu",
+                                 width, height, n4, src_count);
+        if (dst_count != n4)
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "dst", "must have 4*%d*%d = %zu values, got %zu",
+                                 width, height, n4, dst_count);
+        if (dst == src) return tsk_error_arg(TSK_ERR_ARGUMENT, "dst", "must not be src");
+    }
+    if (uv != NULL && uv_count != n4)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "uv", "must have 4*%d*%d = %zu values, got %zu",
+                             width, height, n4, uv_count);
+    if (corner_dx == NULL || corner_dy == NULL)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_dx, corner_dy", "is NULL");
+    const size_t nc = (size_t)cx * (size_t)cy;
+    if (corner_count != nc)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_count",
+                             "must be %d*%d = %zu corners, got %zu", cx, cy, nc, corner_count);
+    for (size_t k = 0; k < nc; ++k)
+        if (!(fabsf(corner_dx[k]) <= 1e7f && fabsf(corner_dy[k]) <= 1e7f))
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_dx, corner_dy",
+                                 "corner %zu is not finite or beyond 1e7 pixels", k);
+    warp_ctx c = {width, height, cell_x, cell_y, cx, src, corner_dx, corner_dy, dst, uv,
+                  uv_bottom_up != 0};
+    /* fixed grain of 8 rows: each output pixel depends on nothing but its inputs */
+    tsk_parallel_for((size_t)height, 8, warp_rows, &c);
+    return TSK_OK;
+}
