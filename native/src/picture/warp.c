@@ -4,6 +4,12 @@
 #include "picture_internal.h"
 
 #include <math.h>
+#include <stdint.h>
+
+#if defined(__SSE2__)
+#include <emmintrin.h> /* one pixel's 4 channels in one register; streaming stores */
+#define TSK_WARP_SSE 1
+#endif
 
 tsk_warp_def tsk_default_warp_def(void) {
     tsk_warp_def d;
@@ -178,66 +184,119 @@ typedef struct warp_ctx {
     float* dst;
     float* uv;
     int uv_bottom_up;
+    const float* ufrac; /* cell_x values: (k + 0.5) / cell_x, the local u of a pixel centre */
 } warp_ctx;
+
+enum { WARP_GRAIN = 8 };
+
+/* Source points of one output row, clamped to the centres of the edge pixels. */
+static void row_sources(const warp_ctx* c, int j, float* restrict sxs, float* restrict sys) {
+    const int W = c->width, H = c->height;
+    const float maxx = (float)W - 0.5f, maxy = (float)H - 0.5f;
+    const int ky = j / c->cell_y;
+    const float py = (float)j + 0.5f;
+    const float v = (py - (float)(ky * c->cell_y)) / (float)c->cell_y;
+    const float* dx0 = c->dx + (size_t)ky * c->cx;
+    const float* dx1 = dx0 + c->cx;
+    const float* dy0 = c->dy + (size_t)ky * c->cx;
+    const float* dy1 = dy0 + c->cx;
+    for (int kx = 0; kx * c->cell_x < W; ++kx) {
+        /* displacement along the cell's left and right edges at this row; the form
+         * a + t (b - a) is exact when a == b (a uniform displacement stays exact) */
+        const float ax = dx0[kx] + v * (dx1[kx] - dx0[kx]);
+        const float bx = dx0[kx + 1] + v * (dx1[kx + 1] - dx0[kx + 1]);
+        const float ay = dy0[kx] + v * (dy1[kx] - dy0[kx]);
+        const float by = dy0[kx + 1] + v * (dy1[kx + 1] - dy0[kx + 1]);
+        const int i0 = kx * c->cell_x;
+        const int m = i0 + c->cell_x < W ? c->cell_x : W - i0;
+        const float ex = bx - ax, ey = by - ay;
+        for (int k = 0; k < m; ++k) {
+            const float u = c->ufrac[k];
+            float sx = ((float)(i0 + k) + 0.5f) + (ax + u * ex);
+            float sy = py + (ay + u * ey);
+            sx = sx < 0.5f ? 0.5f : sx;
+            sx = sx > maxx ? maxx : sx;
+            sy = sy < 0.5f ? 0.5f : sy;
+            sy = sy > maxy ? maxy : sy;
+            sxs[i0 + k] = sx;
+            sys[i0 + k] = sy;
+        }
+    }
+}
 
 static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx) {
     (void)chunk;
     const warp_ctx* c = vctx;
     const int W = c->width, H = c->height;
-    const float maxx = (float)W - 0.5f, maxy = (float)H - 0.5f;
     const float fw = (float)W, fh = (float)H;
+    /* per-row scratch on the stack for narrow pictures, else on the heap */
+    float stack_buf[2 * 2048];
+    float* sxs = stack_buf;
+    float* heap = NULL;
+    if (W > 2048) {
+        heap = tsk_alloc(2 * (size_t)W * sizeof(float), "warp row");
+        if (heap == NULL) return; /* cannot happen for W <= 16384 in practice; output kept */
+        sxs = heap;
+    }
+    float* sys = sxs + W;
     for (size_t jr = row_begin; jr < row_end; ++jr) {
         const int j = (int)jr;
-        const int ky = (2 * j + 1) / (2 * c->cell_y);
-        const float py = (float)j + 0.5f;
-        const float v = (py - (float)(ky * c->cell_y)) / (float)c->cell_y;
-        const float* dx0 = c->dx + (size_t)ky * c->cx;
-        const float* dx1 = dx0 + c->cx;
-        const float* dy0 = c->dy + (size_t)ky * c->cx;
-        const float* dy1 = dy0 + c->cx;
-        float* out = c->dst ? c->dst + (size_t)j * W * 4 : NULL;
-        const int uv_row = c->uv_bottom_up ? H - 1 - j : j;
-        float* uvo = c->uv ? c->uv + (size_t)uv_row * W * 4 : NULL;
-        for (int kx = 0; kx * c->cell_x < W; ++kx) {
-            /* displacement along the cell's left and right edges at this row */
-            const float ax = dx0[kx] + v * (dx1[kx] - dx0[kx]);
-            const float bx = dx0[kx + 1] + v * (dx1[kx + 1] - dx0[kx + 1]);
-            const float ay = dy0[kx] + v * (dy1[kx] - dy0[kx]);
-            const float by = dy0[kx + 1] + v * (dy1[kx + 1] - dy0[kx + 1]);
-            const int i0 = kx * c->cell_x;
-            const int i1 = i0 + c->cell_x < W ? i0 + c->cell_x : W;
-            for (int i = i0; i < i1; ++i) {
-                const float px = (float)i + 0.5f;
-                const float u = (px - (float)i0) / (float)c->cell_x;
-                float sx = px + (ax + u * (bx - ax));
-                float sy = py + (ay + u * (by - ay));
-                sx = sx < 0.5f ? 0.5f : sx > maxx ? maxx : sx;
-                sy = sy < 0.5f ? 0.5f : sy > maxy ? maxy : sy;
-                if (uvo) {
-                    uvo[4 * i + 0] = sx / fw;
-                    uvo[4 * i + 1] = (fh - sy) / fh;
+        row_sources(c, j, sxs, sys);
+        if (c->uv) {
+            float* restrict uvo = c->uv + (size_t)(c->uv_bottom_up ? H - 1 - j : j) * W * 4;
+#if TSK_WARP_SSE
+            if (((uintptr_t)uvo & 15u) == 0) {
+                /* the UV pass is written once and not read back: bypass the cache */
+                for (int i = 0; i < W; ++i)
+                    _mm_stream_ps(uvo + 4 * i,
+                                  _mm_set_ps(1.0f, 1.0f, (fh - sys[i]) / fh, sxs[i] / fw));
+            } else
+#endif
+                for (int i = 0; i < W; ++i) {
+                    uvo[4 * i + 0] = sxs[i] / fw;
+                    uvo[4 * i + 1] = (fh - sys[i]) / fh;
                     uvo[4 * i + 2] = 1.0f;
                     uvo[4 * i + 3] = 1.0f;
                 }
-                if (out) {
-                    const float fx = sx - 0.5f, fy = sy - 0.5f;
-                    int x0 = (int)fx, y0 = (int)fy;
-                    if (x0 > W - 2) x0 = W > 1 ? W - 2 : 0;
-                    if (y0 > H - 2) y0 = H > 1 ? H - 2 : 0;
-                    const int x1 = x0 + 1 < W ? x0 + 1 : x0, y1 = y0 + 1 < H ? y0 + 1 : y0;
-                    const float tx = fx - (float)x0, ty = fy - (float)y0;
-                    const float* a = c->src + ((size_t)y0 * W + x0) * 4;
-                    const float* b = c->src + ((size_t)y0 * W + x1) * 4;
-                    const float* cc = c->src + ((size_t)y1 * W + x0) * 4;
-                    const float* d = c->src + ((size_t)y1 * W + x1) * 4;
-                    const float w00 = (1.0f - tx) * (1.0f - ty), w10 = tx * (1.0f - ty);
-                    const float w01 = (1.0f - tx) * ty, w11 = tx * ty;
-                    for (int ch = 0; ch < 4; ++ch)
-                        out[4 * i + ch] = (w00 * a[ch] + w10 * b[ch]) + (w01 * cc[ch] + w11 * d[ch]);
-                }
+        }
+        if (c->dst) {
+            float* restrict out = c->dst + (size_t)j * W * 4;
+            const float* restrict src = c->src;
+#if TSK_WARP_SSE
+            const int aligned = ((uintptr_t)out & 15u) == 0;
+#endif
+            for (int i = 0; i < W; ++i) {
+                const float fx = sxs[i] - 0.5f, fy = sys[i] - 0.5f;
+                int x0 = (int)fx, y0 = (int)fy;
+                if (x0 > W - 2) x0 = W > 1 ? W - 2 : 0;
+                if (y0 > H - 2) y0 = H > 1 ? H - 2 : 0;
+                const int ox = x0 + 1 < W ? 4 : 0;
+                const size_t oy = y0 + 1 < H ? (size_t)W * 4 : 0;
+                const float tx = fx - (float)x0, ty = fy - (float)y0;
+                const float* a = src + ((size_t)y0 * W + x0) * 4;
+                const float w00 = (1.0f - tx) * (1.0f - ty), w10 = tx * (1.0f - ty);
+                const float w01 = (1.0f - tx) * ty, w11 = tx * ty;
+#if TSK_WARP_SSE
+                /* the same operations in the same order as the scalar code below */
+                const __m128 top = _mm_add_ps(_mm_mul_ps(_mm_set1_ps(w00), _mm_loadu_ps(a)),
+                                              _mm_mul_ps(_mm_set1_ps(w10), _mm_loadu_ps(a + ox)));
+                const __m128 bot =
+                    _mm_add_ps(_mm_mul_ps(_mm_set1_ps(w01), _mm_loadu_ps(a + oy)),
+                               _mm_mul_ps(_mm_set1_ps(w11), _mm_loadu_ps(a + oy + ox)));
+                if (aligned) _mm_stream_ps(out + 4 * i, _mm_add_ps(top, bot));
+                else _mm_storeu_ps(out + 4 * i, _mm_add_ps(top, bot));
+#else
+                for (int ch = 0; ch < 4; ++ch)
+                    out[4 * i + ch] = (w00 * a[ch] + w10 * a[ox + ch]) +
+                                      (w01 * a[oy + ch] + w11 * a[oy + ox + ch]);
+#endif
             }
         }
     }
+#if TSK_WARP_SSE
+    _mm_sfence(); /* make the streamed stores visible before the chunk ends */
+#endif
+    tsk_free(heap);
 }
 
 tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_count,
@@ -273,9 +332,13 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
         if (!(fabsf(corner_dx[k]) <= 1e7f && fabsf(corner_dy[k]) <= 1e7f))
             return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_dx, corner_dy",
                                  "corner %zu is not finite or beyond 1e7 pixels", k);
+    float* ufrac = tsk_alloc((size_t)cell_x * sizeof(float), "warp cell");
+    if (ufrac == NULL) return TSK_ERR_MEMORY;
+    for (int k = 0; k < cell_x; ++k) ufrac[k] = ((float)k + 0.5f) / (float)cell_x;
     warp_ctx c = {width, height, cell_x, cell_y, cx, src, corner_dx, corner_dy, dst, uv,
-                  uv_bottom_up != 0};
-    /* fixed grain of 8 rows: each output pixel depends on nothing but its inputs */
-    tsk_parallel_for((size_t)height, 8, warp_rows, &c);
+                  uv_bottom_up != 0, ufrac};
+    /* fixed grain of rows: each output pixel depends on nothing but its inputs */
+    tsk_parallel_for((size_t)height, WARP_GRAIN, warp_rows, &c);
+    tsk_free(ufrac);
     return TSK_OK;
 }
