@@ -74,7 +74,7 @@ static tsk_status warp(const tsk_warp_def* def, const tsk_picture_field* field, 
     float* dy = malloc(nc * sizeof(float));
     s = tsk_warp_corners(def, w, h, field, NULL, 0, dx, dy, nc);
     if (s == TSK_OK)
-        s = tsk_warp_apply(w, h, src, n4, def->cell_x, def->cell_y, dx, dy, nc, dst,
+        s = tsk_warp_apply(w, h, src, n4, def->cell_x, def->cell_y, dx, dy, nc, def->sampling, dst,
                            dst ? n4 : 0, uv, uv ? n4 : 0, bottom_up);
     free(dx);
     free(dy);

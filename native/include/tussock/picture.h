@@ -176,6 +176,18 @@ typedef enum tsk_picture_root {
     TSK_ROOT_TOP = 2,    ///< root line at the top (field seen from above): grows downwards
 } tsk_picture_root;
 
+/// How a warped frame samples its source (the UV pass is the same for both).
+typedef enum tsk_warp_sampling {
+    /// Bilinear, pixel centres at half-integers: the reference warp (eq. 8), exact for
+    /// integer shifts, fast. Blender's Map UV does NOT sample this way.
+    TSK_SAMPLE_BILINEAR = 0,
+    /// As Blender's compositor Map UV node draws the UV pass (Blender 3.x, and 4.x with
+    /// filter "Anisotropic"): an elliptical weighted average whose ellipse comes from the UV
+    /// pass's differences between neighbouring pixels. Use it when the native frame must
+    /// equal the render (previews, bakes, tests). About 4x slower than bilinear.
+    TSK_SAMPLE_MAP_UV = 1,
+} tsk_warp_sampling;
+
 /// Warp grid and eq. 5-7 parameters of one layer.
 typedef struct tsk_warp_def {
     int cell_x, cell_y;       ///< grid cell size sx, sy, pixels, 1..4096 (default 16)
@@ -190,9 +202,11 @@ typedef struct tsk_warp_def {
                               ///< always uses them)
     float root_y;             ///< root line, pixels from the top (y of the line)
     float height;             ///< h of eq. 6, pixels, > 0
+    tsk_warp_sampling sampling; ///< how warped RGBA frames sample (default bilinear)
 } tsk_warp_def;
 
-/// Defaults: 16 px cells, lambda 4, dt 1/24 s, r = 1, roots at the bottom found from the mask.
+/// Defaults: 16 px cells, lambda 4, dt 1/24 s, r = 1, roots at the bottom found from the
+/// mask, bilinear sampling.
 tsk_warp_def tsk_default_warp_def(void);
 
 /// Number of grid corners for a W x H picture: corners_x = ceil(W / cell_x) + 1 columns at
@@ -218,25 +232,29 @@ tsk_status tsk_warp_corners(const tsk_warp_def* def, int width, int height,
 /// For the output pixel centre p = (i + 0.5, j + 0.5) in cell (kx, ky) at local (u, v),
 /// the source point is s = p + d with d the bilinear blend of the cell's four corner
 /// displacements (the same point as eq. 8's blend of displaced corners, but exact when
-/// d = 0). s is clamped to [0.5, W - 0.5] x [0.5, H - 0.5] (clamp to edge) and src is
-/// sampled bilinearly there with pixel centres at half-integers.
+/// d = 0). s is clamped to [0.5, W - 0.5] x [0.5, H - 0.5] (clamp to edge).
 /// Outputs (either may be NULL, not both; count 4*W*H each):
-///  - dst: the warped image (rows in src's order, top-first);
-///  - uv: the UV pass for Blender's Map UV node: (u, v, 1, 1) per pixel with
+///  - dst: the warped image (rows top-first like src): src sampled at s bilinearly with
+///    pixel centres at half-integers (TSK_SAMPLE_BILINEAR), or as Blender's Map UV samples
+///    the UV pass below (TSK_SAMPLE_MAP_UV);
+///  - uv: the UV pass for Blender's compositor Map UV node: (u, v, 1, 1) per pixel with
 ///    u = s_x / W and v = (H - s_y) / H, i.e. Blender's bottom-left origin with pixel
-///    centres at (i + 0.5) / W; rows bottom-first when uv_bottom_up = 1 (ready for
-///    Image.pixels), else top-first. Map UV with bilinear interpolation reproduces dst.
+///    centres at ((i + 0.5) / W, (j_from_bottom + 0.5) / H); blue = 1 is the alpha Map UV
+///    reads. Rows bottom-first when uv_bottom_up = 1 (ready for Image.pixels), else
+///    top-first. Because s is clamped to the edge pixels' centres, no sample falls outside.
 /// src is read only when dst is given.
 tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_count,
                           int cell_x, int cell_y, const float* corner_dx,
-                          const float* corner_dy, size_t corner_count, float* dst,
-                          size_t dst_count, float* uv, size_t uv_count, int uv_bottom_up);
+                          const float* corner_dy, size_t corner_count,
+                          tsk_warp_sampling sampling, float* dst, size_t dst_count, float* uv,
+                          size_t uv_count, int uv_bottom_up);
 
 /* ---- frames of a built picture ---------------------------------------------------------- */
 
 /// One frame of one layer: the warp corners from `def`, `field` and `scale_map` (root line
-/// and h from the mask when def->auto_root), then tsk_warp_apply on the layer. `rgba`
-/// (premultiplied, top-first) and `uv` as in tsk_warp_apply; either may be NULL.
+/// and h from the mask when def->auto_root), then tsk_warp_apply on the layer with
+/// def->sampling. `rgba` (premultiplied, top-first) and `uv` as in tsk_warp_apply; either
+/// may be NULL.
 tsk_status tsk_picture_layer_frame(const tsk_picture* picture, int layer,
                                    const tsk_warp_def* def, const tsk_picture_field* field,
                                    const float* scale_map, size_t scale_count, float* rgba,

@@ -31,4 +31,9 @@ tsk_status tsk_picture_check_size(int width, int height, int min_side, const cha
 void tsk_picture_copy_rows(float* dst, const float* src, int width, int height, int channels,
                            int flip);
 
+/* Samples src (premultiplied RGBA, top-first) through a UV pass (bottom-up rows) the way
+ * Blender's compositor Map UV node does (EWA); dst top-first. */
+void tsk_picture_map_uv(int width, int height, const float* src, const float* uv_bottom_up,
+                        float* dst);
+
 #endif

@@ -23,6 +23,7 @@ tsk_warp_def tsk_default_warp_def(void) {
     d.auto_root = 1;
     d.root_y = 0.0f;
     d.height = 1.0f;
+    d.sampling = TSK_SAMPLE_BILINEAR;
     return d;
 }
 
@@ -301,8 +302,9 @@ static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx
 
 tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_count,
                           int cell_x, int cell_y, const float* corner_dx,
-                          const float* corner_dy, size_t corner_count, float* dst,
-                          size_t dst_count, float* uv, size_t uv_count, int uv_bottom_up) {
+                          const float* corner_dy, size_t corner_count,
+                          tsk_warp_sampling sampling, float* dst, size_t dst_count, float* uv,
+                          size_t uv_count, int uv_bottom_up) {
     int cx, cy;
     tsk_status s = tsk_warp_grid_size(width, height, cell_x, cell_y, &cx, &cy);
     if (s != TSK_OK) return s;
@@ -322,6 +324,9 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
     if (uv != NULL && uv_count != n4)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "uv", "must have 4*%d*%d = %zu values, got %zu",
                              width, height, n4, uv_count);
+    if (sampling != TSK_SAMPLE_BILINEAR && sampling != TSK_SAMPLE_MAP_UV)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "sampling", "must be bilinear (0) or map_uv (1), got %d",
+                             (int)sampling);
     if (corner_dx == NULL || corner_dy == NULL)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_dx, corner_dy", "is NULL");
     const size_t nc = (size_t)cx * (size_t)cy;
@@ -337,8 +342,30 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
     for (int k = 0; k < cell_x; ++k) ufrac[k] = ((float)k + 0.5f) / (float)cell_x;
     warp_ctx c = {width, height, cell_x, cell_y, cx, src, corner_dx, corner_dy, dst, uv,
                   uv_bottom_up != 0, ufrac};
-    /* fixed grain of rows: each output pixel depends on nothing but its inputs */
-    tsk_parallel_for((size_t)height, WARP_GRAIN, warp_rows, &c);
+    if (dst != NULL && sampling == TSK_SAMPLE_MAP_UV) {
+        /* Map UV needs the whole UV pass (bottom-up) before it samples */
+        float* uvb = uv != NULL && uv_bottom_up ? uv : tsk_alloc(n4 * sizeof(float), "uv pass");
+        if (uvb == NULL) {
+            s = TSK_ERR_MEMORY;
+        } else {
+            c.dst = NULL;
+            c.uv = uvb;
+            c.uv_bottom_up = 1;
+            tsk_parallel_for((size_t)height, WARP_GRAIN, warp_rows, &c);
+            tsk_picture_map_uv(width, height, src, uvb, dst);
+            if (uvb != uv) {
+                tsk_free(uvb);
+                if (uv != NULL) { /* the caller wants it top-first */
+                    c.uv = uv;
+                    c.uv_bottom_up = 0;
+                    tsk_parallel_for((size_t)height, WARP_GRAIN, warp_rows, &c);
+                }
+            }
+        }
+    } else {
+        /* fixed grain of rows: each output pixel depends on nothing but its inputs */
+        tsk_parallel_for((size_t)height, WARP_GRAIN, warp_rows, &c);
+    }
     tsk_free(ufrac);
-    return TSK_OK;
+    return s;
 }

@@ -219,12 +219,24 @@ static PyObject* py_picture_build(PyObject* self, PyObject* args, PyObject* kw) 
 /* Keyword arguments of a warp definition shared by picture_layer_frame and warp_corners. */
 typedef struct warp_args {
     tsk_warp_def def;
+    const char* sampling;
     const char* root;
     PyObject* root_y;
     PyObject* height;
 } warp_args;
 
+static int parse_sampling(const char* name, tsk_warp_sampling* out) {
+    if (strcmp(name, "bilinear") == 0) *out = TSK_SAMPLE_BILINEAR;
+    else if (strcmp(name, "map_uv") == 0) *out = TSK_SAMPLE_MAP_UV;
+    else {
+        tsk_py_raise_arg("sampling", "must be 'bilinear' or 'map_uv', got '%s'", name);
+        return 0;
+    }
+    return 1;
+}
+
 static int finish_warp_def(warp_args* a, int allow_auto) {
+    if (!parse_sampling(a->sampling, &a->def.sampling)) return 0;
     if (strcmp(a->root, "none") == 0) a->def.root = TSK_ROOT_NONE;
     else if (strcmp(a->root, "bottom") == 0) a->def.root = TSK_ROOT_BOTTOM;
     else if (strcmp(a->root, "top") == 0) a->def.root = TSK_ROOT_TOP;
@@ -255,16 +267,17 @@ static PyObject* py_picture_layer_frame(PyObject* self, PyObject* args, PyObject
     static char* names[] = {"picture", "layer", "vx", "vy", "field_width", "field_height",
                             "rgba", "uv", "field_y_up", "uv_bottom_up", "cell_x", "cell_y",
                             "lambda_x", "lambda_y", "dt", "rigidity", "root", "root_y",
-                            "height", "scale_map", NULL};
+                            "height", "scale_map", "sampling", NULL};
     PyObject *cap, *vx_obj, *vy_obj, *rgba_obj = Py_None, *uv_obj = Py_None;
     PyObject* scale_obj = Py_None;
     int layer, fw, fh, y_up = 1, uv_bottom_up = 1;
-    warp_args a = {tsk_default_warp_def(), "bottom", Py_None, Py_None};
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OiOOii|OOppiiffffsOOO:picture_layer_frame",
+    warp_args a = {tsk_default_warp_def(), "bilinear", "bottom", Py_None, Py_None};
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OiOOii|OOppiiffffsOOOs:picture_layer_frame",
                                      names, &cap, &layer, &vx_obj, &vy_obj, &fw, &fh, &rgba_obj,
                                      &uv_obj, &y_up, &uv_bottom_up, &a.def.cell_x,
                                      &a.def.cell_y, &a.def.lambda_x, &a.def.lambda_y, &a.def.dt,
-                                     &a.def.rigidity, &a.root, &a.root_y, &a.height, &scale_obj))
+                                     &a.def.rigidity, &a.root, &a.root_y, &a.height, &scale_obj,
+                                     &a.sampling))
         return NULL;
     tsk_picture* p = get_picture(cap);
     if (p == NULL || !finish_warp_def(&a, 1)) return NULL;
@@ -389,7 +402,7 @@ static PyObject* py_warp_corners(PyObject* self, PyObject* args, PyObject* kw) {
                             "height_px", "scale_map", NULL};
     PyObject *vx_obj, *vy_obj, *dx_obj, *dy_obj, *scale_obj = Py_None;
     int w, h, fw, fh, y_up = 1;
-    warp_args a = {tsk_default_warp_def(), "bottom", Py_None, Py_None};
+    warp_args a = {tsk_default_warp_def(), "bilinear", "bottom", Py_None, Py_None};
     if (!PyArg_ParseTupleAndKeywords(args, kw, "iiOOiiOO|piiffffsOOO:warp_corners", names, &w,
                                      &h, &vx_obj, &vy_obj, &fw, &fh, &dx_obj, &dy_obj, &y_up,
                                      &a.def.cell_x, &a.def.cell_y, &a.def.lambda_x,
@@ -435,13 +448,16 @@ fail:
 static PyObject* py_warp_apply(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
     static char* names[] = {"width", "height", "src", "cell_x", "cell_y", "corner_dx",
-                            "corner_dy", "dst", "uv", "uv_bottom_up", NULL};
+                            "corner_dy", "dst", "uv", "uv_bottom_up", "sampling", NULL};
     PyObject *src_obj, *dx_obj, *dy_obj, *dst_obj = Py_None, *uv_obj = Py_None;
     int w, h, sx, sy, uv_bottom_up = 1;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "iiOiiOO|OOp:warp_apply", names, &w, &h,
+    const char* sampling_name = "bilinear";
+    tsk_warp_sampling sampling;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "iiOiiOO|OOps:warp_apply", names, &w, &h,
                                      &src_obj, &sx, &sy, &dx_obj, &dy_obj, &dst_obj, &uv_obj,
-                                     &uv_bottom_up))
+                                     &uv_bottom_up, &sampling_name))
         return NULL;
+    if (!parse_sampling(sampling_name, &sampling)) return NULL;
     int cx, cy;
     tsk_status s = tsk_warp_grid_size(w, h, sx, sy, &cx, &cy);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -458,7 +474,7 @@ static PyObject* py_warp_apply(PyObject* self, PyObject* args, PyObject* kw) {
     if (ok) {
         Py_BEGIN_ALLOW_THREADS
         s = tsk_warp_apply(w, h, have_dst ? b[2].buf : NULL, have_dst ? (size_t)n4 : 0, sx, sy,
-                           b[0].buf, b[1].buf, (size_t)nc, have_dst ? b[3].buf : NULL,
+                           b[0].buf, b[1].buf, (size_t)nc, sampling, have_dst ? b[3].buf : NULL,
                            have_dst ? (size_t)n4 : 0, have_uv ? b[4].buf : NULL,
                            have_uv ? (size_t)n4 : 0, uv_bottom_up);
         Py_END_ALLOW_THREADS
@@ -504,7 +520,7 @@ PyMethodDef tsk_py_picture_methods[] = {
      "picture_layer_frame(picture, layer, vx, vy, field_width, field_height, rgba=None, "
      "uv=None, field_y_up=True, uv_bottom_up=True, cell_x=16, cell_y=16, lambda_x=4, "
      "lambda_y=4, dt=1/24, rigidity=1, root='bottom'|'top'|'none', root_y=None, height=None, "
-     "scale_map=None): one frame; rgba (premultiplied, top-first) and/or uv (u, v, 1, 1 for "
+     "scale_map=None, sampling='bilinear'|'map_uv'): one frame; rgba (premultiplied, top-first) and/or uv (u, v, 1, 1 for "
      "Map UV), float32 4*W*H."},
     {"picture_composite", py_picture_composite, METH_VARARGS,
      "picture_composite(picture, layers, out): layers back to front (warped frames or None "
@@ -518,6 +534,6 @@ PyMethodDef tsk_py_picture_methods[] = {
      "displacements in pixels."},
     {"warp_apply", KW py_warp_apply, METH_VARARGS | METH_KEYWORDS,
      "warp_apply(width, height, src, cell_x, cell_y, corner_dx, corner_dy, dst=None, uv=None, "
-     "uv_bottom_up=True): eq. 8 inverse warp of premultiplied RGBA and/or the UV pass."},
+     "uv_bottom_up=True, sampling='bilinear'|'map_uv'): eq. 8 inverse warp of premultiplied RGBA and/or the UV pass."},
     {NULL, NULL, 0, NULL},
 };
