@@ -350,6 +350,48 @@ TEST(test_uv_pass_reproduces_native_warp) {
     free(uv);
 }
 
+
+TEST(test_map_uv_sampling_exact_at_rest_and_for_integer_shifts) {
+    const int W = 60, H = 44;
+    float* src = random_image(W, H, 9);
+    float* dst = malloc(W * H * 4 * sizeof(float));
+    float vx, vy;
+    tsk_picture_field f = uniform_field(&vx, &vy, 0.0f, 0.0f);
+    tsk_warp_def d = free_def(8, 8);
+    d.sampling = TSK_SAMPLE_MAP_UV;
+    CHECK(warp(&d, &f, W, H, src, dst, NULL, 0) == TSK_OK);
+    CHECK(memcmp(src, dst, W * H * 4 * sizeof(float)) == 0);
+    /* content moves by (+2, -1): the UV pass has unit derivatives, the ellipse covers one
+     * pixel, so the filter returns that pixel exactly (away from the clamped border) */
+    f = uniform_field(&vx, &vy, 2.0f / 8.0f, -1.0f / 8.0f);
+    CHECK(warp(&d, &f, W, H, src, dst, NULL, 0) == TSK_OK);
+    int bad = 0, checked = 0;
+    for (int j = 2; j < H - 3; ++j)
+        for (int i = 4; i < W - 2; ++i) {
+            ++checked;
+            bad += memcmp(dst + ((size_t)j * W + i) * 4, src + ((size_t)(j + 1) * W + i - 2) * 4,
+                          4 * sizeof(float)) != 0;
+        }
+    CHECK_MSG(bad == 0, "%d of %d pixels differ", bad, checked);
+    /* a flat colour stays flat under any warp: the weights are normalised */
+    for (int i = 0; i < W * H * 4; ++i) src[i] = (i % 4 == 3) ? 1.0f : 0.25f * (float)(i % 4 + 1);
+    float vxs[16], vys[16];
+    for (int k = 0; k < 16; ++k) {
+        vxs[k] = 0.5f * sinf(1.3f * k);
+        vys[k] = 0.4f * cosf(0.7f * k);
+    }
+    tsk_picture_field g = {vxs, vys, 4, 4, 0};
+    CHECK(warp(&d, &g, W, H, src, dst, NULL, 0) == TSK_OK);
+    /* (Map UV reads zeros outside the picture, so only the interior stays exact) */
+    double worst = 0;
+    for (int j = 8; j < H - 8; ++j)
+        for (int i = 8 * 4; i < (W - 8) * 4; ++i)
+            worst = fmax(worst, fabs(dst[(size_t)j * W * 4 + i] - src[(size_t)j * W * 4 + i]));
+    CHECK_MSG(worst < 1e-6, "flat colour changed by %g", worst);
+    free(src);
+    free(dst);
+}
+
 /* ---- layers --------------------------------------------------------------------------- */
 
 /* A flat background with a disc of another colour; the disc's exact mask is returned. */
@@ -833,7 +875,7 @@ TEST(test_identical_bytes_with_1_and_2_threads) {
         vy[i] = cosf(0.21f * i);
     }
     tsk_picture_field f = {vx, vy, FW, FH, 1};
-    float* out[2][3];
+    float* out[2][4];
     for (int t = 0; t < 2; ++t) {
         CHECK(tsk_set_threads(t + 1) == TSK_OK);
         tsk_picture* p = NULL;
@@ -841,7 +883,7 @@ TEST(test_identical_bytes_with_1_and_2_threads) {
         CHECK(tsk_picture_add_layer_u8(p, mask, W * H, NULL) == TSK_OK);
         tsk_layers_def ld = tsk_default_layers_def();
         CHECK(tsk_picture_build(p, &ld) == TSK_OK);
-        for (int k = 0; k < 3; ++k) out[t][k] = malloc(W * H * 4 * sizeof(float));
+        for (int k = 0; k < 4; ++k) out[t][k] = malloc(W * H * 4 * sizeof(float));
         tsk_warp_def d = tsk_default_warp_def();
         d.cell_x = 12;
         d.cell_y = 10;
@@ -849,9 +891,12 @@ TEST(test_identical_bytes_with_1_and_2_threads) {
                                       W * H * 4, 1) == TSK_OK);
         const float* layers[1] = {out[t][0]};
         CHECK(tsk_picture_composite(p, layers, 1, out[t][2], W * H * 4) == TSK_OK);
+        d.sampling = TSK_SAMPLE_MAP_UV;
+        CHECK(tsk_picture_layer_frame(p, 0, &d, &f, NULL, 0, out[t][3], W * H * 4, NULL, 0, 1) ==
+              TSK_OK);
         tsk_picture_destroy(p);
     }
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < 4; ++k) {
         CHECK(memcmp(out[0][k], out[1][k], W * H * 4 * sizeof(float)) == 0);
         free(out[0][k]);
         free(out[1][k]);
@@ -868,6 +913,7 @@ TEST_MAIN(TEST_ENTRY(test_warp_zero_displacement_is_identity_and_uv_is_pixel_cen
           TEST_ENTRY(test_rigidity_one_keeps_grid_shape),
           TEST_ENTRY(test_horizon_root_line_does_not_move),
           TEST_ENTRY(test_uv_pass_reproduces_native_warp),
+          TEST_ENTRY(test_map_uv_sampling_exact_at_rest_and_for_integer_shifts),
           TEST_ENTRY(test_inpainting_removes_the_layer),
           TEST_ENTRY(test_matte_is_one_inside_zero_outside_monotone),
           TEST_ENTRY(test_grabcut_separates_green_blob),
