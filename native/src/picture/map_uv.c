@@ -19,12 +19,11 @@ typedef struct map_uv_ctx {
     float weights[EWA_STEPS];
 } map_uv_ctx;
 
-/* Radii (a major, b minor) and angle of the ellipse A u^2 + B u v + C v^2 = F. */
-static void ellipse_axes(float A, float B, float C, float F, float* a, float* b, float* th) {
+/* Radii (a major, b minor) of the ellipse A u^2 + B u v + C v^2 = F. */
+static void ellipse_axes(float A, float B, float C, float F, float* a, float* b) {
     if (F <= 1e-5f) {
         *a = sqrtf(A > C ? A : C);
         *b = 0.0f;
-        *th = 0.5f * (atan2f(B, A - C) + 3.14159265358979323846f);
         return;
     }
     const float amc = A - C, apc = A + C, f2 = F * 2.0f;
@@ -33,7 +32,12 @@ static void ellipse_axes(float A, float B, float C, float F, float* a, float* b,
     *a = (d <= 0.0f) ? sqrtf(A > C ? A : C) : sqrtf(f2 / d);
     d = apc + r;
     *b = (d <= 0.0f) ? 0.0f : sqrtf(f2 / d);
-    *th = 0.5f * (atan2f(B, amc) + 3.14159265358979323846f);
+}
+
+/* Angle of its major axis (computed only when the ellipse must be widened: atan2 is the
+ * costliest step of the filter). Both branches of Blender's formula agree. */
+static float ellipse_angle(float A, float B, float C) {
+    return 0.5f * (atan2f(B, A - C) + 3.14159265358979323846f);
 }
 
 /* The implicit ellipse from squared radii and angle (inverse of ellipse_axes). */
@@ -73,8 +77,8 @@ static void ewa(const map_uv_ctx* c, float uv0, float uv1, const float du[2], co
     float C = ux * ux + uy * uy;
     float F = A * C - B * B * 0.25f;
     const float rmin = 0.765625f / ff2;
-    float a, b, th;
-    ellipse_axes(A, B, C, F, &a, &b, &th);
+    float a, b;
+    ellipse_axes(A, B, C, F, &a, &b);
     float b2 = b * b;
     if (b2 < rmin) {
         const float a2 = a * a;
@@ -84,7 +88,7 @@ static void ewa(const map_uv_ctx* c, float uv0, float uv1, const float du[2], co
             F = A * C;
         } else {
             b2 = rmin;
-            ellipse_implicit(a2, b2, th, &A, &B, &C, &F);
+            ellipse_implicit(a2, b2, ellipse_angle(A, B, C), &A, &B, &C, &F);
         }
     }
     const float ue = ff * sqrtf(C), ve = ff * sqrtf(A);

@@ -1,6 +1,6 @@
 /* The warp grid (seed 004, §III-E): corner displacements from the continuum by eq. 5-7 and
- * inverse warping with bilinear sampling by eq. 8, delivered as a warped RGBA image and as
- * a UV pass for Blender's compositor Map UV node. */
+ * inverse warping with bilinear sampling by eq. 8 (or Map UV's filter, map_uv.c), delivered
+ * as a warped RGBA image and as a UV pass for Blender's compositor Map UV node. */
 #include "picture_internal.h"
 
 #include <math.h>
@@ -142,7 +142,7 @@ tsk_status tsk_warp_corners(const tsk_warp_def* def, int width, int height,
     const float fsy = (float)field->height / (float)height;
     for (int ky = 0; ky < cy; ++ky) {
         const float y = (float)ky * (float)def->cell_y;
-        /* eq. 6: R from the distance l to the root line over the layer height h */
+        /* seed 004, eq. 6: R from the distance l to the root line over the layer height h */
         float R = 1.0f;
         if (def->root != TSK_ROOT_NONE) {
             float l = def->root == TSK_ROOT_BOTTOM ? def->root_y - y : y - def->root_y;
@@ -163,10 +163,10 @@ tsk_status tsk_warp_corners(const tsk_warp_def* def, int width, int height,
                 vy_sign * sample_plane(field->vy, field->width, field->height, x * fsx, fy);
             float scale = 1.0f;
             if (scale_map != NULL) scale = sample_plane(scale_map, width, height, x, y);
-            /* eq. 5: n = lambda R Vp dt (lambda scaled by the scale map) */
+            /* seed 004, eq. 5: n = lambda R Vp dt (lambda scaled by the scale map) */
             const float nx = def->lambda_x * scale * R * vpx * def->dt;
             const float ny = def->lambda_y * scale * R * vpy * def->dt;
-            /* eq. 7: corners move against the velocity (inverse warping) */
+            /* seed 004, eq. 7: corners move against the velocity (inverse warping) */
             const size_t k = (size_t)ky * (size_t)cx + (size_t)kx;
             corner_dx[k] = -nx * (float)def->cell_x;
             corner_dy[k] = -ny * (float)def->cell_y;
@@ -175,7 +175,10 @@ tsk_status tsk_warp_corners(const tsk_warp_def* def, int width, int height,
     return TSK_OK;
 }
 
-/* ---- eq. 8: inverse warping ----------------------------------------------------------- */
+/* ---- seed 004, eq. 8: inverse warping --------------------------------------------------
+ * Eq. 8 blends the four displaced corners with the pixel's local (u, v); we blend the four
+ * corner displacements and add them to the pixel centre, which is the same point (the
+ * undisplaced corners blend to the centre exactly) but stays exact when nothing moves. */
 
 typedef struct warp_ctx {
     int width, height, cell_x, cell_y, cx;
