@@ -35,16 +35,14 @@ tsk_status opencv_failed(const char* where, const char* what) {
 
 } // namespace
 
-extern "C" tsk_status tsk_cvp_decode(const uint8_t* bytes, size_t size, const char* name,
-                                     int width, int height, float* rgba) {
+extern "C" tsk_status tsk_cvp_decode(const char* path, int width, int height, float* rgba) {
+    const char* name = path;
     try {
         enable_exr_once();
-        if (size > (size_t)INT32_MAX)
-            return tsk_error_arg(TSK_ERR_LIMIT, "path", "'%s' is too large", name);
-        cv::Mat encoded(1, (int)size, CV_8U, const_cast<uint8_t*>(bytes));
+        /* imread, not imdecode: OpenCV decodes EXR from memory through a temporary file */
         cv::Mat img;
         try {
-            img = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
+            img = cv::imread(path, cv::IMREAD_UNCHANGED);
         } catch (const cv::Exception& e) {
             return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' could not be decoded: %s", name,
                                  e.what());

@@ -13,12 +13,11 @@
 extern "C" {
 #endif
 
-/// Decodes an encoded image (PNG, JPEG, EXR bytes) into straight float RGBA, rows top-first,
-/// written into `rgba` (4*width*height floats, caller-allocated, width/height known from
-/// the header). 8-bit -> /255, 16-bit -> /65535, float kept. Grey and grey+alpha expanded.
-/// The decoded size must equal (width, height). `name` is used in messages.
-tsk_status tsk_cvp_decode(const uint8_t* bytes, size_t size, const char* name, int width,
-                          int height, float* rgba);
+/// Decodes a PNG, JPEG or EXR file into straight float RGBA, rows top-first, written into
+/// `rgba` (4*width*height floats, caller-allocated; width and height were read from the
+/// header). 8-bit -> /255, 16-bit -> /65535, float kept. Grey and grey+alpha expanded.
+/// The decoded size must equal (width, height).
+tsk_status tsk_cvp_decode(const char* path, int width, int height, float* rgba);
 
 /// GrabCut on straight RGBA (top-first). strokes may be NULL. mask receives 255 / 0.
 tsk_status tsk_cvp_grabcut(const float* rgba, int width, int height, int rx, int ry, int rw,

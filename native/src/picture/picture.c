@@ -74,34 +74,16 @@ tsk_status tsk_picture_load(const char* path, tsk_picture** out) {
         return tsk_error_arg(TSK_ERR_LIMIT, "path", "'%s' has %lld bytes; the limit is %lld",
                              path, size, TSK_PICTURE_MAX_FILE_BYTES);
     }
-    /* Read the header first so that a huge picture is refused before reading it all. */
+    /* Read the header first so that a huge picture is refused before it is decoded. */
     uint8_t head[65536];
     size_t head_n = fread(head, 1, sizeof head, f);
+    fclose(f);
     int width = 0, height = 0;
     tsk_status s = tsk_picture_header_size(head, head_n, path, &width, &height);
-    if (s != TSK_OK) {
-        fclose(f);
-        return s;
-    }
-    uint8_t* bytes = tsk_alloc((size_t)size, "picture file");
-    if (bytes == NULL) {
-        fclose(f);
-        return TSK_ERR_MEMORY;
-    }
-    memcpy(bytes, head, head_n);
-    size_t got = head_n + fread(bytes + head_n, 1, (size_t)size - head_n, f);
-    fclose(f);
-    if (got != (size_t)size) {
-        tsk_free(bytes);
-        return tsk_error_arg(TSK_ERR_IO, "path", "'%s' could not be read completely", path);
-    }
+    if (s != TSK_OK) return s;
     tsk_picture* p;
-    if ((s = new_picture(width, height, &p)) != TSK_OK) {
-        tsk_free(bytes);
-        return s;
-    }
-    s = tsk_cvp_decode(bytes, (size_t)size, path, width, height, p->rgba);
-    tsk_free(bytes);
+    if ((s = new_picture(width, height, &p)) != TSK_OK) return s;
+    s = tsk_cvp_decode(path, width, height, p->rgba);
     if (s == TSK_OK) {
         const size_t n = (size_t)width * (size_t)height * 4;
         for (size_t i = 0; i < n; ++i)
