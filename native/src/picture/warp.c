@@ -251,7 +251,19 @@ static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx
 #if TSK_WARP_SSE
             if (((uintptr_t)uvo & 15u) == 0) {
                 /* the UV pass is written once and not read back: bypass the cache */
-                for (int i = 0; i < W; ++i)
+                const __m128 vfw = _mm_set1_ps(fw), vfh = _mm_set1_ps(fh);
+                const __m128 ones = _mm_set1_ps(1.0f);
+                int i = 0;
+                for (; i + 4 <= W; i += 4) {
+                    const __m128 u = _mm_div_ps(_mm_loadu_ps(sxs + i), vfw);
+                    const __m128 v = _mm_div_ps(_mm_sub_ps(vfh, _mm_loadu_ps(sys + i)), vfh);
+                    const __m128 uv01 = _mm_unpacklo_ps(u, v), uv23 = _mm_unpackhi_ps(u, v);
+                    _mm_stream_ps(uvo + 4 * i, _mm_movelh_ps(uv01, ones));
+                    _mm_stream_ps(uvo + 4 * i + 4, _mm_movehl_ps(ones, uv01));
+                    _mm_stream_ps(uvo + 4 * i + 8, _mm_movelh_ps(uv23, ones));
+                    _mm_stream_ps(uvo + 4 * i + 12, _mm_movehl_ps(ones, uv23));
+                }
+                for (; i < W; ++i)
                     _mm_stream_ps(uvo + 4 * i,
                                   _mm_set_ps(1.0f, 1.0f, (fh - sys[i]) / fh, sxs[i] / fw));
             } else
@@ -266,10 +278,51 @@ static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx
         if (c->dst) {
             float* restrict out = c->dst + (size_t)j * W * 4;
             const float* restrict src = c->src;
+            int i = 0;
 #if TSK_WARP_SSE
             const int aligned = ((uintptr_t)out & 15u) == 0;
+            /* four pixels at a time: the same operations, in the same order, as the scalar
+             * loop below, so both give the same bytes */
+            const __m128 half = _mm_set1_ps(0.5f), one = _mm_set1_ps(1.0f);
+            const __m128 xmax = _mm_set1_ps((float)(W > 1 ? W - 2 : 0));
+            const __m128 ymax = _mm_set1_ps((float)(H > 1 ? H - 2 : 0));
+            const int ox4 = W > 1 ? 4 : 0;
+            const size_t oy4 = H > 1 ? (size_t)W * 4 : 0;
+            for (; i + 4 <= W; i += 4) {
+                const __m128 fx = _mm_sub_ps(_mm_loadu_ps(sxs + i), half);
+                const __m128 fy = _mm_sub_ps(_mm_loadu_ps(sys + i), half);
+                const __m128 x0f = _mm_min_ps(_mm_cvtepi32_ps(_mm_cvttps_epi32(fx)), xmax);
+                const __m128 y0f = _mm_min_ps(_mm_cvtepi32_ps(_mm_cvttps_epi32(fy)), ymax);
+                const __m128 tx = _mm_sub_ps(fx, x0f), ty = _mm_sub_ps(fy, y0f);
+                const __m128 mtx = _mm_sub_ps(one, tx), mty = _mm_sub_ps(one, ty);
+                const __m128 w00 = _mm_mul_ps(mtx, mty), w10 = _mm_mul_ps(tx, mty);
+                const __m128 w01 = _mm_mul_ps(mtx, ty), w11 = _mm_mul_ps(tx, ty);
+                int xi[4], yi[4];
+                _mm_storeu_si128((__m128i*)xi, _mm_cvttps_epi32(x0f));
+                _mm_storeu_si128((__m128i*)yi, _mm_cvttps_epi32(y0f));
+#define TSK_WARP_PIXEL(k)                                                                      \
+    do {                                                                                       \
+        const float* a = src + ((size_t)yi[k] * W + xi[k]) * 4;                                \
+        const __m128 top = _mm_add_ps(                                                         \
+            _mm_mul_ps(_mm_shuffle_ps(w00, w00, _MM_SHUFFLE(k, k, k, k)), _mm_loadu_ps(a)),    \
+            _mm_mul_ps(_mm_shuffle_ps(w10, w10, _MM_SHUFFLE(k, k, k, k)),                      \
+                       _mm_loadu_ps(a + ox4)));                                                \
+        const __m128 bot = _mm_add_ps(                                                         \
+            _mm_mul_ps(_mm_shuffle_ps(w01, w01, _MM_SHUFFLE(k, k, k, k)),                      \
+                       _mm_loadu_ps(a + oy4)),                                                 \
+            _mm_mul_ps(_mm_shuffle_ps(w11, w11, _MM_SHUFFLE(k, k, k, k)),                      \
+                       _mm_loadu_ps(a + oy4 + ox4)));                                          \
+        if (aligned) _mm_stream_ps(out + 4 * (i + k), _mm_add_ps(top, bot));                   \
+        else _mm_storeu_ps(out + 4 * (i + k), _mm_add_ps(top, bot));                           \
+    } while (0)
+                TSK_WARP_PIXEL(0);
+                TSK_WARP_PIXEL(1);
+                TSK_WARP_PIXEL(2);
+                TSK_WARP_PIXEL(3);
+#undef TSK_WARP_PIXEL
+            }
 #endif
-            for (int i = 0; i < W; ++i) {
+            for (; i < W; ++i) {
                 const float fx = sxs[i] - 0.5f, fy = sys[i] - 0.5f;
                 int x0 = (int)fx, y0 = (int)fy;
                 if (x0 > W - 2) x0 = W > 1 ? W - 2 : 0;
@@ -280,20 +333,9 @@ static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx
                 const float* a = src + ((size_t)y0 * W + x0) * 4;
                 const float w00 = (1.0f - tx) * (1.0f - ty), w10 = tx * (1.0f - ty);
                 const float w01 = (1.0f - tx) * ty, w11 = tx * ty;
-#if TSK_WARP_SSE
-                /* the same operations in the same order as the scalar code below */
-                const __m128 top = _mm_add_ps(_mm_mul_ps(_mm_set1_ps(w00), _mm_loadu_ps(a)),
-                                              _mm_mul_ps(_mm_set1_ps(w10), _mm_loadu_ps(a + ox)));
-                const __m128 bot =
-                    _mm_add_ps(_mm_mul_ps(_mm_set1_ps(w01), _mm_loadu_ps(a + oy)),
-                               _mm_mul_ps(_mm_set1_ps(w11), _mm_loadu_ps(a + oy + ox)));
-                if (aligned) _mm_stream_ps(out + 4 * i, _mm_add_ps(top, bot));
-                else _mm_storeu_ps(out + 4 * i, _mm_add_ps(top, bot));
-#else
                 for (int ch = 0; ch < 4; ++ch)
                     out[4 * i + ch] = (w00 * a[ch] + w10 * a[ox + ch]) +
                                       (w01 * a[oy + ch] + w11 * a[oy + ox + ch]);
-#endif
             }
         }
     }
