@@ -705,6 +705,92 @@ static void write_bytes(const char* path, const uint8_t* b, size_t n) {
     }
 }
 
+/* A PNG written by hand (stored deflate blocks, our own CRC and Adler sums), independent of
+ * OpenCV's encoder: grey + alpha, 8 bit, the variant OpenCV cannot write. */
+static uint32_t crc32_of(const uint8_t* b, size_t n, uint32_t crc) {
+    crc = ~crc;
+    for (size_t i = 0; i < n; ++i) {
+        crc ^= b[i];
+        for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+    }
+    return ~crc;
+}
+
+static void put32(uint8_t* p, uint32_t v) {
+    p[0] = (uint8_t)(v >> 24);
+    p[1] = (uint8_t)(v >> 16);
+    p[2] = (uint8_t)(v >> 8);
+    p[3] = (uint8_t)v;
+}
+
+static size_t png_chunk(uint8_t* out, const char* type, const uint8_t* data, uint32_t n) {
+    put32(out, n);
+    memcpy(out + 4, type, 4);
+    if (n) memcpy(out + 8, data, n);
+    put32(out + 8 + n, crc32_of(out + 4, n + 4, 0));
+    return 12 + n;
+}
+
+TEST(test_load_grey_alpha_png_written_by_hand) {
+    enum { W = 9, H = 6, ROW = 1 + 2 * W, RAW = ROW * H };
+    uint8_t raw[RAW];
+    for (int j = 0; j < H; ++j) {
+        raw[j * ROW] = 0; /* filter: none */
+        for (int i = 0; i < W; ++i) {
+            raw[j * ROW + 1 + 2 * i] = (uint8_t)(17 * i + 29 * j);      /* grey */
+            raw[j * ROW + 2 + 2 * i] = (uint8_t)(255 - 11 * i - 7 * j); /* alpha */
+        }
+    }
+    uint8_t z[2 + 5 + RAW + 4];
+    z[0] = 0x78;
+    z[1] = 0x01;
+    z[2] = 1; /* final block, stored */
+    z[3] = RAW & 0xFF;
+    z[4] = RAW >> 8;
+    z[5] = (uint8_t)~(RAW & 0xFF);
+    z[6] = (uint8_t)~(RAW >> 8);
+    memcpy(z + 7, raw, RAW);
+    uint32_t s1 = 1, s2 = 0;
+    for (int i = 0; i < RAW; ++i) {
+        s1 = (s1 + raw[i]) % 65521u;
+        s2 = (s2 + s1) % 65521u;
+    }
+    put32(z + 7 + RAW, s2 << 16 | s1);
+    uint8_t ihdr[13];
+    put32(ihdr, W);
+    put32(ihdr + 4, H);
+    ihdr[8] = 8;  /* bit depth */
+    ihdr[9] = 4;  /* colour type: grey + alpha */
+    ihdr[10] = ihdr[11] = ihdr[12] = 0;
+    uint8_t file[8 + 25 + 12 + sizeof z + 12];
+    const uint8_t sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+    memcpy(file, sig, 8);
+    size_t n = 8;
+    n += png_chunk(file + n, "IHDR", ihdr, 13);
+    n += png_chunk(file + n, "IDAT", z, sizeof z);
+    n += png_chunk(file + n, "IEND", NULL, 0);
+    char path[256];
+    temp_path(path, sizeof path, "grey_alpha.png");
+    write_bytes(path, file, n);
+    tsk_picture* p = NULL;
+    CHECK_MSG(tsk_picture_load(path, &p) == TSK_OK, "%s", tsk_last_error());
+    if (p != NULL) {
+        float got[W * H * 4];
+        CHECK(tsk_picture_read_rgba(p, got, W * H * 4, 0) == TSK_OK);
+        double worst = 0;
+        for (int j = 0; j < H; ++j)
+            for (int i = 0; i < W; ++i) {
+                const float* q = got + (j * W + i) * 4;
+                const double g = raw[j * ROW + 1 + 2 * i] / 255.0, a = raw[j * ROW + 2 + 2 * i] / 255.0;
+                worst = fmax(worst, fmax(fabs(q[0] - g), fmax(fabs(q[1] - g), fabs(q[2] - g))));
+                worst = fmax(worst, fabs(q[3] - a));
+            }
+        CHECK_MSG(worst < 1e-6, "grey+alpha differs by %g", worst);
+        tsk_picture_destroy(p);
+    }
+    remove(path);
+}
+
 TEST(test_bad_files_give_messages) {
     const size_t before = tsk_allocated_bytes();
     tsk_picture* p = (tsk_picture*)1;
@@ -919,6 +1005,8 @@ TEST_MAIN(TEST_ENTRY(test_warp_zero_displacement_is_identity_and_uv_is_pixel_cen
           TEST_ENTRY(test_grabcut_separates_green_blob),
           TEST_ENTRY(test_composite_at_rest_and_far_pixels_never_move),
           TEST_ENTRY(test_several_layers_are_removed_front_to_back),
-          TEST_ENTRY(test_load_png_jpeg_exr_variants), TEST_ENTRY(test_bad_files_give_messages),
+          TEST_ENTRY(test_load_png_jpeg_exr_variants),
+          TEST_ENTRY(test_load_grey_alpha_png_written_by_hand),
+          TEST_ENTRY(test_bad_files_give_messages),
           TEST_ENTRY(test_bad_arguments_name_the_argument),
           TEST_ENTRY(test_identical_bytes_with_1_and_2_threads))
