@@ -810,6 +810,21 @@ TEST(test_bad_files_give_messages) {
     temp_path(path, sizeof path, "huge.jpg");
     write_bytes(path, huge_jpg, sizeof huge_jpg);
     CHECK_STATUS(tsk_picture_load(path, &p), TSK_ERR_LIMIT, "20000x100");
+    /* an OpenEXR header whose dataWindow is 0..29999 x 0..9 */
+    uint8_t huge_exr[8 + 11 + 6 + 4 + 16 + 1] = {0x76, 0x2F, 0x31, 0x01, 2, 0, 0, 0};
+    size_t e = 8;
+    memcpy(huge_exr + e, "dataWindow", 11);
+    e += 11;
+    memcpy(huge_exr + e, "box2i", 6);
+    e += 6;
+    const int32_t box[5] = {16, 0, 0, 29999, 9}; /* size, xMin, yMin, xMax, yMax */
+    for (int k = 0; k < 5; ++k)
+        for (int b = 0; b < 4; ++b) huge_exr[e++] = (uint8_t)((uint32_t)box[k] >> (8 * b));
+    huge_exr[e++] = 0;
+    temp_path(path, sizeof path, "huge.exr");
+    write_bytes(path, huge_exr, e);
+    CHECK_STATUS(tsk_picture_load(path, &p), TSK_ERR_LIMIT, "30000x10");
+    remove(path);
     /* not an image */
     temp_path(path, sizeof path, "text.png");
     write_bytes(path, (const uint8_t*)"hello, grass", 12);
