@@ -25,11 +25,14 @@ from .trees import animate as tree_animate  # noqa: E402
 from .trees import operators as tree_operators  # noqa: E402
 from .trees import props as tree_props  # noqa: E402
 from .trees import ui as tree_ui  # noqa: E402
+from .wind import operators as wind_operators  # noqa: E402
 from .wind import props as wind_props  # noqa: E402
+from .wind import ui as wind_ui  # noqa: E402
 
 # One list of classes, registered in order and unregistered in reverse.
 _MODULES = (prefs, ui, capture_props, capture_operators, capture_ui, meadow_props,
-            meadow_operators, meadow_ui, refine_operators, refine_ui, wind_props, tree_props,
+            meadow_operators, meadow_ui, refine_operators, refine_ui, wind_props, wind_operators,
+            wind_ui, tree_props,
             tree_operators, tree_ui, tree_animate)
 
 
