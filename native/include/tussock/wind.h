@@ -55,7 +55,7 @@ typedef struct tsk_wind_gust_def {
     float duration;     ///< s, 0 < duration <= interval
     float dir_x;        ///< D (normalised internally, not 0)
     float dir_y;
-    float front_speed;  ///< m/s, >= 0; 0 = the whole scene feels the gust at once
+    float front_speed;  ///< m/s, 0 or 0.001..1e4; 0 = the whole scene feels the gust at once
     uint64_t seed;
 } tsk_wind_gust_def;
 
