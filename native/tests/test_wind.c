@@ -654,8 +654,8 @@ static uint64_t hash_floats(const float* a, size_t n, uint64_t h) {
 static uint64_t run_scene(int threads) {
     tsk_set_threads(threads);
     tsk_wind_def d = tsk_default_wind_def();
-    /* 300 x 220 cells: rows split into 2 chunks (see row_grain), so the grid loops really
-     * run on both threads; the tolerance makes the residual reduction run too */
+    /* 300 x 220 cells: rows split into chunks of 16 (see row_grain_of), so the grid loops
+     * really run on both threads; the tolerance makes the residual reduction run too */
     d.fluid.nx = 300;
     d.fluid.ny = 220;
     d.fluid.cell_size = 0.15f;

@@ -8,14 +8,13 @@
 #include <math.h>
 #include <string.h>
 
-/* Rows per parallel chunk: at least ~32k cells, so that a grid of 128^2 or less runs in
- * one chunk on the calling thread. Each step runs ~50 parallel loops of a few
- * microseconds; below that size the thread hand-offs cost more than they save (and on a
- * busy machine a descheduled worker stalls every one of them). The chunking depends
+/* Rows per parallel chunk. A grid of up to ~128^2 cells runs in one chunk on the calling
+ * thread: each step runs ~50 parallel loops of a few microseconds, and below that size the
+ * hand-offs to worker threads cost more than they save. Larger grids use chunks of 16 rows,
+ * handed out dynamically, which also copes best with a busy machine. The chunking depends
  * only on the grid size, so the bytes never depend on the thread count. */
-static size_t row_grain(int nx) {
-    const size_t g = (32768u + (size_t)nx - 1u) / (size_t)nx;
-    return g < 16u ? 16u : g;
+static size_t row_grain_of(int nx, int ny) {
+    return (size_t)nx * (size_t)ny <= 20000u ? (size_t)ny + 1u : 16u;
 }
 
 tsk_status tsk_fluid_init(tsk_fluid* f, const tsk_wind_fluid_def* def) {
@@ -149,8 +148,8 @@ static void advect_v_rows(size_t b, size_t e, size_t chunk, void* ctx) {
 }
 
 void tsk_fluid_advect(tsk_fluid* f) {
-    tsk_parallel_for((size_t)f->ny, row_grain(f->nx), advect_u_rows, f);
-    tsk_parallel_for((size_t)f->ny + 1, row_grain(f->nx), advect_v_rows, f);
+    tsk_parallel_for((size_t)f->ny, row_grain_of(f->nx, f->ny), advect_u_rows, f);
+    tsk_parallel_for((size_t)f->ny + 1, row_grain_of(f->nx, f->ny), advect_v_rows, f);
     float* t = f->u;
     f->u = f->u_tmp;
     f->u_tmp = t;
@@ -200,7 +199,7 @@ static void diffuse_field(tsk_fluid* f, float** field, float** tmp, int w, int h
     for (int it = 0; it < f->diffusion_iterations; ++it) {
         c.in = a;
         c.out = b;
-        tsk_parallel_for((size_t)h, row_grain(w), diffuse_rows, &c);
+        tsk_parallel_for((size_t)h, row_grain_of(f->nx, f->ny), diffuse_rows, &c);
         float* t = a;
         a = b;
         b = t;
@@ -302,21 +301,21 @@ static void gradient_rows(size_t b, size_t e, size_t chunk, void* ctx) {
 static float measure_residual(tsk_fluid* f) {
     float partial[TSK_WIND_MAX_GRID / 16 + 1];
     jacobi_ctx c = {f, f->phi, NULL, partial};
-    tsk_parallel_for((size_t)f->ny, row_grain(f->nx), residual_rows, &c);
-    const size_t n = tsk_chunk_count((size_t)f->ny, row_grain(f->nx));
+    tsk_parallel_for((size_t)f->ny, row_grain_of(f->nx, f->ny), residual_rows, &c);
+    const size_t n = tsk_chunk_count((size_t)f->ny, row_grain_of(f->nx, f->ny));
     float mx = 0.0f;
     for (size_t i = 0; i < n; ++i) mx = partial[i] > mx ? partial[i] : mx;
     return mx;
 }
 
 int tsk_fluid_project(tsk_fluid* f) {
-    tsk_parallel_for((size_t)f->ny, row_grain(f->nx), divergence_rows, f);
+    tsk_parallel_for((size_t)f->ny, row_grain_of(f->nx, f->ny), divergence_rows, f);
     int it = 0;
     f->last_divergence = -1.0f;
     /* warm start: phi keeps the last step's solution */
     while (it < f->iterations) {
         jacobi_ctx c = {f, f->phi, f->phi_tmp, NULL};
-        tsk_parallel_for((size_t)f->ny, row_grain(f->nx), jacobi_rows, &c);
+        tsk_parallel_for((size_t)f->ny, row_grain_of(f->nx, f->ny), jacobi_rows, &c);
         float* t = f->phi;
         f->phi = f->phi_tmp;
         f->phi_tmp = t;
@@ -326,7 +325,7 @@ int tsk_fluid_project(tsk_fluid* f) {
             if (f->last_divergence < f->tolerance) break;
         }
     }
-    tsk_parallel_for((size_t)f->ny + 1, row_grain(f->nx), gradient_rows, f);
+    tsk_parallel_for((size_t)f->ny + 1, row_grain_of(f->nx, f->ny), gradient_rows, f);
     f->last_iterations = it;
     return it;
 }
@@ -371,7 +370,9 @@ static void finish_rows(size_t b, size_t e, size_t chunk, void* vctx) {
 
 void tsk_fluid_finish(tsk_fluid* f) {
     const size_t n = (size_t)(f->nx + 1) * (size_t)f->ny + (size_t)f->nx * (size_t)(f->ny + 1);
-    tsk_parallel_for(n, 2 * row_grain(f->nx) * (size_t)f->nx, finish_rows, f);
+    /* one chunk for small grids (as row_grain_of), else 16 rows' worth of faces */
+    const size_t grain = (size_t)f->nx * (size_t)f->ny <= 20000u ? n : 16u * (size_t)f->nx;
+    tsk_parallel_for(n, grain, finish_rows, f);
 }
 
 /* ---- sources (seed 004, III-C: pushes of strength 0..1 every `interval` seconds) ------ */
