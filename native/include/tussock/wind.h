@@ -35,6 +35,10 @@ enum {
 ///   W = A * ((sin(theta) + 1) / 2)^k * D,  theta = (2 pi / L) * (D . (x, y) - s t) + phase
 /// so the wave pushes along D with a speed between 0 and A (never against D), crests move
 /// downwind along D at speed s, and k > 1 sharpens the peaks and widens the calm troughs.
+/// Departures from the printed eq. 14, on purpose: its (sin/2)^k is undefined for
+/// non-integer k where sin < 0, so we use the ((sin + 1) / 2)^k of [Fer04] that the seed
+/// cites for k; its 1/l (branch segment length) is applied by the tree module; and the time
+/// term has the sign that moves crests downwind (a negative s gives the seed's +t phi).
 /// Evaluated in float: points more than ~1e5 wavelengths from the origin lose phase detail
 /// (the result stays bounded).
 typedef struct tsk_wind_wave {
