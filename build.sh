@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # Tussock's only entry point:  ./build.sh deps | build | test | demo | bench [NAME...] | package
+#                              | fuzz [SECONDS [NAME...]]
 # Each step is idempotent and quiet when there is nothing to do.
 set -euo pipefail
 
@@ -66,6 +67,62 @@ build_asan() {
   quiet cmake --build "$BUILD/asan" || die "sanitizer build failed"
 }
 
+# libFuzzer targets (native/fuzz/fuzz_*.c) in their own build dir: ASan + UBSan + coverage.
+build_fuzz() {
+  configure "$BUILD/fuzz" -DCMAKE_BUILD_TYPE=Debug -DTSK_FUZZ=ON \
+    -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+    -DCMAKE_C_FLAGS_DEBUG="-g -O1" -DCMAKE_CXX_FLAGS_DEBUG="-g -O1"
+  quiet cmake --build "$BUILD/fuzz" --target fuzzers || die "fuzz build failed"
+}
+
+# Runs each fuzzer (all, or those named) for `seconds`, one at a time at the lowest priority,
+# on a working copy of its seed corpus; prints executions per target and adds to
+# PASSED/FAILED (a run that finds nothing passes). Crashes land in build/fuzz/artifacts/.
+run_fuzzers() { # seconds [name...]
+  local secs="$1" f name log rc execs t0 t1 want
+  shift
+  mkdir -p "$BUILD/fuzz/artifacts" "$BUILD/fuzz/logs"
+  for f in "$BUILD/fuzz"/fuzz_*; do
+    [ -x "$f" ] || continue
+    name="${f##*/fuzz_}"
+    if [ $# -gt 0 ]; then
+      want=0
+      for n in "$@"; do [ "$n" = "$name" ] && want=1; done
+      [ "$want" -eq 1 ] || continue
+    fi
+    mkdir -p "$BUILD/fuzz/corpus/$name"
+    log="$BUILD/fuzz/logs/$name.log"
+    t0=$(date +%s)
+    rc=0
+    ASAN_OPTIONS="detect_leaks=1:halt_on_error=1" UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
+      LSAN_OPTIONS="suppressions=$ROOT/native/fuzz/lsan.supp:print_suppressions=0" \
+      nice -n 19 "$f" -max_total_time="$secs" -timeout=30 -rss_limit_mb=2048 \
+      -print_final_stats=1 -artifact_prefix="$BUILD/fuzz/artifacts/$name-" \
+      "$BUILD/fuzz/corpus/$name" "$ROOT/native/fuzz/corpus/$name" >"$log" 2>&1 || rc=$?
+    t1=$(date +%s)
+    execs="$(grep -E '^stat::number_of_executed_units' "$log" | awk '{print $2}' | tail -n 1)"
+    if [ "$rc" -eq 0 ]; then
+      printf '%-8s %-28s 1 passed, 0 failed  (%s executions in %s s)\n' fuzz "fuzz_$name" \
+        "${execs:-?}" "$((t1 - t0))"
+      PASSED=$((PASSED + 1))
+    else
+      grep -E 'ERROR|SUMMARY|Test unit written|==[0-9]+==' "$log" | head -n 20 >&2 || true
+      printf '%-8s %-28s 0 passed, 1 failed  (log: %s)\n' fuzz "fuzz_$name" "$log"
+      FAILED=$((FAILED + 1))
+    fi
+  done
+}
+
+cmd_fuzz() {
+  local secs="${1:-60}"
+  [ $# -gt 0 ] && shift
+  case "$secs" in ''|*[!0-9]*) die "fuzz: seconds must be a whole number, got '$secs'" ;; esac
+  build_fuzz
+  run_fuzzers "$secs" "$@"
+  echo "$PASSED passed, $FAILED failed"
+  [ "$FAILED" -eq 0 ]
+}
+
 # Runs every test_* program of a build dir; adds to PASSED/FAILED.
 PASSED=0
 FAILED=0
@@ -101,6 +158,11 @@ cmd_test() {
   run_native_tests "$BUILD/release" native
   run_native_tests "$BUILD/asan" asan+ubsan
   unset ASAN_OPTIONS UBSAN_OPTIONS
+  # every fuzzer briefly (TSK_CI_FUZZ_SECONDS each, default 15; 0 skips)
+  if [ "${TSK_CI_FUZZ_SECONDS:-15}" -gt 0 ]; then
+    build_fuzz
+    run_fuzzers "${TSK_CI_FUZZ_SECONDS:-15}"
+  fi
   local out line p f
   if out="$("$PY" "$ROOT/blender_tests/run.py" 2>&1)"; then :; fi
   printf '%s\n' "$out" | grep -v -E '^[0-9]+ passed, [0-9]+ failed$' || true
@@ -155,7 +217,8 @@ main() {
     demo) cmd_demo ;;
     bench) cmd_deps; cmd_bench "$@" ;;
     package) cmd_deps; cmd_package ;;
-    *) say "usage: ./build.sh deps | build | test | demo | bench [NAME...] | package"; exit 2 ;;
+    fuzz) cmd_deps; cmd_fuzz "$@" ;;
+    *) say "usage: ./build.sh deps | build | test | demo | bench [NAME...] | package | fuzz [SECONDS [NAME...]]"; exit 2 ;;
   esac
 }
 

@@ -861,7 +861,107 @@ TEST(test_capture_random_depth_is_handled_without_harm) {
     tsk_capture_destroy(cap);
 }
 
-TEST_MAIN(TEST_ENTRY(test_capture_clean_fan_gives_exact_blades_and_profiles),
+/* A frame whose pipeline images (48 bytes per pixel) exceed the budget is refused with
+ * TSK_ERR_LIMIT before any buffer grows. */
+TEST(test_capture_frame_over_memory_budget_is_refused) {
+    const int w = 256, h = 256;
+    float* depth = calloc((size_t)w * h, sizeof *depth);
+    for (int i = 0; i < w * h; ++i) depth[i] = (i % w > 100 && i % w < 110) ? 0.5f : 0.0f;
+    tsk_capture* cap = NULL;
+    CHECK(tsk_capture_create(&cap) == TSK_OK);
+    const tsk_capture_def def = tsk_default_capture_def();
+    tsk_set_memory_budget((uint64_t)w * h * 48 - 1);
+    CHECK_STATUS(tsk_capture_process(cap, &def, depth, w, h), TSK_ERR_LIMIT, "width: needs");
+    tsk_set_memory_budget((uint64_t)w * h * 48);
+    CHECK(tsk_capture_process(cap, &def, depth, w, h) == TSK_OK);
+    tsk_set_memory_budget(0);
+    tsk_capture_destroy(cap);
+    free(depth);
+}
+
+/* Fuzz finding (fuzz_capture_def): a first frame with no blade left the knot buffers
+ * unallocated, and the getters then did memcpy from NULL + 0 (undefined behaviour that
+ * UBSan reports). With zero knots they must return TSK_OK and leave the buffers alone. */
+TEST(test_capture_no_blades_getters_copy_nothing) {
+    enum { w = 64, h = 48 };
+    static float depth[w * h];
+    memset(depth, 0, sizeof depth);
+    depth[10 * w + 10] = 0.8f; /* one speck, far below min_area */
+    tsk_capture* cap = NULL;
+    CHECK(tsk_capture_create(&cap) == TSK_OK);
+    tsk_capture_def def = tsk_default_capture_def();
+    def.near_m = 0.5f;
+    def.far_m = 1.0f;
+    CHECK(tsk_capture_process(cap, &def, depth, w, h) == TSK_OK);
+    CHECK(tsk_capture_blade_count(cap) == 0);
+    CHECK(tsk_capture_knot_total(cap) == 0);
+    float xyz[3] = {7, 7, 7}, wid[1] = {7}, uv[2] = {7, 7};
+    int32_t counts[1] = {7};
+    CHECK(tsk_capture_get_knots(cap, xyz, wid, uv, 0) == TSK_OK);
+    CHECK(tsk_capture_get_blades(cap, counts, NULL, 0) == TSK_OK);
+    CHECK(xyz[0] == 7 && wid[0] == 7 && uv[1] == 7 && counts[0] == 7);
+    tsk_capture_destroy(cap);
+}
+
+/* Fuzz finding (fuzz_capture_def): a finite but huge depth (FLT_MAX) overflowed the
+ * histogram bin index (float -> int conversion out of range: undefined behaviour). Depths
+ * beyond 20 m are now skipped; the band is the one of the real 0.5 m blade. */
+TEST(test_capture_band_ignores_huge_finite_depths) {
+    enum { w = 32, h = 32 };
+    static float depth[w * h];
+    for (int i = 0; i < w * h; ++i) depth[i] = (i % 3 == 0) ? 3.4e38f : 0.505f;
+    float nearv = 0, farv = 0;
+    CHECK(tsk_capture_propose_band(depth, w, h, 10, &nearv, &farv) == TSK_OK);
+    CHECK(nearv <= 0.505f && farv >= 0.505f);
+    CHECK(farv < 1.0f);
+    for (int i = 0; i < w * h; ++i) depth[i] = 3.4e38f;
+    CHECK_STATUS(tsk_capture_propose_band(depth, w, h, 10, &nearv, &farv), TSK_ERR_FORMAT,
+                 "no significant depth");
+}
+
+/* Fuzz finding (fuzz_capture_def): a positive but tiny focal length (FLT_MIN) or a huge
+ * principal point passed validation and back-projected knots to +-inf. Intrinsics and the
+ * band are now bounded so that every knot is finite; a 0.5 px focal length still works
+ * and gives finite knots. */
+TEST(test_capture_tiny_focal_length_or_far_band_is_refused) {
+    enum { w = 64, h = 64 };
+    static float depth[w * h];
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) depth[y * w + x] = (x >= 28 && x < 36 && y > 8) ? 0.5f : 0.0f;
+    tsk_capture* cap = NULL;
+    CHECK(tsk_capture_create(&cap) == TSK_OK);
+    tsk_capture_def def = tsk_default_capture_def();
+    def.min_area = 20;
+    def.intrinsics = (tsk_intrinsics){1.17549435e-38f, 1.17549435e-38f, 1.17549435e-38f, 24.0f};
+    CHECK_STATUS(tsk_capture_process(cap, &def, depth, w, h), TSK_ERR_ARGUMENT, "intrinsics");
+    def.intrinsics = (tsk_intrinsics){50.0f, 50.0f, 3e30f, 24.0f};
+    CHECK_STATUS(tsk_capture_process(cap, &def, depth, w, h), TSK_ERR_ARGUMENT, "intrinsics");
+    def.intrinsics = (tsk_intrinsics){0.0f, 0.0f, 0.0f, 0.0f};
+    def.near_m = 0.1f;
+    def.far_m = 1e30f;
+    CHECK_STATUS(tsk_capture_process(cap, &def, depth, w, h), TSK_ERR_ARGUMENT, "far_m");
+    def.near_m = def.far_m = 0.0f;
+    def.intrinsics = (tsk_intrinsics){0.5f, 0.5f, 32.0f, 32.0f};
+    CHECK(tsk_capture_process(cap, &def, depth, w, h) == TSK_OK);
+    const int nk = tsk_capture_knot_total(cap);
+    CHECK(nk > 0);
+    float* xyz = malloc((size_t)(nk + 1) * 3 * sizeof *xyz);
+    float* wid = malloc((size_t)(nk + 1) * sizeof *wid);
+    CHECK(tsk_capture_get_knots(cap, xyz, wid, NULL, (size_t)nk) == TSK_OK);
+    int finite = 1;
+    for (int i = 0; i < 3 * nk; ++i) finite &= isfinite(xyz[i]) != 0;
+    for (int i = 0; i < nk; ++i) finite &= isfinite(wid[i]) && wid[i] >= 0.0f;
+    CHECK(finite);
+    free(xyz);
+    free(wid);
+    tsk_capture_destroy(cap);
+}
+
+TEST_MAIN(TEST_ENTRY(test_capture_tiny_focal_length_or_far_band_is_refused),
+          TEST_ENTRY(test_capture_band_ignores_huge_finite_depths),
+          TEST_ENTRY(test_capture_no_blades_getters_copy_nothing),
+          TEST_ENTRY(test_capture_frame_over_memory_budget_is_refused),
+          TEST_ENTRY(test_capture_clean_fan_gives_exact_blades_and_profiles),
           TEST_ENTRY(test_capture_noisy_fan_keeps_count_and_tolerances),
           TEST_ENTRY(test_capture_single_blade_is_one_blade_root_to_tip),
           TEST_ENTRY(test_capture_centroid_mode_splits_a_lone_blade_but_root_mode_does_not),

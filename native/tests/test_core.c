@@ -183,7 +183,36 @@ TEST(test_version_is_semver) {
     CHECK(sscanf(tsk_version(), "%d.%d.%d", &a, &b, &c) == 3);
 }
 
-TEST_MAIN(TEST_ENTRY(test_error_names_argument), TEST_ENTRY(test_error_long_message_truncates),
+/* The default budget is TSK_MEMORY_FRACTION of MemTotal (read here from /proc/meminfo,
+ * independently of sysconf); a set budget overrides it; estimates over it, and NaN, are
+ * refused with TSK_ERR_LIMIT and a message naming the request. */
+TEST(test_memory_budget_is_half_of_physical_memory_and_refuses_more) {
+    FILE* f = fopen("/proc/meminfo", "r");
+    unsigned long long kb = 0;
+    if (f != NULL) {
+        char line[256];
+        while (fgets(line, sizeof line, f))
+            if (sscanf(line, "MemTotal: %llu kB", &kb) == 1) break;
+        fclose(f);
+    }
+    tsk_set_memory_budget(0);
+    if (kb > 0 && getenv("TSK_MEMORY_BUDGET_MB") == NULL) {
+        const double expect = 0.5 * (double)kb * 1024.0;
+        CHECK_NEAR((double)tsk_memory_budget(), expect, 0.01 * expect);
+        CHECK_NEAR((double)tsk_physical_memory(), (double)kb * 1024.0, 0.01 * kb * 1024.0);
+    }
+    tsk_set_memory_budget((uint64_t)1 << 20);
+    CHECK(tsk_memory_budget() == ((uint64_t)1 << 20));
+    CHECK(tsk_memory_check(1048576.0, "exact") == TSK_OK);
+    CHECK_STATUS(tsk_memory_check(1048577.0, "big thing"), TSK_ERR_LIMIT, "big thing: needs");
+    CHECK_STATUS(tsk_memory_check(1e30, "huge"), TSK_ERR_LIMIT, "memory budget of 1 MiB");
+    CHECK_STATUS(tsk_memory_check(NAN, "nan"), TSK_ERR_LIMIT, "nan");
+    tsk_set_memory_budget(0);
+    CHECK(tsk_memory_check(1e6, "small") == TSK_OK);
+}
+
+TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_more),
+          TEST_ENTRY(test_error_names_argument), TEST_ENTRY(test_error_long_message_truncates),
           TEST_ENTRY(test_alloc_is_aligned_and_counted), TEST_ENTRY(test_calloc_overflow_is_refused),
           TEST_ENTRY(test_allocator_hooks_are_used), TEST_ENTRY(test_hash_matches_definition),
           TEST_ENTRY(test_rand_uniform_statistics),

@@ -1076,7 +1076,31 @@ TEST(test_ten_million_blade_meadow_lays_out) {
     tsk_meadow_destroy(m);
 }
 
-TEST_MAIN(TEST_ENTRY(test_default_blade_matches_documented_formula),
+/* A meadow whose tiles and instances (20 + 20 * blades_per_tile / chunk bytes per tile)
+ * exceed the memory budget is refused before allocation; the same def fits the default. */
+TEST(test_meadow_and_patch_over_memory_budget_are_refused) {
+    tsk_meadow_def d = tsk_default_meadow_def();
+    d.size[0] = d.size[1] = 100.0f;
+    d.tile_size = 0.5f; /* 40000 tiles x 64 blades x 20 B = 51 MB of instances */
+    d.blades_per_tile = 64;
+    d.chunk_blades = 1;
+    d.density = TSK_DENSITY_UNIFORM;
+    tsk_set_memory_budget((uint64_t)16 << 20);
+    tsk_meadow* m = NULL;
+    CHECK_STATUS(tsk_meadow_create(&d, &m), TSK_ERR_LIMIT, "meadow: needs about");
+    CHECK(m == NULL);
+    tsk_patch_def pd = tsk_default_patch_def(); /* 16384 blades x 32 vertices: > 16 MiB */
+    tsk_patch* p = NULL;
+    CHECK_STATUS(tsk_patch_create(&pd, &p), TSK_ERR_LIMIT, "blade_count: needs about");
+    CHECK(p == NULL);
+    tsk_set_memory_budget(0);
+    CHECK(tsk_meadow_create(&d, &m) == TSK_OK);
+    tsk_meadow_destroy(m);
+    CHECK(tsk_allocated_bytes() == 0);
+}
+
+TEST_MAIN(TEST_ENTRY(test_meadow_and_patch_over_memory_budget_are_refused),
+          TEST_ENTRY(test_default_blade_matches_documented_formula),
           TEST_ENTRY(test_blade_model_set_moves_root_to_origin),
           TEST_ENTRY(test_blade_model_rejects_bad_input),
           TEST_ENTRY(test_resample_spaces_knots_evenly_on_the_polyline),

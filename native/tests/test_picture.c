@@ -1007,7 +1007,33 @@ TEST(test_identical_bytes_with_1_and_2_threads) {
     free(mask);
 }
 
-TEST_MAIN(TEST_ENTRY(test_warp_zero_displacement_is_identity_and_uv_is_pixel_centres),
+/* A picture whose pixels and plates (48 bytes per pixel) exceed the budget is refused; so
+ * is a layer that would take the built picture over it. */
+TEST(test_picture_and_layers_over_memory_budget_are_refused) {
+    const int w = 64, h = 32;
+    const size_t n = (size_t)w * h;
+    float* rgba = calloc(n * 4, sizeof *rgba);
+    uint8_t* mask = calloc(n, 1);
+    mask[5 * w + 5] = 255;
+    tsk_picture* p = NULL;
+    tsk_set_memory_budget((uint64_t)n * 48 - 1);
+    CHECK_STATUS(tsk_picture_create(w, h, rgba, n * 4, 0, &p), TSK_ERR_LIMIT,
+                 "picture: needs about");
+    CHECK(p == NULL);
+    tsk_set_memory_budget((uint64_t)n * 48);
+    CHECK(tsk_picture_create(w, h, rgba, n * 4, 0, &p) == TSK_OK);
+    /* one layer needs n * (21 + 48 + 25) + n * 21 bytes */
+    CHECK_STATUS(tsk_picture_add_layer_u8(p, mask, n, NULL), TSK_ERR_LIMIT, "mask: needs");
+    tsk_set_memory_budget((uint64_t)n * (21 * 2 + 48 + 25));
+    CHECK(tsk_picture_add_layer_u8(p, mask, n, NULL) == TSK_OK);
+    tsk_set_memory_budget(0);
+    tsk_picture_destroy(p);
+    free(rgba);
+    free(mask);
+}
+
+TEST_MAIN(TEST_ENTRY(test_picture_and_layers_over_memory_budget_are_refused),
+          TEST_ENTRY(test_warp_zero_displacement_is_identity_and_uv_is_pixel_centres),
           TEST_ENTRY(test_warp_integer_shift_is_exact),
           TEST_ENTRY(test_warp_fractional_shift_matches_reference_bilinear),
           TEST_ENTRY(test_corners_match_eq5_to_7_closed_form),

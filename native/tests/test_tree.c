@@ -1126,7 +1126,31 @@ TEST(test_tree_smoothed_mesh_through_stencils) {
     tsk_tree_destroy(t);
 }
 
-TEST_MAIN(TEST_ENTRY(test_tree_same_seed_same_bytes_1_and_2_threads),
+/* Growing past the memory budget stops with TSK_ERR_LIMIT (naming max_branches) instead of
+ * allocating; a mesh whose buffers exceed it is refused by tsk_tree_mesh_count. */
+TEST(test_tree_and_mesh_over_memory_budget_are_refused) {
+    tsk_tree_def d = tsk_default_tree_def();
+    tsk_tree* t = NULL;
+    CHECK(tsk_tree_create(&d, &t) == TSK_OK);
+    tsk_tree_mesh_def md = tsk_default_tree_mesh_def();
+    size_t nv = 0, nf = 0;
+    CHECK(tsk_tree_mesh_count(t, &md, &nv, &nf) == TSK_OK);
+    const size_t need = nv * 24 + nf * 48;
+    tsk_set_memory_budget(need - 1);
+    CHECK_STATUS(tsk_tree_mesh_count(t, &md, &nv, &nf), TSK_ERR_LIMIT, "mesh: needs about");
+    tsk_set_memory_budget(need);
+    CHECK(tsk_tree_mesh_count(t, &md, &nv, &nf) == TSK_OK);
+    tsk_tree_destroy(t);
+    t = NULL;
+    tsk_set_memory_budget(4096); /* not even the first 256 stems fit */
+    CHECK_STATUS(tsk_tree_create(&d, &t), TSK_ERR_LIMIT, "max_branches: needs about");
+    CHECK(t == NULL);
+    tsk_set_memory_budget(0);
+    CHECK(tsk_allocated_bytes() == 0);
+}
+
+TEST_MAIN(TEST_ENTRY(test_tree_and_mesh_over_memory_budget_are_refused),
+          TEST_ENTRY(test_tree_same_seed_same_bytes_1_and_2_threads),
           TEST_ENTRY(test_tree_level_counts_follow_weber_penn),
           TEST_ENTRY(test_tree_splits_add_clones_on_their_stem),
           TEST_ENTRY(test_tree_child_p0_on_parent_curve_at_v_with_alpha),

@@ -829,7 +829,45 @@ TEST(test_wind_releases_its_memory) {
     CHECK(tsk_allocated_bytes() == before);
 }
 
-TEST_MAIN(TEST_ENTRY(test_fast_sin_and_pow_match_libm), TEST_ENTRY(test_wind_sines_match_closed_form),
+/* A fluid grid whose fields (24 floats per cell) exceed the budget is refused. */
+TEST(test_wind_grid_over_memory_budget_is_refused) {
+    tsk_wind_def d = tsk_default_wind_def();
+    d.fluid.nx = d.fluid.ny = 256;
+    tsk_set_memory_budget((uint64_t)256 * 256 * 96 - 1);
+    tsk_wind* w = NULL;
+    CHECK_STATUS(tsk_wind_create(&d, &w), TSK_ERR_LIMIT, "fluid.nx: needs about");
+    CHECK(w == NULL);
+    tsk_set_memory_budget((uint64_t)256 * 256 * 96);
+    CHECK(tsk_wind_create(&d, &w) == TSK_OK);
+    tsk_wind_destroy(w);
+    tsk_set_memory_budget(0);
+}
+
+/* Fuzz finding (fuzz_wind): without a fluid grid the step length was not validated, yet
+ * tsk_wind_step advances the clock by it, so dt = -inf (or NaN, 0) gave a NaN time that
+ * then reached every sample. dt is now checked with or without a grid. */
+TEST(test_wind_without_grid_still_checks_dt) {
+    tsk_wind_def d = tsk_default_wind_def();
+    d.fluid.nx = d.fluid.ny = 0;
+    d.continuum.enabled = 0;
+    const float bad[] = {-INFINITY, NAN, 0.0f, -0.01f, 2.0f};
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; ++i) {
+        d.fluid.dt = bad[i];
+        tsk_wind* w = NULL;
+        CHECK_STATUS(tsk_wind_create(&d, &w), TSK_ERR_ARGUMENT, "fluid.dt");
+        CHECK(w == NULL);
+    }
+    d.fluid.dt = 0.25f;
+    tsk_wind* w = NULL;
+    CHECK(tsk_wind_create(&d, &w) == TSK_OK);
+    CHECK(tsk_wind_step(w, 3) == TSK_OK);
+    CHECK_NEAR(tsk_wind_time(w), 0.75, 1e-12);
+    tsk_wind_destroy(w);
+}
+
+TEST_MAIN(TEST_ENTRY(test_wind_without_grid_still_checks_dt),
+          TEST_ENTRY(test_wind_grid_over_memory_budget_is_refused),
+          TEST_ENTRY(test_fast_sin_and_pow_match_libm), TEST_ENTRY(test_wind_sines_match_closed_form),
           TEST_ENTRY(test_wind_sines_crests_travel_downwind_at_speed),
           TEST_ENTRY(test_gusts_are_raised_cosines_one_per_slot),
           TEST_ENTRY(test_gust_front_travels_downwind_and_seed_matters),

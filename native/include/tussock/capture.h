@@ -131,8 +131,10 @@ typedef enum tsk_capture_root {
 
 /// Parameters of the capture pipeline. Get defaults with tsk_default_capture_def().
 typedef struct tsk_capture_def {
-    float near_m, far_m;  ///< depth band in metres; both 0 = automatic (nearest depth mode)
-    tsk_intrinsics intrinsics; ///< all 0 = tsk_default_intrinsics(width, height)
+    float near_m, far_m;  ///< depth band in metres, far_m <= 10000; both 0 = automatic
+                          ///< (nearest depth mode)
+    tsk_intrinsics intrinsics; ///< all 0 = tsk_default_intrinsics(width, height); else
+                               ///< fx, fy in [0.01, 1e6) px and |cx|, |cy| <= 1e6 px
     int min_area;         ///< smallest blob kept, pixels (also the speckle size). Default 150
     int hole_radius;      ///< closing radius that fills dropout holes, pixels. Default 2
     int open_radius;      ///< opening radius that removes thin speckles, pixels. Default 0

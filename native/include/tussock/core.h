@@ -67,6 +67,24 @@ void tsk_free(void* ptr);
 /// Bytes currently allocated through tsk_alloc (for leak and release checks).
 size_t tsk_allocated_bytes(void);
 
+/* ---- memory budget ------------------------------------------------------------------- */
+/// Fraction of physical memory that one request (a meadow, a tree mesh, a picture with its
+/// layers, a capture frame, a wind grid) may plan to use. Requests whose estimate exceeds
+/// it are refused with TSK_ERR_LIMIT before anything large is allocated.
+#define TSK_MEMORY_FRACTION 0.5
+/// Physical memory of the machine in bytes (sysconf), 0 if unknown.
+uint64_t tsk_physical_memory(void);
+/// The budget in bytes: the value given to tsk_set_memory_budget, else the environment
+/// variable TSK_MEMORY_BUDGET_MB (MiB), else TSK_MEMORY_FRACTION of physical memory
+/// (4 GiB if that is unknown).
+uint64_t tsk_memory_budget(void);
+/// Sets the budget in bytes for the whole process; 0 restores the default.
+void tsk_set_memory_budget(uint64_t bytes);
+/// TSK_OK if `bytes` (an estimate, any size, as double so that it cannot overflow) fits in
+/// the budget; else TSK_ERR_LIMIT with "what: needs about N MiB, more than the memory
+/// budget of M MiB". NaN is refused.
+tsk_status tsk_memory_check(double bytes, const char* what);
+
 /* ---- deterministic random numbers ---------------------------------------------------- */
 
 /// 64-bit hash of a seed and three indices (counter-based: no state, any order, any thread).

@@ -34,6 +34,9 @@ static tsk_status check_def(const tsk_capture_def* d) {
         return tsk_error_arg(TSK_ERR_ARGUMENT, "near_m",
                              "depth band must be finite and >= 0, got [%g, %g]", d->near_m,
                              d->far_m);
+    if (d->far_m > 1e4f)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "far_m", "must be at most 10000 m, got %g",
+                             d->far_m);
     if (!(d->near_m == 0.0f && d->far_m == 0.0f) && !(d->far_m > d->near_m))
         return tsk_error_arg(TSK_ERR_ARGUMENT, "far_m",
                              "must be greater than near_m (%g), got %g (both 0 = automatic)",
@@ -41,9 +44,12 @@ static tsk_status check_def(const tsk_capture_def* d) {
     const tsk_intrinsics* K = &d->intrinsics;
     const int k_zero = K->fx == 0.0f && K->fy == 0.0f && K->cx == 0.0f && K->cy == 0.0f;
     if (!k_zero && !(isfinite(K->fx) && isfinite(K->fy) && isfinite(K->cx) && isfinite(K->cy) &&
-                     K->fx > 0.0f && K->fy > 0.0f && K->fx < 1e6f && K->fy < 1e6f))
+                     K->fx >= 1e-2f && K->fy >= 1e-2f && K->fx < 1e6f && K->fy < 1e6f &&
+                     fabsf(K->cx) <= 1e6f && fabsf(K->cy) <= 1e6f))
+        /* bounds keep back-projected knots finite: |u - cx| z / fx <= ~1e12 m */
         return tsk_error_arg(TSK_ERR_ARGUMENT, "intrinsics",
-                             "fx, fy must be positive and finite (all 0 = defaults), got "
+                             "fx, fy must be in [0.01, 1e6) and |cx|, |cy| <= 1e6 (all 0 = "
+                             "defaults), got "
                              "fx=%g fy=%g cx=%g cy=%g", K->fx, K->fy, K->cx, K->cy);
     if (d->min_area < 1 || d->min_area > 1 << 26)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "min_area", "must be in 1..2^26, got %d",
@@ -128,6 +134,9 @@ tsk_status tsk_capture_process(tsk_capture* cap, const tsk_capture_def* def,
         return tsk_error_arg(TSK_ERR_LIMIT, "width", "size %dx%d exceeds the limit %dx%d",
                              width, height, TSK_DEPTH_MAX_SIDE, TSK_DEPTH_MAX_SIDE);
     tsk_status s = check_def(def);
+    if (s != TSK_OK) return s;
+    /* memory budget: the depth copy, masks, labels and distance images of one frame */
+    s = tsk_memory_check((double)width * (double)height * 48.0, "width");
     if (s != TSK_OK) return s;
     const size_t npix = (size_t)width * (size_t)height;
     size_t c1 = cap->pixels_cap, c2 = cap->pixels_cap;
@@ -270,6 +279,7 @@ tsk_status tsk_capture_get_blades(const tsk_capture* cap, int32_t* knot_counts,
 }
 
 static void copy_knots(const tsk_capture* cap, int k0, int n, float* xyz, float* w, float* uv) {
+    if (n <= 0) return; /* no knots: the buffers may never have been allocated (NULL) */
     if (xyz) memcpy(xyz, cap->xyz + 3 * (size_t)k0, 3 * (size_t)n * sizeof(float));
     if (w) memcpy(w, cap->width_m + (size_t)k0, (size_t)n * sizeof(float));
     if (uv) memcpy(uv, cap->uv + 2 * (size_t)k0, 2 * (size_t)n * sizeof(float));

@@ -27,6 +27,8 @@ tsk_status tsk_capture_propose_band(const float* depth_m, int width, int height,
         float d = depth_m[i];
         if (!(d > 0.0f) || !isfinite(d)) continue;
         ++valid;
+        /* farther than the histogram: not binned (and a huge d would overflow the int) */
+        if (d >= (float)BAND_BINS * BAND_BIN_M) continue;
         int b = (int)(d / BAND_BIN_M);
         if (b < BAND_BINS) ++hist[b];
     }

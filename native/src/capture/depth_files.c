@@ -150,6 +150,9 @@ tsk_status tsk_files_read(tsk_depth_source* src, int index, float* depth_m, size
         if (s != TSK_OK) return s;
         src->width = w;
         src->height = h;
+        /* memory budget: the decoded file, a float frame and the pipeline's images */
+        s = tsk_memory_check((double)w * (double)h * 56.0, "path");
+        if (s != TSK_OK) return s;
         /* decode the first frame once so that a broken file fails at open time */
         const size_t npix = (size_t)w * (size_t)h;
         float* tmp = tsk_alloc(npix * sizeof(float), "depth frame");

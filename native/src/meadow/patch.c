@@ -113,6 +113,14 @@ tsk_status tsk_patch_create(const tsk_patch_def* def, tsk_patch** out) {
         if (def->knot_count == 0 && bm->knot_count > knots) knots = bm->knot_count;
     }
     if (knots == 0) knots = 16; /* the default blade */
+    {
+        /* memory budget: per-blade data and the expanded patch mesh the caller asks for
+         * (2K vertices: position, normal, uv, blade index; 2(K-1) triangles) */
+        const double nb = (double)def->blade_count;
+        const double mesh = nb * (2.0 * knots * (12 + 12 + 8 + 4) + 2.0 * (knots - 1) * 12);
+        tsk_status s = tsk_memory_check(nb * 20.0 + mesh, "blade_count");
+        if (s != TSK_OK) return s;
+    }
 
     double cdf[TSK_PATCH_MAX_MODELS];
     double wsum = 0.0;

@@ -148,6 +148,15 @@ tsk_status tsk_meadow_create(const tsk_meadow_def* def, tsk_meadow** out) {
     if (def == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "def", "is NULL");
     tsk_status s = check_def(def);
     if (s != TSK_OK) return s;
+    {
+        /* memory budget: the tile arrays, plus the chunk instances the caller builds from
+         * them (origin, chunk, tile: 20 bytes each) when every tile is full */
+        const double tiles = floor((double)def->size[0] / (double)def->tile_size) *
+                             floor((double)def->size[1] / (double)def->tile_size);
+        const double instances = tiles * (double)def->blades_per_tile / (double)def->chunk_blades;
+        s = tsk_memory_check(tiles * 20.0 + instances * 20.0, "meadow");
+        if (s != TSK_OK) return s;
+    }
 
     tsk_meadow* m = tsk_calloc(1, sizeof *m, "meadow");
     if (m == NULL) return TSK_ERR_MEMORY;

@@ -100,7 +100,10 @@ static tsk_status check_add(tsk_picture* p, const void* mask, size_t count) {
     if (p->layer_count >= TSK_PICTURE_MAX_LAYERS)
         return tsk_error_arg(TSK_ERR_LIMIT, "mask", "a picture has at most %d layers",
                              TSK_PICTURE_MAX_LAYERS);
-    return TSK_OK;
+    /* memory budget once built: per layer RGBA, matte and mask; the picture, background and
+     * the build's scratch images */
+    const double px = (double)p->width * (double)p->height;
+    return tsk_memory_check(px * (p->layer_count + 1) * 21.0 + px * 48.0 + px * 25.0, "mask");
 }
 
 tsk_status tsk_picture_add_layer_u8(tsk_picture* p, const uint8_t* mask, size_t count,

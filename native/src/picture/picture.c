@@ -24,6 +24,9 @@ static tsk_status check_finite(const float* v, size_t count, const char* arg) {
 }
 
 static tsk_status new_picture(int width, int height, tsk_picture** out) {
+    /* memory budget: the float RGBA pixels, the decoder's copy and the background plate */
+    tsk_status s = tsk_memory_check((double)width * (double)height * 48.0, "picture");
+    if (s != TSK_OK) return s;
     tsk_picture* p = tsk_calloc(1, sizeof *p, "picture");
     if (p == NULL) return TSK_ERR_MEMORY;
     p->width = width;

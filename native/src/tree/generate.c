@@ -71,6 +71,9 @@ static tsk_status push_stem(gen* g, gstem** out) {
     if (g->n == g->cap) {
         size_t cap = g->cap ? g->cap * 2 : 256;
         if (cap > g->d->max_branches) cap = g->d->max_branches;
+        /* the handle keeps ~30 floats per branch beside the generator's stems */
+        if (tsk_memory_check((double)cap * (sizeof(gstem) + 128.0), "max_branches") != TSK_OK)
+            return TSK_ERR_LIMIT;
         gstem* s = tsk_alloc(cap * sizeof(gstem), "tree stems");
         if (s == NULL) return TSK_ERR_MEMORY;
         if (g->n) memcpy(s, g->s, g->n * sizeof(gstem));
@@ -93,6 +96,8 @@ static tsk_status push_leaf(gen* g, gleaf** out) {
     if (g->ln == g->lcap) {
         size_t cap = g->lcap ? g->lcap * 2 : 256;
         if (cap > g->d->max_leaves) cap = g->d->max_leaves;
+        if (tsk_memory_check((double)cap * (sizeof(gleaf) + 64.0), "max_leaves") != TSK_OK)
+            return TSK_ERR_LIMIT;
         gleaf* l = tsk_alloc(cap * sizeof(gleaf), "tree leaves");
         if (l == NULL) return TSK_ERR_MEMORY;
         if (g->ln) memcpy(l, g->l, g->ln * sizeof(gleaf));

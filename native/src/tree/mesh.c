@@ -195,7 +195,10 @@ tsk_status tsk_tree_mesh_count(const tsk_tree* t, const tsk_tree_mesh_def* m, si
     if (vertex_count == NULL || face_count == NULL)
         return tsk_error_arg(TSK_ERR_ARGUMENT, vertex_count ? "face_count" : "vertex_count",
                              "is NULL");
-    return mesh_sizes(t, m, vertex_count, face_count);
+    s = mesh_sizes(t, m, vertex_count, face_count);
+    if (s != TSK_OK) return s;
+    /* memory budget: the buffers a caller fills (positions, normals; quads, corner uvs) */
+    return tsk_memory_check((double)*vertex_count * 24.0 + (double)*face_count * 48.0, "mesh");
 }
 
 tsk_status tsk_tree_mesh_topology(const tsk_tree* t, const tsk_tree_mesh_def* m, int32_t* faces,

@@ -153,7 +153,10 @@ tsk_status tsk_wind_sines_def_validate(const tsk_wind_sines_def* d) {
 }
 
 tsk_status tsk_wind_fluid_def_validate(const tsk_wind_fluid_def* f) {
-    if (f->nx == 0 && f->ny == 0) return TSK_OK; /* no grid */
+    if (f->nx == 0 && f->ny == 0) { /* no grid: the clock still advances by dt */
+        TRY(check_range("fluid.dt", f->dt, 1e-4f, 1.0f));
+        return TSK_OK;
+    }
     if (f->nx < 0 || f->ny < 0)
         return tsk_error_arg(TSK_ERR_ARGUMENT, f->nx < 0 ? "fluid.nx" : "fluid.ny",
                              "must not be negative, got %d", f->nx < 0 ? f->nx : f->ny);

@@ -10,6 +10,10 @@ tsk_status tsk_wind_create(const tsk_wind_def* def, tsk_wind** out) {
     *out = NULL;
     tsk_status s = tsk_wind_def_validate(def);
     if (s != TSK_OK) return s;
+    /* memory budget: fluid (velocity, scratch, pressure, divergence) and continuum grids */
+    s = tsk_memory_check((double)def->fluid.nx * (double)def->fluid.ny * 24.0 * sizeof(float),
+                         "fluid.nx");
+    if (s != TSK_OK) return s;
     tsk_wind* w = tsk_calloc(1, sizeof *w, "wind handle");
     if (w == NULL) return TSK_ERR_MEMORY;
     w->def = *def;
