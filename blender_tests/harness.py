@@ -43,34 +43,106 @@ def check_near(a, b, tol, what=""):
         raise AssertionError(f"{what} |{a} - {b}| = {abs(a - b)} > {tol}")
 
 
-def scene_fingerprint():
+def _rna_digest(ptr, depth=0):
+    """repr of a property group's values (nested groups and collections included; ID
+    pointers by name), so that settings an operator might change are in the fingerprint."""
+    if ptr is None or depth > 4:
+        return "None"
+    parts = []
+    for prop in ptr.bl_rna.properties:
+        key = prop.identifier
+        if key == "rna_type":
+            continue
+        try:
+            value = getattr(ptr, key)
+        except Exception:  # noqa: BLE001 - a property that cannot be read right now
+            continue
+        if prop.type == "POINTER":
+            if value is None:
+                parts.append(f"{key}=None")
+            elif hasattr(value, "users"):  # an ID datablock
+                parts.append(f"{key}=ID:{value.name}")
+            else:
+                parts.append(f"{key}={{{_rna_digest(value, depth + 1)}}}")
+        elif prop.type == "COLLECTION":
+            parts.append(f"{key}=[{';'.join(_rna_digest(v, depth + 1) for v in value)}]")
+        elif getattr(prop, "is_array", False) or getattr(prop, "array_length", 0):
+            parts.append(f"{key}={tuple(value)!r}")
+        else:
+            parts.append(f"{key}={value!r}")
+    return ",".join(parts)
+
+
+def _tussock_groups(idb):
+    """The Tussock property groups registered on a datablock (tussock_tree, ...)."""
+    for prop in idb.bl_rna.properties:
+        if prop.identifier.startswith("tussock_") and prop.type == "POINTER":
+            yield prop.identifier, getattr(idb, prop.identifier)
+
+
+def scene_fingerprint(parts=None):
     """A digest of every datablock and its key properties, to check that a cancelled
-    operator left the file exactly as it was."""
+    operator left the file exactly as it was: names and users of all datablocks; objects'
+    transforms, parents, custom properties, modifiers and Tussock settings; meshes' sizes
+    and vertex positions; images' sizes and custom properties; scenes' objects, frame and
+    Tussock settings (wind, capture)."""
     import hashlib
     import bpy
-    h = hashlib.sha256()
+    import numpy as np
+
+    class _Hash:  # sha256 that can also keep the pieces, to say what changed
+        def __init__(self):
+            self.h = hashlib.sha256()
+
+        def update(self, b):
+            self.h.update(b)
+            if parts is not None:
+                parts.append(b[:300])
+
+        def hexdigest(self):
+            return self.h.hexdigest()
+
+    h = _Hash()
     for attr in ("objects", "meshes", "collections", "materials", "images", "node_groups",
-                 "textures", "cameras", "lights", "curves", "worlds"):
+                 "textures", "cameras", "lights", "curves", "worlds", "actions"):
         for idb in getattr(bpy.data, attr):
             h.update(f"{attr}:{idb.name}:{idb.users}".encode())
             if attr == "objects":
                 h.update(repr([tuple(r) for r in idb.matrix_world]).encode())
-                h.update(repr(sorted(idb.keys())).encode())
+                # custom properties; not the storage of registered property groups, which
+                # appears in keys() as soon as anything (this function too) reads a group
+                rna = {p.identifier for p in idb.bl_rna.properties}
+                keys = sorted(k for k in idb.keys() if k not in rna)
+                h.update(repr(keys).encode())
+                h.update(repr([(k, repr(idb[k])) for k in keys]).encode())
                 h.update(repr([m.name for m in idb.modifiers]).encode())
+                h.update(repr((idb.parent.name if idb.parent else None,
+                               idb.data.name if idb.data else None)).encode())
+                for name, group in _tussock_groups(idb):
+                    h.update(f"{name}:{_rna_digest(group)}".encode())
             elif attr == "meshes":
                 h.update(f"{len(idb.vertices)}:{len(idb.polygons)}:{len(idb.attributes)}".encode())
+                co = np.empty(len(idb.vertices) * 3, np.float32)
+                idb.vertices.foreach_get("co", co)
+                h.update(co.tobytes())
             elif attr == "collections":
                 h.update(repr(sorted(o.name for o in idb.objects)).encode())
+            elif attr == "images":
+                h.update(repr((tuple(idb.size), sorted(idb.keys()))).encode())
     for scene in bpy.data.scenes:
         h.update(repr(sorted(o.name for o in scene.objects)).encode())
         h.update(repr(sorted(c.name for c in scene.collection.children)).encode())
+        h.update(repr((scene.frame_current, tuple(scene.cursor.location))).encode())
+        for name, group in _tussock_groups(scene):
+            h.update(f"{name}:{_rna_digest(group)}".encode())
     return h.hexdigest()
 
 
 def expect_cancel(op, needle, **kwargs):
     """Runs an operator that must fail: it reports an error containing `needle`, returns
     CANCELLED (raised as RuntimeError in background) and leaves the scene unchanged."""
-    before = scene_fingerprint()
+    parts_before = []
+    before = scene_fingerprint(parts_before)
     try:
         result = op(**kwargs)
     except RuntimeError as exc:
@@ -78,8 +150,12 @@ def expect_cancel(op, needle, **kwargs):
         assert needle in msg, f"error {msg!r} lacks {needle!r}"
     else:
         raise AssertionError(f"{op} with {kwargs} returned {result}, expected an error")
-    after = scene_fingerprint()
-    assert before == after, f"{op} with {kwargs} changed the scene"
+    parts_after = []
+    after = scene_fingerprint(parts_after)
+    if before != after:
+        gone = [p for p in parts_before if p not in parts_after][:3]
+        new = [p for p in parts_after if p not in parts_before][:3]
+        raise AssertionError(f"{op} with {kwargs} changed the scene: before {gone}, after {new}")
 
 
 def main():

@@ -1,5 +1,6 @@
 """tussock.add_meadow: a meadow over the selected ground mesh, or over a new plane."""
 
+import math
 import types
 
 import bpy
@@ -50,7 +51,7 @@ class TUSSOCK_OT_add_meadow(bpy.types.Operator):
         if ground is not None and (ground.type != "MESH" or not ground.select_get()
                                    or ground.get("tussock_meadow_object")):
             ground = None
-        if ground is None and (self.size[0] <= 0 or self.size[1] <= 0):
+        if ground is None and not all(math.isfinite(v) and v > 0 for v in self.size):
             raise ValueError(f"size: must be positive, got {self.size[0]} x {self.size[1]}")
         settings = self._settings(ground)
         if ground is not None:

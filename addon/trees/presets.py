@@ -50,8 +50,47 @@ def load(name):
             raise ValueError(f"preset '{name[5:]}': cannot read {path}: {exc}") from None
         if not isinstance(d, dict):
             raise ValueError(f"preset '{name[5:]}': {path} does not hold a tree definition")
+        check(name[5:], d)
         return d
     return native.require().tree_preset(name)
+
+
+def check(name, d):
+    """Raises ValueError naming the first entry of a preset dict that is not a tree parameter
+    of the right type (a hand-edited or foreign JSON file), so that applying it cannot fail
+    half-way with a TypeError. Values themselves (NaN, ranges) are the native check's."""
+    schema = native.require().tree_default_def()
+
+    def bad(key, why):
+        raise ValueError(f"preset '{name}': {key}: {why}")
+
+    def value(key, ref, v):
+        if ref is None:
+            bad(key, "is not a tree parameter")
+        if isinstance(ref, bool):
+            ok = isinstance(v, bool)
+        elif isinstance(ref, int):
+            hi = 2 ** 64 - 1 if key == "seed" else 2 ** 31 - 1
+            lo = 0 if key == "seed" else -2 ** 31
+            ok = isinstance(v, int) and not isinstance(v, bool) and lo <= v <= hi
+        else:
+            ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if not ok:
+            bad(key, f"must be {'an integer' if type(ref) is int else 'a number'} "
+                     f"in range, got {v!r}")
+
+    for k, v in d.items():
+        if k == "level":
+            n = len(schema["level"])
+            if not isinstance(v, list) or len(v) > n:
+                bad("level", f"must be a list of at most {n} levels")
+            for i, lv in enumerate(v):
+                if not isinstance(lv, dict):
+                    bad(f"level[{i}]", "must be an object of level parameters")
+                for kk, vv in lv.items():
+                    value(f"level[{i}].{kk}", schema["level"][0].get(kk), vv)
+        else:
+            value(k, schema.get(k), v)
 
 
 def save(name, d):

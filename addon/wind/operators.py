@@ -24,6 +24,16 @@ class TUSSOCK_OT_add_wind_source(bpy.types.Operator):
     interval: bpy.props.FloatProperty(name="Interval", default=0.0, min=0.0, unit="TIME_ABSOLUTE")
 
     def execute(self, context):
+        return errors.run(self, self._add, context)
+
+    def _add(self, context):
+        # the native wind's limits (tsk_wind_source_validate), checked before anything is made:
+        # a NaN or huge value would otherwise sit in the scene and fail every wind frame
+        for name, lo, hi in (("strength", 0.0, 1.0), ("radius", 1e-4, 1e6),
+                             ("interval", 0.0, 1e6)):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and lo <= v <= hi):
+                raise ValueError(f"{name}: must be finite and in [{lo:g}, {hi:g}], got {v}")
         obj = bpy.data.objects.new("Wind Source", None)
         obj.empty_display_type = "SINGLE_ARROW"
         obj.empty_display_size = 1.0

@@ -80,6 +80,12 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                     fprintf(stderr, "knot %d: %g %g %g width %g (fx %g fy %g cx %g cy %g)\n", i,
                             xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], wid[i], in.fx, in.fy,
                             in.cx, in.cy);
+                    fprintf(stderr, "def: band %g %g area %d hole %d open %d cs %g ss %g sp %g "
+                            "root %d ks %g ws %g dw %d mk %d rt %g; %dx%d\n",
+                            def.near_m, def.far_m, def.min_area, def.hole_radius,
+                            def.open_radius, def.contour_smooth, def.split_smooth,
+                            def.split_prominence, def.root, def.knot_spacing, def.width_smooth,
+                            def.depth_window, def.min_knots, def.root_trim, w, h);
                     abort();
                 }
             (void)tsk_capture_get_knots(cap, xyz, wid, uv, (size_t)nk + 1); /* wrong size */

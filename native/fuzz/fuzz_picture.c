@@ -91,7 +91,10 @@ static void exercise(tsk_picture* p, fz* r) {
             vy[i] = fz_float(r, -0.25f);
         }
         tsk_picture_field field = {vx, vy, 1 + fz_u8(r) % 4, 1 + fz_u8(r) % 4, fz_u8(r) & 1};
-        if (fz_u8(r) % 5 == 0) field.width = fz_int(r, 4);
+        if (fz_u8(r) % 5 == 0) { /* invalid widths only: valid ones must fit the 16 values */
+            field.width = fz_int(r, 4);
+            if (field.width >= 1 && field.width <= 4096) field.width = 16 / field.height;
+        }
         float* scale = malloc(n * sizeof *scale);
         for (size_t i = 0; i < n; ++i) scale[i] = fz_float(r, 1.0f);
         const int use_scale = fz_u8(r) & 1;

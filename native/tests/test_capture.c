@@ -957,7 +957,43 @@ TEST(test_capture_tiny_focal_length_or_far_band_is_refused) {
     tsk_capture_destroy(cap);
 }
 
-TEST_MAIN(TEST_ENTRY(test_capture_tiny_focal_length_or_far_band_is_refused),
+/* Fuzz finding (fuzz_capture_def): a positive sigma so small that sigma^2 underflows
+ * (width_smooth = FLT_MIN) made the Gaussian kernel 0/0 = NaN and every knot NaN. Such a
+ * sigma is the identity: the blades equal those with smoothing 0, bit for bit. */
+TEST(test_capture_tiny_smoothing_sigma_is_identity_not_nan) {
+    enum { w = 64, h = 64 };
+    static float depth[w * h];
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) depth[y * w + x] = (x >= 28 && x < 36 && y > 8) ? 0.5f : 0.0f;
+    tsk_capture_def def = tsk_default_capture_def();
+    def.min_area = 20;
+    float* out[2] = {NULL, NULL};
+    int nk[2] = {0, 0};
+    for (int pass = 0; pass < 2; ++pass) {
+        def.width_smooth = pass ? 1.17549435e-38f : 0.0f;
+        def.contour_smooth = pass ? 1e-30f : 0.0f;
+        tsk_capture* cap = NULL;
+        CHECK(tsk_capture_create(&cap) == TSK_OK);
+        CHECK(tsk_capture_process(cap, &def, depth, w, h) == TSK_OK);
+        nk[pass] = tsk_capture_knot_total(cap);
+        out[pass] = malloc((size_t)(nk[pass] + 1) * 4 * sizeof(float));
+        CHECK(tsk_capture_get_knots(cap, out[pass], out[pass] + 3 * nk[pass], NULL,
+                                    (size_t)nk[pass]) == TSK_OK);
+        tsk_capture_destroy(cap);
+    }
+    CHECK(nk[0] > 0 && nk[0] == nk[1]);
+    if (nk[0] == nk[1]) CHECK(memcmp(out[0], out[1], (size_t)nk[0] * 4 * sizeof(float)) == 0);
+    for (int i = 0; i < 4 * nk[1]; ++i)
+        if (!isfinite(out[1][i])) {
+            CHECK(isfinite(out[1][i]));
+            break;
+        }
+    free(out[0]);
+    free(out[1]);
+}
+
+TEST_MAIN(TEST_ENTRY(test_capture_tiny_smoothing_sigma_is_identity_not_nan),
+          TEST_ENTRY(test_capture_tiny_focal_length_or_far_band_is_refused),
           TEST_ENTRY(test_capture_band_ignores_huge_finite_depths),
           TEST_ENTRY(test_capture_no_blades_getters_copy_nothing),
           TEST_ENTRY(test_capture_frame_over_memory_budget_is_refused),

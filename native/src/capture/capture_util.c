@@ -35,7 +35,9 @@ static int make_kernel(float sigma, float* k) {
 
 void tsk_smooth_circular(const float* in, float* out, int n, float sigma) {
     if (n <= 0) return;
-    if (!(sigma > 0.0f)) {
+    /* below 1e-3 px the kernel is the identity (neighbour weights exp(-5e5) = 0), and
+     * sigma*sigma would underflow to 0 and make 0/0 = NaN weights */
+    if (!(sigma >= 1e-3f)) {
         memcpy(out, in, (size_t)n * sizeof(float));
         return;
     }
@@ -54,7 +56,9 @@ void tsk_smooth_circular(const float* in, float* out, int n, float sigma) {
 
 void tsk_smooth_open(const float* in, float* out, int n, float sigma) {
     if (n <= 0) return;
-    if (!(sigma > 0.0f)) {
+    /* below 1e-3 px the kernel is the identity (neighbour weights exp(-5e5) = 0), and
+     * sigma*sigma would underflow to 0 and make 0/0 = NaN weights */
+    if (!(sigma >= 1e-3f)) {
         memcpy(out, in, (size_t)n * sizeof(float));
         return;
     }

@@ -5,6 +5,7 @@
 #include "tussock/core.h"
 
 #include <stdatomic.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <unistd.h>
 
@@ -36,12 +37,26 @@ uint64_t tsk_memory_budget(void) {
 
 void tsk_set_memory_budget(uint64_t bytes) { atomic_store(&g_budget, bytes); }
 
+/* "12 MiB", "3.5 GiB", "40 KiB": a size a person reads at a glance */
+static void human(double bytes, char* out, size_t n) {
+    if (bytes >= 1073741824.0 * 1024.0)
+        snprintf(out, n, "%.0f GiB", bytes / 1073741824.0);
+    else if (bytes >= 1073741824.0)
+        snprintf(out, n, "%.1f GiB", bytes / 1073741824.0);
+    else if (bytes >= 1048576.0)
+        snprintf(out, n, "%.0f MiB", bytes / 1048576.0);
+    else
+        snprintf(out, n, "%.0f KiB", bytes / 1024.0);
+}
+
 tsk_status tsk_memory_check(double bytes, const char* what) {
     const uint64_t budget = tsk_memory_budget();
     if (bytes == bytes && bytes <= (double)budget) return TSK_OK; /* NaN is refused too */
     const int is_default = atomic_load(&g_budget) == 0;
+    char need[32], have[32];
+    human(bytes == bytes ? bytes : 0.0, need, sizeof need);
+    human((double)budget, have, sizeof have);
     return tsk_error_arg(TSK_ERR_LIMIT, what ? what : "request",
-                         "needs about %.0f MiB, more than the memory budget of %.0f MiB (%s)",
-                         bytes / 1048576.0, (double)budget / 1048576.0,
+                         "needs about %s, more than the memory budget of %s (%s)", need, have,
                          is_default ? "half of this machine's memory" : "as set");
 }

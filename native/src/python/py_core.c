@@ -72,7 +72,25 @@ static PyObject* py_allocated_bytes(PyObject* self, PyObject* args) {
     return PyLong_FromSize_t(tsk_allocated_bytes());
 }
 
+static PyObject* py_set_memory_budget(PyObject* self, PyObject* args) {
+    (void)self;
+    unsigned long long bytes;
+    if (!PyArg_ParseTuple(args, "K:set_memory_budget", &bytes)) return NULL;
+    tsk_set_memory_budget((uint64_t)bytes);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_memory_budget(PyObject* self, PyObject* args) {
+    (void)self;
+    (void)args;
+    return PyLong_FromUnsignedLongLong((unsigned long long)tsk_memory_budget());
+}
+
 PyMethodDef tsk_py_core_methods[] = {
+    {"set_memory_budget", py_set_memory_budget, METH_VARARGS,
+     "set_memory_budget(bytes): largest memory estimate one request may have; 0 = default "
+     "(half of physical memory, or TSK_MEMORY_BUDGET_MB)."},
+    {"memory_budget", py_memory_budget, METH_NOARGS, "memory_budget() -> int: bytes."},
     {"version", py_version, METH_NOARGS, "version() -> str: native library version."},
     {"set_threads", py_set_threads, METH_VARARGS,
      "set_threads(n): worker threads, 0 = all cores."},
