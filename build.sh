@@ -11,7 +11,7 @@ BLENDER="${BLENDER:-blender}"
 export BLENDER
 
 PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ clang
-          libclang-rt-dev libopencv-dev libopenni2-dev libosd-dev)
+          libclang-rt-dev libopencv-dev libopenni2-dev libosd-dev valgrind)
 
 say() { printf '%s\n' "$*" >&2; }
 die() { say "build.sh: $*"; exit 1; }
@@ -146,6 +146,36 @@ run_native_tests() { # dir, label
   done
 }
 
+# valgrind memcheck over the release test programs: no invalid access, no use of
+# uninitialised values, no definite/indirect leak (third-party ones suppressed in
+# native/tests/valgrind.supp). Long numeric tests are skipped (TSK_TEST_SKIP): valgrind runs
+# them 20-50x slower, and their memory behaviour is the same as that of the short ones.
+VALGRIND_SKIP="test_fluid_open_boundary,test_no_blowup_over_10000_steps,test_same_bytes_with_1_and_2_threads"
+VALGRIND_SKIP+=",test_continuum_pulse_travels,test_tree_random_parameters_never_crash"
+VALGRIND_SKIP+=",test_refine_heap_matches_naive_bitwise,test_refine_simulated_blade_end_to_end"
+run_valgrind_tests() { # dir
+  local dir="$1" t out line p f rc
+  for t in "$dir"/test_*; do
+    [ -x "$t" ] || continue
+    rc=0
+    out="$(cd "$dir" && TSK_TEST_SKIP="$VALGRIND_SKIP" OMP_WAIT_POLICY=PASSIVE \
+      timeout "${TSK_VALGRIND_TIMEOUT:-600}" valgrind --tool=memcheck --leak-check=full \
+      --errors-for-leak-kinds=definite,indirect --error-exitcode=99 --num-callers=30 \
+      --suppressions="$ROOT/native/tests/valgrind.supp" "$t" 2>&1)" || rc=$?
+    line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed' | tail -n 1 || true)"
+    if [ -z "$line" ]; then p=0; f=1; else
+      p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
+    fi
+    if [ "$rc" -ne 0 ]; then
+      printf '%s\n' "$out" | grep -E '==[0-9]+== (Invalid|Conditional|Use of|.*definitely lost|.*indirectly lost|ERROR SUMMARY)|FAIL|TIMEOUT' | head -n 20 >&2 || true
+      [ "$rc" -eq 124 ] && say "valgrind: $(basename "$t") timed out"
+      [ "$f" -eq 0 ] && f=1
+    fi
+    printf '%-8s %-28s %s passed, %s failed\n' valgrind "$(basename "$t")" "$p" "$f"
+    PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+  done
+}
+
 cmd_test() {
   local t0 t1
   t0=$(date +%s)
@@ -158,6 +188,10 @@ cmd_test() {
   run_native_tests "$BUILD/release" native
   run_native_tests "$BUILD/asan" asan+ubsan
   unset ASAN_OPTIONS UBSAN_OPTIONS
+  # valgrind memcheck (TSK_VALGRIND=0 skips)
+  if [ "${TSK_VALGRIND:-1}" != 0 ]; then
+    run_valgrind_tests "$BUILD/release"
+  fi
   # every fuzzer briefly (TSK_CI_FUZZ_SECONDS each, default 15; 0 skips)
   if [ "${TSK_CI_FUZZ_SECONDS:-15}" -gt 0 ]; then
     build_fuzz
