@@ -790,7 +790,24 @@ TEST(test_refine_simulated_blade_end_to_end) {
     CHECK(tsk_allocated_bytes() == before);
 }
 
-TEST_MAIN(TEST_ENTRY(test_refine_difference_matches_closed_form),
+/* Fuzz finding (fuzz_refine): with one frame and no warmup the work check counted a single
+ * step, so a blade whose stable step is tiny (knots 1e-12 m apart) passed, and the steps per
+ * frame (~1e22) were converted to size_t: undefined behaviour. The steps of one frame now
+ * count against the limit too; a normal one-frame request still runs. */
+TEST(test_refine_simulate_one_frame_with_tiny_step_is_refused) {
+    float knots[9] = {0, 0, 0, 0, 0, 1e-12f, 0, 0, 2e-12f};
+    float widths[3] = {0.005f, 0.005f, 0.005f};
+    float traj[9];
+    tsk_refine_bend_def d = tsk_default_refine_bend_def();
+    d.warmup = 0.0f;
+    CHECK_STATUS(tsk_refine_simulate(&d, knots, widths, 3, 1, traj), TSK_ERR_LIMIT, "knot_count");
+    float ok[9] = {0, 0, 0, 0, 0, 0.05f, 0, 0, 0.1f};
+    CHECK(tsk_refine_simulate(&d, ok, widths, 3, 1, traj) == TSK_OK);
+    for (int i = 0; i < 9; ++i) CHECK(isfinite(traj[i]));
+}
+
+TEST_MAIN(TEST_ENTRY(test_refine_simulate_one_frame_with_tiny_step_is_refused),
+          TEST_ENTRY(test_refine_difference_matches_closed_form),
           TEST_ENTRY(test_refine_keeps_root_and_tip),
           TEST_ENTRY(test_refine_exact_count_and_ranges_partition_blade),
           TEST_ENTRY(test_refine_widths_positive_and_length_weighted),

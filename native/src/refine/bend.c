@@ -449,12 +449,16 @@ tsk_status tsk_refine_simulate(const tsk_refine_bend_def* def, const float* knot
     if (spf_d < 1.0) spf_d = 1.0;
     const double warm_frames = floor((double)def->warmup * (double)def->fps + 0.5);
     const double steps_total = spf_d * (warm_frames + (double)(frame_count - 1)) + 1.0;
-    if (!(steps_total * (double)knot_count <= TSK_BEND_MAX_WORK)) {
+    /* the steps of one frame must fit the limit too (also keeps the size_t casts below
+     * defined when the stable step is tiny and only one frame is asked for) */
+    if (!(steps_total * (double)knot_count <= TSK_BEND_MAX_WORK) ||
+        !(spf_d * (double)knot_count <= TSK_BEND_MAX_WORK)) {
         rod_free(&r);
         return tsk_error_arg(TSK_ERR_LIMIT, "knot_count",
                              "%zu knots x %.3g time steps exceed the limit of %.3g (fewer "
                              "knots, frames or warmup, or a thicker blade, make it cheaper)",
-                             knot_count, steps_total, TSK_BEND_MAX_WORK);
+                             knot_count, steps_total > spf_d ? steps_total : spf_d,
+                             TSK_BEND_MAX_WORK);
     }
     const size_t spf = (size_t)spf_d;
     const double dt = frame_dt / spf_d;
