@@ -1,6 +1,6 @@
 """Renders the pictures of docs/ with Tussock itself, in background Blender:
   blender_run.py tools/docs_pictures.py -- OUT_DIR [FEATURE...]
-Features: capture, refine, meadow. Each writes PNGs named <feature>_<view>.png into OUT_DIR."""
+Features: capture, refine, meadow, trees. Each writes PNGs named <feature>_<view>.png into OUT_DIR."""
 
 import math
 import os
@@ -160,7 +160,77 @@ def refine():
     render("refine_levels", res=(720, 300), samples=16)
 
 
-FEATURES = {"capture": capture, "refine": refine, "meadow": meadow}
+def _tree_row(names, gap=2.0):
+    """Adds one tree per preset in a row along x; returns (objects, width, height)."""
+    objs, x = [], 0.0
+    for name in names:
+        bpy.ops.tussock.add_tree(preset=name, seed=1, leaves=True)
+        obj = bpy.context.active_object
+        xs = [c[0] for c in obj.bound_box]
+        obj.location.x = x - min(xs)
+        x += max(xs) - min(xs) + gap
+        objs.append(obj)
+    height = max(max(c[2] for c in o.bound_box) for o in objs)
+    return objs, x - gap, height
+
+
+def _ortho_camera(width, height, aspect):
+    cam = camera((width / 2, -200.0, height / 2), (math.radians(90), 0, 0))
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = 1.08 * max(width, height * aspect)
+    return cam
+
+
+def _ground(size):
+    bpy.ops.mesh.primitive_plane_add(size=size, location=(size / 4, 0, 0))
+    soil(bpy.context.active_object)
+
+
+def trees():
+    from tussock import native
+    names = list(native.require().tree_presets())
+    # the presets side by side, at their true sizes
+    reset()
+    objs, width, height = _tree_row(names)
+    _ground(4 * width)
+    sky_and_sun(sun_angle=(0.8, 0.1, 0.6))
+    res = (1200, 400)
+    _ortho_camera(width, height, res[0] / res[1])
+    bpy.context.scene.camera.location.z = height * 0.5
+    render("trees_presets", res=res, samples=12)
+    # a frame strip of one tree in a steady wind with waves and gusts: every 12th frame
+    import numpy as np
+    reset()
+    scene = bpy.context.scene
+    w = scene.tussock_wind
+    w.base_speed = 2.0
+    w.gust_strength, w.gust_interval, w.gust_duration = 6.0, 2.0, 1.2
+    wave = w.waves.add()
+    wave.amplitude, wave.wavelength, wave.speed = 4.0, 10.0, 5.0
+    objs, width, height = _tree_row(["ca_black_oak"])
+    _ground(6 * max(width, height))
+    sky_and_sun(sun_angle=(0.8, 0.1, 0.6))
+    frame_res = (260, 320)
+    _ortho_camera(width * 1.4, height * 1.1, frame_res[0] / frame_res[1])
+    frames = (1, 13, 25, 37, 49)
+    tiles = []
+    for f in frames:
+        scene.frame_set(f)
+        render(f"trees_wind_f{f}", res=frame_res, samples=10)
+        img = bpy.data.images.load(scene.render.filepath)
+        px = np.empty(frame_res[0] * frame_res[1] * 4, np.float32)
+        img.pixels.foreach_get(px)
+        tiles.append(px.reshape(frame_res[1], frame_res[0], 4)[::-1])  # top row first
+        bpy.data.images.remove(img)
+        os.remove(scene.render.filepath)
+    sep = np.ones((frame_res[1], 4, 4), np.float32)
+    row = []
+    for t in tiles:
+        row += [t, sep]
+    save_rgba("trees_wind_strip", np.concatenate(row[:-1], axis=1))
+
+
+FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees}
 
 os.makedirs(OUT, exist_ok=True)
 for name, fn in FEATURES.items():

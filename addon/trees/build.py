@@ -91,7 +91,12 @@ def write(obj, data):
     index = np.zeros(nq, np.int32)
     if data["leaf_quads"]:
         index[nq - data["leaf_quads"]:] = 1
-    mesh.polygons.foreach_set("material_index", index)
+    # the generic attribute (Blender >= 3.4) takes the array in one copy; the polygon
+    # property goes face by face
+    attr = mesh.attributes.get("material_index")
+    if attr is None:
+        attr = mesh.attributes.new("material_index", "INT", "FACE")
+    attr.data.foreach_set("value", index)
     mesh.polygons.foreach_set("use_smooth", index == 0)
     if uvs is not None:
         layer = mesh.uv_layers.new(name="UVMap")
@@ -138,14 +143,19 @@ def pose(obj, scene, frame):
         lib.tree_wind_step(tree, force.ravel(), mode=1, strength=float(s.wind_strength))
     else:
         lib.tree_reset(tree)
-    positions = np.empty(len(data["positions"]), np.float32)
+    # one buffer per tree, reused every frame (no fresh pages to fault in)
+    positions = data.get("pose_buffer")
+    if positions is None:
+        positions = data["pose_buffer"] = np.empty(len(data["positions"]), np.float32)
     lib.tree_mesh_deform(tree, positions, leaves=True)
     verts, _, _ = _mesh_arrays(data, positions)
     mesh = obj.data
     if len(mesh.vertices) != len(verts):
         write(obj, data)
         mesh = obj.data
-    mesh.vertices.foreach_set("co", np.ascontiguousarray(verts, np.float32).ravel())
+    mesh.vertices.foreach_set("co", verts.ravel() if verts.dtype == np.float32
+                              and verts.flags.c_contiguous else
+                              np.ascontiguousarray(verts, np.float32).ravel())
     mesh.update()
 
 
