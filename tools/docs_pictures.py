@@ -174,10 +174,10 @@ def _tree_row(names, gap=2.0):
     return objs, x - gap, height
 
 
-def _ortho_camera(width, height, aspect):
+def _ortho_camera(width, height, aspect, margin=1.08):
     cam = camera((width / 2, -200.0, height / 2), (math.radians(90), 0, 0))
     cam.data.type = "ORTHO"
-    cam.data.ortho_scale = 1.08 * max(width, height * aspect)
+    cam.data.ortho_scale = margin * max(width, height * aspect)
     return cam
 
 
@@ -211,7 +211,8 @@ def trees():
     _ground(6 * max(width, height))
     sky_and_sun(sun_angle=(0.8, 0.1, 0.6))
     frame_res = (260, 320)
-    _ortho_camera(width * 1.4, height * 1.1, frame_res[0] / frame_res[1])
+    _ortho_camera(width, height, frame_res[0] / frame_res[1], margin=1.25)
+    bpy.context.scene.camera.location.z = height * 0.55
     frames = (1, 13, 25, 37, 49)
     tiles = []
     for f in frames:
