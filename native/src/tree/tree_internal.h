@@ -135,6 +135,7 @@ struct tsk_tree {
     int32_t* leaf_parent;
     float* leaf_attach; /* 3m: v, theta, alpha */
     float* leaf_size;   /* 2m: length, width */
+    float* leaf_trig;   /* 4m: cos theta, sin theta, cos alpha, sin alpha (per-frame leaf pose) */
 };
 
 
