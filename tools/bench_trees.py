@@ -214,11 +214,22 @@ def bench_playback():
     bpy.ops.tussock.add_tree(preset="ca_black_oak", seed=1, leaves=True)
     obj = bpy.context.active_object
     wall, cpu = play(scene, 48)
+    # Tussock's share of a frame: the pose alone (wind, wind step, deform, foreach_set)
+    from tussock.trees import build
+    pose_wall, pose_cpu = [], []
+    for f in range(60, 84):
+        t0, c0 = time.perf_counter(), time.process_time()
+        build.pose(obj, scene, f)
+        pose_wall.append(time.perf_counter() - t0)
+        pose_cpu.append(time.process_time() - c0)
     emit("tree_playback_50k", 1.0 / wall, "frames per second",
          {"preset": "ca_black_oak", "branches": obj["tussock_branches"],
           "leaves": obj["tussock_leaves"], "vertices": obj["tussock_vertices"],
           "frames": 48, "ms_per_frame": round(wall * 1e3, 2),
-          "cpu_ms_per_frame": round(cpu * 1e3, 2), "what": "scene.frame_set, wind + pose + mesh",
+          "cpu_ms_per_frame": round(cpu * 1e3, 2),
+          "pose_ms": round(statistics.median(pose_wall) * 1e3, 2),
+          "pose_cpu_ms": round(statistics.median(pose_cpu) * 1e3, 2),
+          "what": "scene.frame_set, wind + pose + mesh; pose_ms: Tussock's handler alone",
           "target_fps": 24})
     # Sapling: its armature wind animation (armAnim) on its small_pine with leaves (10 %
     # more per twig than the preset, to pass 50,000), a bone per branch segment (curves)
