@@ -1,11 +1,14 @@
 """Benchmarks of trees in Blender (run by ./build.sh bench in background Blender):
 
-* `tree_generate_<species>`: time to add a tree with `tussock.add_tree` (operator + depsgraph
+* `tree_generate_blender_<species>`: time to add a tree with `tussock.add_tree` (operator + depsgraph
   evaluation) against Blender's bundled Sapling Tree Gen (`bpy.ops.curve.tree_add`) growing
   the same species from the same Weber-Penn parameters — Sapling's own preset file, read
   with ast.literal_eval and mapped onto Tussock's definition (docs/trees.md, "Sapling
-  presets"). The peer lines carry `"peer": "sapling"`; `tree_generate_speedup` is
-  Sapling's median time divided by Tussock's.
+  presets"). The peer lines carry `"peer": "sapling"`; `tree_generate_blender_speedup`
+  is the median over species of Sapling's time divided by Tussock's, and
+  `tree_generate_blender_<species>_native` the native part alone (grow + mesh arrays).
+  (bench_tree's `tree_generate_<preset>` lines time the native generator of the built-in
+  presets.)
 * `tree_playback_50k`: frames per second of `scene.frame_set` for a tree of more than
   50,000 leaves swaying in the scene's wind, and the same for Sapling's armature wind
   animation (armAnim) of its tree with leaves, where Sapling can make one.
@@ -29,8 +32,10 @@ SPECIES = ("quaking_aspen", "weeping_willow", "douglas_fir", "small_pine", "whit
 REPEATS = 3
 
 
-def wanted(name):
-    return not ARGS or any(name.startswith(a) for a in ARGS)
+def wanted(prefix):
+    """True without names, or when a name and the prefix of a group of lines overlap."""
+    names = [a for a in ARGS if not a.startswith("-")]
+    return not names or any(prefix.startswith(a) or a.startswith(prefix) for a in names)
 
 
 def emit(name, value, unit, params, peer=None):
@@ -175,15 +180,15 @@ def bench_generate():
         ratios.append(s_med / t_med)
         common = {"species": name, "levels": d["levels"], "leaves_on": leaves,
                   "repeats": REPEATS, "what": "operator + depsgraph evaluation"}
-        emit(f"tree_generate_{name}", t_med * 1e3, "ms per tree",
+        emit(f"tree_generate_blender_{name}", t_med * 1e3, "ms per tree",
              dict(common, branches=tb, leaves=tl, vertices=tv))
-        emit(f"tree_generate_{name}", s_med * 1e3, "ms per tree",
+        emit(f"tree_generate_blender_{name}", s_med * 1e3, "ms per tree",
              dict(common, branches=sb, leaves=sl, vertices=sv), peer="sapling")
-        emit(f"tree_generate_{name}_native", statistics.median(tn) * 1e3, "ms per tree",
+        emit(f"tree_generate_blender_{name}_native", statistics.median(tn) * 1e3, "ms per tree",
              dict(common, what="native: grow + mesh topology + vertices, no Blender mesh",
                   vertices=nv, sapling_over_native=round(s_med / statistics.median(tn), 1)))
     if ratios:
-        emit("tree_generate_speedup", statistics.median(ratios), "Sapling time / Tussock time",
+        emit("tree_generate_blender_speedup", statistics.median(ratios), "Sapling time / Tussock time",
              {"species": [s for s in SPECIES], "min": round(min(ratios), 1),
               "max": round(max(ratios), 1), "target": 20})
 
@@ -252,7 +257,7 @@ def bench_playback():
 
 
 fresh()
-if wanted("tree_generate"):
+if wanted("tree_generate_blender"):
     bench_generate()
 if wanted("tree_playback"):
     bench_playback()
