@@ -12,7 +12,7 @@ bl_info = {
     "category": "Object",
 }
 
-from . import handlers, prefs, ui  # noqa: E402
+from . import bake, handlers, prefs, ui  # noqa: E402
 from .capture import operators as capture_operators  # noqa: E402
 from .capture import props as capture_props  # noqa: E402
 from .capture import ui as capture_ui  # noqa: E402
@@ -33,7 +33,7 @@ from .wind import ui as wind_ui  # noqa: E402
 _MODULES = (prefs, ui, capture_props, capture_operators, capture_ui, meadow_props,
             meadow_operators, meadow_ui, refine_operators, refine_ui, wind_props, wind_operators,
             wind_ui, tree_props,
-            tree_operators, tree_ui, tree_animate)
+            tree_operators, tree_ui, tree_animate, bake)
 
 
 def _classes():

@@ -2,6 +2,8 @@
 
 import bpy
 
+from .. import compat
+
 
 class TUSSOCK_PT_meadow(bpy.types.Panel):
     bl_label = "Meadow"
@@ -15,9 +17,9 @@ class TUSSOCK_PT_meadow(bpy.types.Panel):
         layout = self.layout
         layout.operator("tussock.add_meadow", icon="OUTLINER_OB_HAIR")
         obj = context.active_object
-        if obj is None or not obj.tussock_meadow.is_meadow:
+        s = compat.settings_of(obj, "tussock_meadow")
+        if s is None or not s.is_meadow:
             return
-        s = obj.tussock_meadow
         if s.last_error:
             box = layout.box()
             box.alert = True

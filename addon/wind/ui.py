@@ -2,6 +2,8 @@
 
 import bpy
 
+from .. import compat
+
 
 class TUSSOCK_PT_wind(bpy.types.Panel):
     bl_label = "Wind"
@@ -49,7 +51,7 @@ class TUSSOCK_PT_wind(bpy.types.Panel):
         row.operator("tussock.add_wind_source", icon="FORCE_WIND")
         row.operator("tussock.wind_debug_image", icon="IMAGE_DATA")
         obj = context.active_object
-        s = getattr(obj, "tussock_wind_source", None) if obj else None
+        s = compat.settings_of(obj, "tussock_wind_source")
         if s is not None and s.is_source:
             box = layout.box()
             box.label(text=f"Source: {obj.name} (keyframe these)")
