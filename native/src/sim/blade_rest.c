@@ -7,39 +7,6 @@
 
 #define W SIM_W
 
-void tsk_sim_block_rest(int32_t K, float* block) {
-    float* P = block + SIM_OFF_P(K);
-    float* Q = block + SIM_OFF_Q(K);
-    const float* R = block + SIM_OFF_R(K);
-    const float* L = block + SIM_OFF_L(K);
-    const float* S0 = block + SIM_OFF_S0(K);
-    for (int l = 0; l < W; ++l) {
-        float gt0 = R[l], gt1 = R[W + l], gt2 = R[2 * W + l];
-        float gs0 = S0[l], gs1 = S0[W + l], gs2 = S0[2 * W + l];
-        float gn0 = gt1 * gs2 - gt2 * gs1, gn1 = gt2 * gs0 - gt0 * gs2, gn2 = gt0 * gs1 - gt1 * gs0;
-        float p0 = P[l], p1 = P[W + l], p2 = P[2 * W + l];
-        Q[l] = p0, Q[W + l] = p1, Q[2 * W + l] = p2;
-        for (int k = 1; k < K; ++k) {
-            const float* Rk = R + (size_t)k * 3 * W;
-            const float rx = Rk[l], ry = Rk[W + l], rz = Rk[2 * W + l], len = L[(size_t)k * W + l];
-            const float c = sim_side_coef(rx, ry);
-            const float lx = -ry, ly = 1.0f - c * ry, lz = -c * rz;
-            const float u0 = gt0 * rx + gs0 * ry + gn0 * rz, u1 = gt1 * rx + gs1 * ry + gn1 * rz,
-                        u2 = gt2 * rx + gs2 * ry + gn2 * rz;
-            const float s0 = gt0 * lx + gs0 * ly + gn0 * lz, s1 = gt1 * lx + gs1 * ly + gn1 * lz,
-                        s2 = gt2 * lx + gs2 * ly + gn2 * lz;
-            p0 = p0 + len * u0, p1 = p1 + len * u1, p2 = p2 + len * u2;
-            gt0 = u0, gt1 = u1, gt2 = u2, gs0 = s0, gs1 = s1, gs2 = s2;
-            gn0 = gt1 * gs2 - gt2 * gs1, gn1 = gt2 * gs0 - gt0 * gs2, gn2 = gt0 * gs1 - gt1 * gs0;
-            float* Pk = P + (size_t)k * 3 * W;
-            float* Qk = Q + (size_t)k * 3 * W;
-            Pk[l] = p0, Pk[W + l] = p1, Pk[2 * W + l] = p2;
-            Qk[l] = p0, Qk[W + l] = p1, Qk[2 * W + l] = p2;
-        }
-    }
-}
-
-
 void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* knots,
                              const float* widths, const float* side) {
     float* P = block + SIM_OFF_P(K);
