@@ -64,6 +64,23 @@ INL vf rsq(vf x) {
     return y;
 }
 
+/* Two Newton steps (relative error < 5e-6): enough to normalise frame vectors. */
+INL vf rsq2(vf x) {
+    vu i = (vu)x;
+    i = 0x5f375a86u - (i >> 1);
+    vf y = (vf)i;
+    const vf h = 0.5f * x;
+    y = y * (1.5f - h * y * y);
+    y = y * (1.5f - h * y * y);
+    return y;
+}
+
+INL int any(vi m) {
+    int a = 0;
+    for (int l = 0; l < SIM_W; ++l) a |= m[l];
+    return a != 0;
+}
+
 typedef struct v3 {
     vf x, y, z;
 } v3;
@@ -110,7 +127,7 @@ INL void frame_advance(v3* t, v3* s, v3* n, v3 r, vf lx, vf ly, vf lz, v3 d) {
     const v3 ps = apply3(*t, *s, *n, lx, ly, lz);
     const vf dd = dot3(d, d);
     const vi ok = gts(dd, 1e-30f);
-    const v3 a = sel3(ok, mul3(rsq(sel(ok, dd, splat(1.0f))), d), pt);
+    const v3 a = sel3(ok, mul3(rsq2(sel(ok, dd, splat(1.0f))), d), pt);
     const vf den = 1.0f + dot3(pt, a);
     const vi okd = gts(den, 1e-6f);
     const vf q = sel(okd, dot3(a, ps) / sel(okd, den, splat(1.0f)), splat(0.0f));
@@ -182,12 +199,17 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
     const vf pre = splat(p->preload), drag = splat(p->drag);
     const vf ar = splat(p->alpha_root), atip = splat(p->alpha_tip);
 
-    /* ---- pass 1: rest frames and rest positions; current frames of the old positions; Verlet
-            with damping, gravity (minus the preload the rest pose carries) and wind drag; global
-            shape constraint toward the rest pose. */
+    /* rest rotation sides of every segment, kept for pass 2, and 1 / L^2 for pass 3 */
+    float side[TSK_BLADE_SIM_MAX_KNOTS * 3 * SIM_W] __attribute__((aligned(64)));
+    float il2[TSK_BLADE_SIM_MAX_KNOTS * SIM_W] __attribute__((aligned(64)));
+
+    /* ---- pass 1: rest frames and rest positions; Verlet with damping, gravity (minus the
+            preload the rest pose carries) and wind drag; global shape constraint toward the rest
+            pose. The preload is -g at rest. Its part along the segment turns with the segment
+            (a blade pressed flat no longer carries its weight along itself); the small part
+            across the segment stays fixed in the world. */
     {
         v3 gt = T0, gs = S0, gn = N0; /* rest frame */
-        v3 ft = T0, fs = S0, fn = N0; /* current frame */
         v3 rp = ld3(P), xo = rp;
         vf arc = splat(0.0f);
         const vf inv_total = 1.0f / ld(L);
@@ -197,19 +219,21 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
             const vf len = ld(L + o1);
             vf lx, ly, lz;
             rest_side(r, &lx, &ly, &lz);
+            st(side + o3, lx), st(side + o3 + SIM_W, ly), st(side + o3 + 2 * SIM_W, lz);
+            const vf il = 1.0f / len;
+            st(il2 + o1, il * il);
             /* rest frame and rest position of this segment */
             const v3 u = apply3(gt, gs, gn, r.x, r.y, r.z);
             const v3 sw = apply3(gt, gs, gn, lx, ly, lz);
             gt = u, gs = sw, gn = cross3(u, sw);
             rp = add3(rp, mul3(len, u));
             st3(rest + o3, rp);
-            /* current frame of the old positions */
+            /* current direction of the segment (old positions): the last step ended with every
+               segment at its rest length (follow-the-leader pass), so d / L is a unit vector */
             const v3 x = ld3(P + o3);
-            frame_advance(&ft, &fs, &fn, r, lx, ly, lz, sub3(x, xo));
-            /* gravity preload: the rest pose carries gravity with a force fixed in the
-               segment's frame, which turns with the segment */
-            const vf gl0 = dot3(gt, g), gl1 = dot3(gs, g), gl2 = dot3(gn, g);
-            const v3 acc = sub3(g, mul3(pre, apply3(ft, fs, fn, gl0, gl1, gl2)));
+            const v3 tc = mul3(il, sub3(x, xo));
+            const vf ga = dot3(u, g); /* gravity along the rest segment */
+            const v3 acc = sub3(g, mul3(pre, add3(mul3(ga, tc), sub3(g, mul3(ga, u)))));
             /* Verlet: x' = x + damp (x - q) + a dt^2 + kd (wind dt - (x - q)), with the drag
                fraction kd = wind_drag / linear_density * width * dt, at most 1 */
             const v3 q = ld3(Q + o3);
@@ -237,8 +261,7 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
             const size_t o3 = (size_t)k * 3 * SIM_W;
             const v3 r = ld3(R + o3);
             const vf len = ld(L + (size_t)k * SIM_W);
-            vf lx, ly, lz;
-            rest_side(r, &lx, &ly, &lz);
+            const vf lx = ld(side + o3), ly = ld(side + o3 + SIM_W), lz = ld(side + o3 + 2 * SIM_W);
             const v3 target = add3(xp, mul3(len, apply3(ft, fs, fn, r.x, r.y, r.z)));
             v3 x = ld3(P + o3);
             const v3 e = sub3(target, x);
@@ -254,26 +277,28 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
     }
 
     /* ---- pass 3: length constraints (each segment's two knots move half way; the root never)
-            and collisions, iterated. */
+            and collisions, iterated. Segments are relaxed odd then even: segments of one parity
+            share no knot, so their updates are independent (same convergence as a sweep, and no
+            chain of dependent operations along the blade). */
     const vf ground = splat(p->ground);
     for (int it = 0; it < p->iterations; ++it) {
-        v3 xp = ld3(P);
-        for (int k = 1; k < K; ++k) {
-            const size_t o3 = (size_t)k * 3 * SIM_W;
-            v3 x = ld3(P + o3);
-            const v3 d = sub3(x, xp);
-            const vf dd = dot3(d, d);
-            const vi ok = gts(dd, 1e-30f);
-            /* (len - L) / len = 1 - L / len */
-            const vf f = sel(ok, 1.0f - ld(L + (size_t)k * SIM_W) * rsq(sel(ok, dd, splat(1.0f))),
-                             splat(0.0f));
-            const float wc = k == 1 ? 1.0f : 0.5f, wp = k == 1 ? 0.0f : 0.5f;
-            x = sub3(x, mul3(wc * f, d));
-            xp = add3(xp, mul3(wp * f, d));
-            st3(P + o3 - 3 * SIM_W, xp);
-            xp = x;
-            st3(P + o3, x);
-        }
+        for (int parity = 1; parity <= 2; ++parity)
+            for (int k = parity; k < K; k += 2) {
+                const size_t o3 = (size_t)k * 3 * SIM_W;
+                v3 xp = ld3(P + o3 - 3 * SIM_W);
+                v3 x = ld3(P + o3);
+                const v3 d = sub3(x, xp);
+                /* the exact correction (len - L) / len, to first order in len/L - 1:
+                   (len^2 / L^2 - 1) / 2, no square root; bounded for large errors. The
+                   follow-the-leader pass below makes lengths exact. */
+                const vf f = vmin(vmax(0.5f * (dot3(d, d) * ld(il2 + (size_t)k * SIM_W) - 1.0f),
+                                       splat(-0.5f)), splat(0.5f));
+                const float wc = k == 1 ? 1.0f : 0.5f, wp = k == 1 ? 0.0f : 0.5f;
+                x = sub3(x, mul3(wc * f, d));
+                xp = add3(xp, mul3(wp * f, d));
+                st3(P + o3 - 3 * SIM_W, xp);
+                st3(P + o3, x);
+            }
         for (int ci = 0; ci < ncol; ++ci)
             for (int k = 1; k < K; ++k) {
                 float* pk = P + (size_t)k * 3 * SIM_W;
@@ -301,7 +326,7 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
                 const v3 d = sub3(x, xp);
                 const vf dd = dot3(d, d);
                 const vi ok = gts(dd, 1e-30f);
-                x = sel3(ok, add3(xp, mul3(len * rsq(sel(ok, dd, splat(1.0f))), d)), x);
+                x = sel3(ok, add3(xp, mul3(len * rsq2(sel(ok, dd, splat(1.0f))), d)), x);
             }
             for (int ci = 0; ci < ncol; ++ci) {
                 const sim_collider* col = cols[ci];
@@ -336,7 +361,7 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
                     if (round == rounds - 1) x = push_out(x, col); /* what is left: tiny */
                 }
             }
-            {
+            if (any(lt(x.z, ground))) {
                 const vf hz = xp.z - ground;
                 const vf h2 = vmax(len * len - hz * hz, splat(0.0f));
                 const vf qx = x.x - xp.x, qy = x.y - xp.y;

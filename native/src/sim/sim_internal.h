@@ -9,7 +9,7 @@
 /* Blades per block: the lanes of every inner loop. 16 floats = one 64-byte line = one AVX-512
  * register (two AVX2, four SSE). A block of 16 blades x 16 knots is ~12 KB, so every pass of a
  * step runs in L1 after the block is read once. */
-#define SIM_W 16
+#define SIM_W 32
 
 /* Block layout, in floats, for K knots (each array is [knot][component][lane]):
  *   P  [K][3][W]  current positions (knot 0 = root, never moves)
