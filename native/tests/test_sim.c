@@ -344,7 +344,7 @@ static void run_scene(int threads, float* out, size_t* out_count) {
     }
     const size_t nk = (size_t)36 * NB * K16;
     float* wind = malloc(sizeof(float) * 3 * nk);
-    for (int s = 0; s < 60; ++s) {
+    for (int s = 0; s < (SLOW ? 60 : 20); ++s) {
         tsk_blade_collider c[3];
         for (int i = 0; i < 3; ++i) {
             c[i].kind = i == 2 ? TSK_COLLIDER_CAPSULE : TSK_COLLIDER_SPHERE;

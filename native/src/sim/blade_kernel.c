@@ -9,7 +9,7 @@
 
 #include <string.h>
 
-#if defined(__GNUC__) && !defined(__clang__)
+#if defined(__GNUC__)
 /* The vector helpers below are always inlined static functions: no ABI crosses them. */
 #pragma GCC diagnostic ignored "-Wpsabi"
 #endif
