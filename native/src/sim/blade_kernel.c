@@ -31,6 +31,9 @@ typedef uint32_t vu __attribute__((vector_size(4 * SIM_W)));
 
 #define INL static inline __attribute__((always_inline))
 
+/* Metres around a block's knots within which a collider takes part in the iterations. */
+#define SIM_CULL_MARGIN 0.03f
+
 INL vf ld(const float* p) {
     vf v;
     memcpy(&v, p, sizeof v);
@@ -147,6 +150,7 @@ INL v3 push_out(v3 x, const sim_collider* col) {
     const v3 d = sub3(x, c);
     const vf dd = dot3(d, d);
     const vi inside = lt(dd, r * r);
+    if (!any(inside)) return x; /* most knots of most blocks: no work */
     const vi centred = lts(dd, 1e-24f);
     const vf s = r * rsq(vmax(dd, splat(1e-24f)));
     v3 y = add3(c, mul3(s, d));
@@ -276,6 +280,33 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
         }
     }
 
+    /* ---- colliders near the block now: its knots' box grown by SIM_CULL_MARGIN. The iterations
+            and the follow-the-leader pass use these; a last pass below checks every collider
+            that can reach the block, so no knot ends inside any of them. */
+    const sim_collider* near[TSK_BLADE_SIM_MAX_COLLIDERS];
+    int nnear = 0;
+    if (ncol > 0) {
+        v3 lo = ld3(P), hi = lo;
+        for (int k = 1; k < K; ++k) {
+            const v3 x = ld3(P + (size_t)k * 3 * SIM_W);
+            lo = (v3){vmin(lo.x, x.x), vmin(lo.y, x.y), vmin(lo.z, x.z)};
+            hi = (v3){vmax(hi.x, x.x), vmax(hi.y, x.y), vmax(hi.z, x.z)};
+        }
+        float bl[3] = {lo.x[0], lo.y[0], lo.z[0]}, bh[3] = {hi.x[0], hi.y[0], hi.z[0]};
+        for (int l = 1; l < SIM_W; ++l) {
+            bl[0] = bl[0] < lo.x[l] ? bl[0] : lo.x[l], bh[0] = bh[0] > hi.x[l] ? bh[0] : hi.x[l];
+            bl[1] = bl[1] < lo.y[l] ? bl[1] : lo.y[l], bh[1] = bh[1] > hi.y[l] ? bh[1] : hi.y[l];
+            bl[2] = bl[2] < lo.z[l] ? bl[2] : lo.z[l], bh[2] = bh[2] > hi.z[l] ? bh[2] : hi.z[l];
+        }
+        for (int ci = 0; ci < ncol; ++ci) {
+            const sim_collider* c = cols[ci];
+            int overlap = 1;
+            for (int a = 0; a < 3; ++a)
+                overlap &= c->lo[a] <= bh[a] + SIM_CULL_MARGIN && c->hi[a] >= bl[a] - SIM_CULL_MARGIN;
+            if (overlap) near[nnear++] = c;
+        }
+    }
+
     /* ---- pass 3: length constraints (each segment's two knots move half way; the root never)
             and collisions, iterated. Segments are relaxed odd then even: segments of one parity
             share no knot, so their updates are independent (same convergence as a sweep, and no
@@ -299,10 +330,10 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
                 st3(P + o3 - 3 * SIM_W, xp);
                 st3(P + o3, x);
             }
-        for (int ci = 0; ci < ncol; ++ci)
+        for (int ci = 0; ci < nnear; ++ci)
             for (int k = 1; k < K; ++k) {
                 float* pk = P + (size_t)k * 3 * SIM_W;
-                st3(pk, push_out(ld3(pk), cols[ci]));
+                st3(pk, push_out(ld3(pk), near[ci]));
             }
         for (int k = 1; k < K; ++k) {
             float* pz = P + (size_t)k * 3 * SIM_W + 2 * SIM_W;
@@ -328,8 +359,8 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
                 const vi ok = gts(dd, 1e-30f);
                 x = sel3(ok, add3(xp, mul3(len * rsq2(sel(ok, dd, splat(1.0f))), d)), x);
             }
-            for (int ci = 0; ci < ncol; ++ci) {
-                const sim_collider* col = cols[ci];
+            for (int ci = 0; ci < nnear; ++ci) {
+                const sim_collider* col = near[ci];
                 const v3 a = {splat(col->a[0]), splat(col->a[1]), splat(col->a[2])};
                 const v3 ab = {splat(col->ab[0]), splat(col->ab[1]), splat(col->ab[2])};
                 const vf r = splat(col->r), r2 = r * r;
@@ -340,6 +371,7 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
                     const v3 c = add3(a, mul3(t, ab));
                     const v3 xd = sub3(x, c);
                     const vi inside = lt(dot3(xd, xd), r2);
+                    if (!any(inside)) break; /* no lane inside: nothing to project */
                     /* circle of sphere(xp, len) and sphere(c, r): centre xp + h0 u, radius h */
                     const v3 e = sub3(c, xp);
                     const vf D2 = dot3(e, e);
@@ -375,6 +407,33 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
             }
             st3(P + o3, x);
             xp = x;
+        }
+    }
+
+    /* ---- last check against every collider that can reach the block (a knot the passes above
+            moved into one they did not consider goes to its surface), then the ground. */
+    if (ncol > nnear) {
+        for (int ci = 0; ci < ncol; ++ci) {
+            const sim_collider* col = cols[ci];
+            const v3 a = {splat(col->a[0]), splat(col->a[1]), splat(col->a[2])};
+            const v3 ab = {splat(col->ab[0]), splat(col->ab[1]), splat(col->ab[2])};
+            const vf r2 = splat(col->r * col->r);
+            vi hit = (vi){0};
+            for (int k = 1; k < K; ++k) {
+                const v3 x = ld3(P + (size_t)k * 3 * SIM_W);
+                const vf t = vmin(vmax(dot3(sub3(x, a), ab) * col->inv_ab2, splat(0.0f)), splat(1.0f));
+                const v3 d = sub3(x, add3(a, mul3(t, ab)));
+                hit |= lt(dot3(d, d), r2);
+            }
+            if (!any(hit)) continue;
+            for (int k = 1; k < K; ++k) {
+                float* pk = P + (size_t)k * 3 * SIM_W;
+                st3(pk, push_out(ld3(pk), col));
+            }
+            for (int k = 1; k < K; ++k) {
+                float* pz = P + (size_t)k * 3 * SIM_W + 2 * SIM_W;
+                st(pz, vmax(ld(pz), ground));
+            }
         }
     }
 
