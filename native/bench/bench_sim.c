@@ -102,18 +102,38 @@ static void scene_free(scene* sc) {
     free(sc->home);
 }
 
-/* Median ms per step over `repeats` samples of `batch` steps. */
-static double measure(scene* sc, int warm, int repeats, int batch) {
+static double cpu_now_s(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The 1-minute load average: other processes share the 2 cores, which inflates wall times. */
+static double load_avg(void) {
+    double l = -1;
+    FILE* f = fopen("/proc/loadavg", "r");
+    if (f) {
+        if (fscanf(f, "%lf", &l) != 1) l = -1;
+        fclose(f);
+    }
+    return l;
+}
+
+/* Median wall ms per step over `repeats` samples of `batch` steps; *cpu_ms gets the median CPU
+ * time per step summed over all threads (less sensitive to other processes on the machine). */
+static double measure(scene* sc, int warm, int repeats, int batch, double* cpu_ms) {
     int step = 0;
     for (int i = 0; i < warm; ++i)
         if (!scene_step(sc, step++)) return -1;
-    double v[64];
+    double v[64], c[64];
     for (int r = 0; r < repeats; ++r) {
-        double t0 = bench_now_s();
+        double t0 = bench_now_s(), c0 = cpu_now_s();
         for (int b = 0; b < batch; ++b)
             if (!scene_step(sc, step++)) return -1;
         v[r] = (bench_now_s() - t0) * 1e3 / batch;
+        c[r] = (cpu_now_s() - c0) * 1e3 / batch;
     }
+    *cpu_ms = bench_median(c, repeats);
     return bench_median(v, repeats);
 }
 
@@ -137,7 +157,8 @@ int main(int argc, char** argv) {
                 return 1;
             }
             const int batch = c < 2 ? 200 : (c == 2 ? 20 : 5);
-            double ms = measure(&sc, 30, 15, batch);
+            double cpu = 0;
+            double ms = measure(&sc, 30, 15, batch, &cpu);
             if (ms < 0) {
                 fprintf(stderr, "blade_sim_table1: step failed: %s\n", tsk_last_error());
                 return 1;
@@ -148,10 +169,11 @@ int main(int argc, char** argv) {
             snprintf(params, sizeof params,
                      "\"tiles\": %d, \"blades\": %lld, \"objects\": %d, \"knots\": %d, "
                      "\"iterations\": 4, \"threads\": %d, \"ns_per_blade\": %.4g, "
+                     "\"cpu_ms_per_step\": %.4g, \"load_avg\": %.2f, "
                      "\"seed_gpu_ms\": %.4g, \"seed_gpu_ns_per_blade\": %.4g, "
                      "\"seed_gpu_hardware\": \"AMD Radeon R9-270\"",
-                     tiles[c], (long long)sc.blades, objects[c], KNOTS, threads, ns, gpu_ms[c],
-                     gpu_ns[c]);
+                     tiles[c], (long long)sc.blades, objects[c], KNOTS, threads, ns, cpu,
+                     load_avg(), gpu_ms[c], gpu_ns[c]);
             bench_emit(name, ms, "ms per step", params, NULL);
             if (c == 3) ms709 = ms, ns709 = ns;
             scene_free(&sc);
@@ -169,7 +191,8 @@ int main(int argc, char** argv) {
             fprintf(stderr, "blade_sim_1M: setup failed: %s\n", tsk_last_error());
             return 1;
         }
-        double ms = measure(&sc, 3, 7, 1);
+        double cpu = 0;
+        double ms = measure(&sc, 3, 7, 1, &cpu);
         if (ms < 0) {
             fprintf(stderr, "blade_sim_1M: step failed: %s\n", tsk_last_error());
             return 1;
@@ -180,11 +203,13 @@ int main(int argc, char** argv) {
         char params[512];
         snprintf(params, sizeof params,
                  "\"blades\": %lld, \"tiles\": 15625, \"knots\": %d, \"iterations\": 4, "
-                 "\"objects\": 128, \"threads\": %d, \"ms_per_step\": %.4g, \"state_mb\": %.1f, "
+                 "\"objects\": 128, \"threads\": %d, \"ms_per_step\": %.4g, "
+                 "\"cpu_ns_per_blade_step\": %.4g, \"load_avg\": %.2f, \"state_mb\": %.1f, "
                  "\"target_ns\": 40, \"blender_hair_ns_reference\": 220000, "
                  "\"blender_hair_ratio\": %.4g, \"blender_hair_note\": \"quoted in issue 7 "
                  "(15 segments, this machine), not measured in this run\"",
-                 (long long)sc.blades, KNOTS, threads, ms, (double)info.state_bytes / 1048576.0,
+                 (long long)sc.blades, KNOTS, threads, ms, cpu * 1e6 / (double)sc.blades, load_avg(),
+                 (double)info.state_bytes / 1048576.0,
                  220000.0 / ns);
         bench_emit("blade_sim_1M", ns, "ns per blade-step", params, NULL);
         scene_free(&sc);

@@ -301,19 +301,27 @@ int32_t tsk_blade_sim_tile_state(const tsk_blade_sim* sim, int32_t tile) {
 
 /* ---- providing rest data ------------------------------------------------------------------- */
 
+/* How far a tile's reach boxes extend beyond its square. */
+static float tile_pad(const tsk_blade_sim* sim, const sim_tile* t) {
+    const tsk_blade_sim_def* d = &sim->def;
+    const float x0 = d->origin[0] + (float)(t->index % d->tiles_x) * d->tile_size;
+    const float y0 = d->origin[1] + (float)(t->index / d->tiles_x) * d->tile_size;
+    float pad = 0.0f;
+    for (int32_t b = 0; b < t->block_count; ++b) {
+        const float* bb = t->bounds + 6 * b;
+        float e[4] = {x0 - bb[0], y0 - bb[1], bb[3] - (x0 + d->tile_size),
+                      bb[4] - (y0 + d->tile_size)};
+        for (int c = 0; c < 4; ++c) pad = pad > e[c] ? pad : e[c];
+    }
+    return pad;
+}
+
+/* After releases: the largest pad of the tiles left. */
 static void update_bin_pad(tsk_blade_sim* sim) {
     float pad = 0.0f;
-    const tsk_blade_sim_def* d = &sim->def;
     for (int32_t i = 0; i < sim->tile_count; ++i) {
-        const sim_tile* t = &sim->tiles[i];
-        const float x0 = d->origin[0] + (float)(t->index % d->tiles_x) * d->tile_size;
-        const float y0 = d->origin[1] + (float)(t->index / d->tiles_x) * d->tile_size;
-        for (int32_t b = 0; b < t->block_count; ++b) {
-            const float* bb = t->bounds + 6 * b;
-            float e[4] = {x0 - bb[0], y0 - bb[1], bb[3] - (x0 + d->tile_size),
-                          bb[4] - (y0 + d->tile_size)};
-            for (int c = 0; c < 4; ++c) pad = pad > e[c] ? pad : e[c];
-        }
+        const float p = tile_pad(sim, &sim->tiles[i]);
+        pad = pad > p ? pad : p;
     }
     sim->bin_pad = pad;
 }
@@ -417,7 +425,8 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
     ++sim->tile_count;
     remove_i32(&sim->forced, &sim->forced_count, tile);
     remove_i32(&sim->pending, &sim->pending_count, tile);
-    update_bin_pad(sim);
+    const float pad = tile_pad(sim, &sim->tiles[pos]);
+    sim->bin_pad = sim->bin_pad > pad ? sim->bin_pad : pad;
     return TSK_OK;
 }
 
@@ -460,19 +469,27 @@ static void step_blocks(size_t begin, size_t end, size_t chunk, void* vctx) {
             if (box_overlap(bb, bb + 3, c)) cols[ncol++] = c;
         }
         const float* wp = NULL;
-        if (ctx->layout != TSK_WIND_NONE) {
+        if (ctx->layout == TSK_WIND_PER_KNOT) {
             for (int l = 0; l < SIM_W; ++l) {
                 int32_t b = blk * SIM_W + l;
                 if (b >= t->blade_count) b = 0;
-                const int64_t gb = ctx->first_blade[slot] + b;
-                for (int32_t k = 0; k < K; ++k) {
-                    const float* src;
-                    if (ctx->layout == TSK_WIND_UNIFORM) src = ctx->wind;
-                    else if (ctx->layout == TSK_WIND_PER_BLADE) src = ctx->wind + 3 * gb;
-                    else src = ctx->wind + 3 * (gb * K + k);
-                    for (int c = 0; c < 3; ++c) wind[((size_t)k * 3 + c) * SIM_W + l] = src[c];
-                }
+                const float* src = ctx->wind + 3 * ((ctx->first_blade[slot] + b) * K);
+                for (int32_t k = 0; k < K; ++k)
+                    for (int c = 0; c < 3; ++c) wind[((size_t)k * 3 + c) * SIM_W + l] = src[3 * k + c];
             }
+            wp = wind;
+        } else if (ctx->layout != TSK_WIND_NONE) {
+            /* one velocity per lane, the same at every knot */
+            for (int l = 0; l < SIM_W; ++l) {
+                int32_t b = blk * SIM_W + l;
+                if (b >= t->blade_count) b = 0;
+                const float* src = ctx->layout == TSK_WIND_UNIFORM
+                                       ? ctx->wind
+                                       : ctx->wind + 3 * (ctx->first_blade[slot] + b);
+                for (int c = 0; c < 3; ++c) wind[(size_t)c * SIM_W + l] = src[c];
+            }
+            for (int32_t k = 1; k < K; ++k)
+                memcpy(wind + (size_t)k * 3 * SIM_W, wind, sizeof(float) * 3 * SIM_W);
             wp = wind;
         }
         const float blend = t->blend_left > 0 ? 1.0f / (float)t->blend_left : 0.0f;
