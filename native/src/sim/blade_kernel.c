@@ -203,18 +203,22 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
     const vf pre = splat(p->preload), drag = splat(p->drag);
     const vf ar = splat(p->alpha_root), atip = splat(p->alpha_tip);
 
-    /* rest rotation sides of every segment, kept for pass 2, and 1 / L^2 for pass 3 */
-    float side[TSK_BLADE_SIM_MAX_KNOTS * 3 * SIM_W] __attribute__((aligned(64)));
+    /* 1 / L^2 of every segment, for pass 2 */
     float il2[TSK_BLADE_SIM_MAX_KNOTS * SIM_W] __attribute__((aligned(64)));
 
-    /* ---- pass 1: rest frames and rest positions; Verlet with damping, gravity (minus the
-            preload the rest pose carries) and wind drag; global shape constraint toward the rest
-            pose. The preload is -g at rest. Its part along the segment turns with the segment
-            (a blade pressed flat no longer carries its weight along itself); the small part
-            across the segment stays fixed in the world. */
+    /* ---- pass 1, one sweep root to tip. For knot k: the rest frame and rest position (rebuilt
+            from the rest directions); Verlet with damping, gravity (minus the preload the rest
+            pose carries) and wind drag; the global shape constraint toward the rest pose. Then
+            the local shape constraint of segment k-1 -> k: it is pulled toward its rest
+            direction expressed in the current frame of the segment before it.
+            The preload is -g at rest. Its part along the segment turns with the segment (a blade
+            pressed flat no longer carries its weight along itself); the small part across the
+            segment stays fixed in the world. */
     {
+        const float alc = p->alpha_local;
         v3 gt = T0, gs = S0, gn = N0; /* rest frame */
-        v3 rp = ld3(P), xo = rp;
+        v3 ft = T0, fs = S0, fn = N0; /* current frame (local shape) */
+        v3 rp = ld3(P), xo = rp, xp = rp;
         vf arc = splat(0.0f);
         const vf inv_total = 1.0f / ld(L);
         for (int k = 1; k < K; ++k) {
@@ -223,7 +227,6 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
             const vf len = ld(L + o1);
             vf lx, ly, lz;
             rest_side(r, &lx, &ly, &lz);
-            st(side + o3, lx), st(side + o3 + SIM_W, ly), st(side + o3 + 2 * SIM_W, lz);
             const vf il = 1.0f / len;
             st(il2 + o1, il * il);
             /* rest frame and rest position of this segment */
@@ -250,34 +253,19 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
             const vf al = ar + (atip - ar) * (arc * inv_total);
             xn = add3(xn, mul3(al, sub3(rp, xn)));
             st3(Q + o3, x);
-            st3(P + o3, xn);
             xo = x;
-        }
-    }
-
-    /* ---- pass 2: local shape constraints, root to tip: segment k-1 -> k is pulled toward its
-            rest direction expressed in the current frame of the segment before it. */
-    {
-        const float al = p->alpha_local;
-        v3 ft = T0, fs = S0, fn = N0;
-        v3 xp = ld3(P);
-        for (int k = 1; k < K; ++k) {
-            const size_t o3 = (size_t)k * 3 * SIM_W;
-            const v3 r = ld3(R + o3);
-            const vf len = ld(L + (size_t)k * SIM_W);
-            const vf lx = ld(side + o3), ly = ld(side + o3 + SIM_W), lz = ld(side + o3 + 2 * SIM_W);
+            /* local shape constraint of segment k-1 -> k */
             const v3 target = add3(xp, mul3(len, apply3(ft, fs, fn, r.x, r.y, r.z)));
-            v3 x = ld3(P + o3);
-            const v3 e = sub3(target, x);
-            const float wc = k == 1 ? al : 0.5f * al; /* the root does not move */
-            const float wp = k == 1 ? 0.0f : 0.5f * al;
-            x = add3(x, mul3(splat(wc), e));
+            const v3 e = sub3(target, xn);
+            const float wc = k == 1 ? alc : 0.5f * alc; /* the root does not move */
+            const float wp = k == 1 ? 0.0f : 0.5f * alc;
+            xn = add3(xn, mul3(splat(wc), e));
             xp = sub3(xp, mul3(splat(wp), e));
             st3(P + o3 - 3 * SIM_W, xp);
-            st3(P + o3, x);
-            frame_advance(&ft, &fs, &fn, r, lx, ly, lz, sub3(x, xp));
-            xp = x;
+            frame_advance(&ft, &fs, &fn, r, lx, ly, lz, sub3(xn, xp));
+            xp = xn;
         }
+        st3(P + (size_t)(K - 1) * 3 * SIM_W, xp);
     }
 
     /* ---- colliders near the block now: its knots' box grown by SIM_CULL_MARGIN. The iterations
@@ -307,7 +295,7 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
         }
     }
 
-    /* ---- pass 3: length constraints (each segment's two knots move half way; the root never)
+    /* ---- pass 2: length constraints (each segment's two knots move half way; the root never)
             and collisions, iterated. Segments are relaxed odd then even: segments of one parity
             share no knot, so their updates are independent (same convergence as a sweep, and no
             chain of dependent operations along the blade). */
@@ -341,7 +329,7 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
         }
     }
 
-    /* ---- pass 4: follow the leader, root to tip (Mueller et al. 2012): each segment is set to
+    /* ---- pass 3: follow the leader, root to tip (Mueller et al. 2012): each segment is set to
             its rest length exactly; a knot this puts inside a collider goes to the nearest point
             that is both at the segment's length from the knot before it and on the collider's
             surface (the circle where the two spheres meet); under the ground, to the nearest
@@ -437,7 +425,7 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
         }
     }
 
-    /* ---- pass 5: blend back toward rest (the tile is released soon) and statistics. */
+    /* ---- pass 4: blend back toward rest (the tile is released soon) and statistics. */
     vf md = splat(0.0f), ms = splat(0.0f);
     const vi snap = (vi){0} + (blend >= 1.0f ? -1 : 0);
     const vf bl = splat(blend);
