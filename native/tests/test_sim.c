@@ -264,6 +264,45 @@ static void collider_pass(int capsule) {
 TEST(test_sim_sphere_never_inside_and_blades_recover) { collider_pass(0); }
 TEST(test_sim_capsule_never_inside_and_blades_recover) { collider_pass(1); }
 
+TEST(test_sim_contact_holds_for_5_to_64_knots) {
+    /* a capsule sweeps back and forth through 37 blades (two blocks, one partly padded) of 5, 32
+       and 64 knots: every step no knot inside it or under the ground, lengths within 1 % */
+    static const int Ks[3] = {5, 32, 64};
+    enum { N = 37 };
+    static float knots[N * 64 * 3], widths[N * 64], out[N * 64 * 3];
+    for (int ki = 0; ki < 3; ++ki) {
+        const int K = Ks[ki];
+        for (int b = 0; b < N; ++b) {
+            float root[3] = {0.5f * tsk_rand01(4, (uint64_t)b, 0, 0), 0.5f * tsk_rand01(4, (uint64_t)b, 1, 0), 0.0f};
+            make_blade(K, root, 0.3f, 0.3f, 6.28f * tsk_rand01(4, (uint64_t)b, 2, 0), knots + (size_t)b * K * 3,
+                       widths + (size_t)b * K, NULL);
+        }
+        tsk_blade_sim_def def = big_tile_def();
+        def.knot_count = K;
+        tsk_blade_sim* sim = one_tile_sim(def, N, knots, widths, NULL);
+        double worst_in = 0, worst_len = 0, lowest = 1e9;
+        for (int s = 0; s < 120; ++s) {
+            const float x = 0.25f + 0.6f * sinf(0.05f * (float)s);
+            tsk_blade_collider c = {TSK_COLLIDER_CAPSULE, 0.1f, {x, -0.2f, 0.12f}, {x, 0.7f, 0.12f}};
+            CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+            CHECK(tsk_blade_sim_step(sim, 1.0f / 24.0f, NULL, TSK_WIND_NONE) == TSK_OK);
+            CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+            for (int b = 0; b < N; ++b)
+                for (int k = 1; k < K; ++k) {
+                    const float* p = out + (size_t)(b * K + k) * 3;
+                    worst_in = fmax(worst_in, 0.1 - dist_segment(p, c.a, c.b));
+                    lowest = fmin(lowest, p[2]);
+                    const float L0 = seg_len(knots + (size_t)(b * K + k - 1) * 3, knots + (size_t)(b * K + k) * 3);
+                    worst_len = fmax(worst_len, fabs(seg_len(p - 3, p) - L0) / L0);
+                }
+        }
+        CHECK_MSG(worst_in <= 1e-6, "K=%d: a knot was %g m inside", K, worst_in);
+        CHECK_MSG(lowest >= 0.0, "K=%d: a knot reached z = %g", K, lowest);
+        CHECK_MSG(worst_len <= 0.01, "K=%d: segment length off by %.3g %%", K, 100 * worst_len);
+        tsk_blade_sim_destroy(sim);
+    }
+}
+
 TEST(test_sim_local_shape_alone_restores_bend) {
     /* global shape off: only local (parent-frame) constraints hold the shape, so recovering
        the rest pose means the bending directions were kept relative to the blade's frames */
@@ -565,6 +604,7 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_wind_bends_downwind_more_with_stronger_wind),
           TEST_ENTRY(test_sim_sphere_never_inside_and_blades_recover),
           TEST_ENTRY(test_sim_capsule_never_inside_and_blades_recover),
+          TEST_ENTRY(test_sim_contact_holds_for_5_to_64_knots),
           TEST_ENTRY(test_sim_local_shape_alone_restores_bend),
           TEST_ENTRY(test_sim_ground_never_penetrated),
           TEST_ENTRY(test_sim_identical_bytes_with_1_and_2_threads),

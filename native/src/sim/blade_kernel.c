@@ -31,7 +31,8 @@ typedef uint32_t vu __attribute__((vector_size(4 * SIM_W)));
 
 #define INL static inline __attribute__((always_inline))
 
-/* Metres around a block's knots within which a collider takes part in the iterations. */
+/* Metres around a block's knots (plus its longest segment) within which a collider takes part
+ * in the iterations. */
 #define SIM_CULL_MARGIN 0.03f
 
 INL vf ld(const float* p) {
@@ -203,6 +204,7 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
     const vf pre = splat(p->preload), drag = splat(p->drag);
     const vf ar = splat(p->alpha_root), atip = splat(p->alpha_tip);
 
+    vf max_len = splat(0.0f); /* longest segment of the block */
     /* 1 / L^2 of every segment, for pass 2 */
     float il2[TSK_BLADE_SIM_MAX_KNOTS * SIM_W] __attribute__((aligned(64)));
 
@@ -225,6 +227,7 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
             const size_t o3 = (size_t)k * 3 * SIM_W, o1 = (size_t)k * SIM_W;
             const v3 r = ld3(R + o3);
             const vf len = ld(L + o1);
+            max_len = vmax(max_len, len);
             vf lx, ly, lz;
             rest_side(r, &lx, &ly, &lz);
             const vf il = 1.0f / len;
@@ -286,11 +289,14 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
             bl[1] = bl[1] < lo.y[l] ? bl[1] : lo.y[l], bh[1] = bh[1] > hi.y[l] ? bh[1] : hi.y[l];
             bl[2] = bl[2] < lo.z[l] ? bl[2] : lo.z[l], bh[2] = bh[2] > hi.z[l] ? bh[2] : hi.z[l];
         }
+        /* knots move in the passes below by about a segment length at most */
+        float m = 0.0f;
+        for (int l = 0; l < SIM_W; ++l) m = m > max_len[l] ? m : max_len[l];
+        m += SIM_CULL_MARGIN;
         for (int ci = 0; ci < ncol; ++ci) {
             const sim_collider* c = cols[ci];
             int overlap = 1;
-            for (int a = 0; a < 3; ++a)
-                overlap &= c->lo[a] <= bh[a] + SIM_CULL_MARGIN && c->hi[a] >= bl[a] - SIM_CULL_MARGIN;
+            for (int a = 0; a < 3; ++a) overlap &= c->lo[a] <= bh[a] + m && c->hi[a] >= bl[a] - m;
             if (overlap) near[nnear++] = c;
         }
     }
@@ -374,8 +380,9 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
                     const vf ww = dot3(w, w);
                     const vi wok = gts(ww, 1e-30f);
                     const vf iw = sel(wok, h * rsq(sel(wok, ww, splat(1.0f))), splat(0.0f));
-                    /* the circle exists when the previous knot is outside, within len + r */
-                    const vi ok = inside & gt(D, r) & lt(D, len + r) & wok;
+                    /* the circle exists when the previous knot is outside (it may lie on the
+                       surface, up to rounding), within len + r */
+                    const vi ok = inside & gt(D, r * 0.999f) & lt(D, len + r) & wok;
                     const v3 y = add3(add3(xp, mul3(h0, u)), mul3(iw, w));
                     x = sel3(ok, y, x);
                     if (round == rounds - 1) x = push_out(x, col); /* what is left: tiny */
