@@ -41,7 +41,13 @@ INL vf ld(const float* p) {
     return v;
 }
 INL void st(float* p, vf v) { memcpy(p, &v, sizeof v); }
-INL vf splat(float x) { return (vf){0} + x; }
+/* All ones. 1 * x == x exactly; GCC turns this into one broadcast, where (vf){0} + x becomes
+ * one scalar store per lane. */
+static const vf sim_one = {1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f,
+                           1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f,
+                           1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f};
+_Static_assert(SIM_W == 32, "sim_one and any() are written for 32 lanes");
+INL vf splat(float x) { return sim_one * x; }
 INL vf sel(vi m, vf a, vf b) { return (vf)(((vi)a & m) | ((vi)b & ~m)); }
 /* Comparison masks (all ones where true) from the sign of a difference: for finite values
  * b - a < 0 exactly when a > b (x - x = +0). GCC lowers vector comparisons wider than the
@@ -79,10 +85,24 @@ INL vf rsq2(vf x) {
     return y;
 }
 
+/* Whether any lane of a mask is set: OR the halves together down to 4 lanes. */
+typedef int32_t vi16 __attribute__((vector_size(64)));
+typedef int32_t vi8 __attribute__((vector_size(32)));
+typedef int32_t vi4 __attribute__((vector_size(16)));
 INL int any(vi m) {
-    int a = 0;
-    for (int l = 0; l < SIM_W; ++l) a |= m[l];
-    return a != 0;
+    vi16 a, b;
+    memcpy(&a, &m, sizeof a);
+    memcpy(&b, (const char*)&m + sizeof a, sizeof b);
+    a |= b;
+    vi8 c, d;
+    memcpy(&c, &a, sizeof c);
+    memcpy(&d, (const char*)&a + sizeof c, sizeof d);
+    c |= d;
+    vi4 e, f;
+    memcpy(&e, &c, sizeof e);
+    memcpy(&f, (const char*)&c + sizeof e, sizeof f);
+    e |= f;
+    return (e[0] | e[1] | e[2] | e[3]) != 0;
 }
 
 typedef struct v3 {
