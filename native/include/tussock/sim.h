@@ -32,6 +32,13 @@ extern "C" {
 /* ---- definition ---------------------------------------------------------------------------- */
 
 /// Grid, solver and tile-management parameters. Units: metres, seconds, kilograms.
+///
+/// Force model, per knot k of full width w_k (m) with velocity v_k = (x_k - x_k,prev) / dt:
+///   a_k = g - preload_k + (wind_drag / linear_density) * w_k * (wind_k - v_k)      [m/s^2]
+/// i.e. linear air drag wind_drag * w * (relative velocity) per metre of blade on a blade of
+/// linear_density kg per metre (the drag step is capped so that it never reverses the relative
+/// velocity). Velocity also decays as exp(-damping t). preload_k = gravity_preload * g in the
+/// rest pose; its component along the segment turns with the segment.
 /// Every per-step "rate" r (1/s) turns into the fraction 1 - exp(-r dt) of the error that the
 /// constraint removes in a step of dt seconds: an error left to that constraint alone decays as
 /// exp(-r t), whatever the frame rate.
@@ -59,7 +66,9 @@ typedef struct tsk_blade_sim_def {
     float global_stiffness_tip;  ///< 1/s, >= 0 (default 1): the same at the tip; the per-step
                                  ///< fraction is interpolated linearly in arc length between them
     float local_stiffness;    ///< 1/s, >= 0 (default 120): pull of each segment toward its rest
-                              ///< direction in its parent segment's frame (bending, twisting)
+                              ///< direction in its parent segment's frame (bending, twisting);
+                              ///< the per-step fraction is capped at 0.95 (beyond, the root-to-tip
+                              ///< sweep overshoots)
     int32_t iterations;       ///< length + collision iterations per step, 1..64 (default 4)
 
     /* collisions */
