@@ -47,6 +47,17 @@ class TUSSOCK_PT_meadow(bpy.types.Panel):
             layout.template_ID(s, "density_image", open="image.open")
         layout.prop(s, "seed")
         layout.prop(s, "display", slider=True)
+        box = layout.box()
+        box.prop(s, "use_simulation")
+        if s.use_simulation:
+            box.prop(s, "colliders")
+            col = box.column(align=True)
+            col.prop(s, "sim_iterations")
+            col.prop(s, "sim_damping")
+            col.prop(s, "sim_stiffness")
+            col.prop(s, "sim_local_stiffness")
+            box.label(text=f"{obj.get('tussock_active_tiles', 0)} tiles, "
+                           f"{obj.get('tussock_active_blades', 0):,} blades simulated")
 
 
 classes = (TUSSOCK_PT_meadow,)
