@@ -137,9 +137,12 @@ def simulate_to(obj, scene, frame, depsgraph=None):
     return e
 
 
-def active_mesh_arrays(e):
-    """(positions (V, 3), tris (T, 3), uvs (V, 2), blade_rand (V,), active tiles) of the
-    simulated blades, expanded into ribbons."""
+CAPACITY_BLOCK = 1024  # the dynamic mesh grows in blocks of blades, so that its topology
+                       # (and Blender's work on it) changes seldom while tiles come and go
+
+
+def active_blades(e):
+    """(knots (n*K*3), widths, sides, blade_rand, active tiles) of the simulated blades."""
     lib = native.require()
     sim, k = e["sim"], e["K"]
     info = lib.blade_sim_info(sim)
@@ -155,15 +158,34 @@ def active_mesh_arrays(e):
     widths = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.float32)
     sides = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.float32)
     rand = np.concatenate([p[2] for p in parts]) if parts else np.zeros(0, np.float32)
-    pos = np.empty(nb * 2 * k * 3, np.float32)
-    uvs = np.empty(nb * 2 * k * 2, np.float32)
-    tris = np.empty(nb * 6 * (k - 1), np.int32)
-    if nb:
-        lib.blades_expand(knots, np.ascontiguousarray(widths), np.ascontiguousarray(sides), k,
-                          pos, None, uvs)
-        lib.blade_indices(k, nb, tris)
-    return (pos.reshape(-1, 3), tris.reshape(-1, 3), uvs.reshape(-1, 2),
-            np.repeat(rand, 2 * k), tiles)
+    return knots, widths, sides, rand, tiles
+
+
+def _topology(mesh, capacity, k):
+    """(Re)builds the dynamic mesh for `capacity` blades of k knots: triangles, UVs
+    (u across, v = knot / (k - 1) along) and attributes. Positions are set per frame."""
+    lib = native.require()
+    mesh.clear_geometry()
+    tris = np.empty(capacity * 6 * (k - 1), np.int32)
+    lib.blade_indices(k, capacity, tris)
+    nv = capacity * 2 * k
+    mesh.vertices.add(nv)
+    mesh.loops.add(tris.size)
+    mesh.loops.foreach_set("vertex_index", tris)
+    nt = tris.size // 3
+    mesh.polygons.add(nt)
+    mesh.polygons.foreach_set("loop_start", np.arange(0, tris.size, 3, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(nt, 3, np.int32))
+    mesh.polygons.foreach_set("use_smooth", np.ones(nt, bool))
+    v = np.repeat(np.arange(k, dtype=np.float32) / (k - 1), 2)
+    u = np.tile(np.array([0.0, 1.0], np.float32), k)
+    uv_vertex = np.tile(np.stack([u, v], axis=1), (capacity, 1))
+    layer = mesh.uv_layers.new(name="UVMap")
+    layer.data.foreach_set("uv", np.ascontiguousarray(uv_vertex[tris]).ravel())
+    mesh.attributes.new("tsk_blade_rand", "FLOAT", "POINT")
+    if len(mesh.materials) == 0:
+        mesh.materials.append(material.grass_material())
+    mesh["tussock_capacity"] = capacity
 
 
 def blades_object(obj):
@@ -179,28 +201,26 @@ def blades_object(obj):
 
 
 def write(obj, e):
-    pos, tris, uvs, rand, tiles = active_mesh_arrays(e)
+    """Writes the simulated blades into the meadow's dynamic mesh and hides the instances
+    of their tiles. Unused blade slots collapse to zero-area triangles."""
+    lib = native.require()
+    knots, widths, sides, rand, tiles = active_blades(e)
+    k = e["K"]
+    nb = len(widths) // k if k else 0
+    capacity = max(1, -(-nb // CAPACITY_BLOCK)) * CAPACITY_BLOCK
     child = blades_object(obj)
     mesh = child.data
-    if len(mesh.vertices) != len(pos) or len(mesh.polygons) != len(tris):
-        mesh.clear_geometry()
-        mesh.vertices.add(len(pos))
-        mesh.loops.add(tris.size)
-        mesh.loops.foreach_set("vertex_index", tris.ravel())
-        mesh.polygons.add(len(tris))
-        mesh.polygons.foreach_set("loop_start", np.arange(0, tris.size, 3, dtype=np.int32))
-        mesh.polygons.foreach_set("loop_total", np.full(len(tris), 3, np.int32))
-        mesh.polygons.foreach_set("use_smooth", np.ones(len(tris), bool))
-        if len(mesh.materials) == 0:
-            mesh.materials.append(material.grass_material())
-        if "tsk_blade_rand" not in mesh.attributes:
-            mesh.attributes.new("tsk_blade_rand", "FLOAT", "POINT")
-        if not mesh.uv_layers:
-            mesh.uv_layers.new(name="UVMap")
-    mesh.vertices.foreach_set("co", pos.ravel())
-    if len(pos):
-        mesh.attributes["tsk_blade_rand"].data.foreach_set("value", np.ascontiguousarray(rand, np.float32))
-        mesh.uv_layers[0].data.foreach_set("uv", np.ascontiguousarray(uvs[tris.ravel()]).ravel())
+    new_topology = mesh.get("tussock_capacity") != capacity
+    if new_topology:
+        _topology(mesh, capacity, k)
+    pos = np.zeros(capacity * 2 * k * 3, np.float32)
+    if nb:
+        lib.blades_expand(knots, np.ascontiguousarray(widths), np.ascontiguousarray(sides), k,
+                          pos[:nb * 2 * k * 3], None, None)
+    vrand = np.zeros(capacity * 2 * k, np.float32)
+    vrand[:nb * 2 * k] = np.repeat(rand, 2 * k)
+    mesh.vertices.foreach_set("co", pos)
+    mesh.attributes["tsk_blade_rand"].data.foreach_set("value", vrand)
     mesh.update()
     # hide the instances of simulated tiles
     hidden = np.isin(e["instance_tile"], tiles)
@@ -212,7 +232,7 @@ def write(obj, e):
             attr.data.foreach_set("value", hidden)
             obj.data.update()
     obj["tussock_active_tiles"] = len(tiles)
-    obj["tussock_active_blades"] = int(len(pos) // (2 * e["K"])) if e["K"] else 0
+    obj["tussock_active_blades"] = int(nb)
 
 
 def on_frame(scene, depsgraph=None):
