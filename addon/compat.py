@@ -76,3 +76,12 @@ def set_modifier_input(modifier, name, value):
 
 def get_modifier_input(modifier, name):
     return modifier[node_group_socket_identifier(modifier.node_group, "INPUT", name)]
+
+
+def settings_of(idblock, name):
+    """The Tussock property group `name` of a datablock if it was ever set, else None.
+    Reading `obj.<group>` would create an empty group on every object looked at (and so
+    change the file); this looks without touching."""
+    if idblock is None or name not in idblock.keys():
+        return None
+    return getattr(idblock, name, None)

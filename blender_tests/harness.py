@@ -47,8 +47,18 @@ def scene_fingerprint():
     """A digest of every datablock and its key properties, to check that a cancelled
     operator left the file exactly as it was."""
     import hashlib
+    return hashlib.sha256("\n".join(scene_description()).encode()).hexdigest()
+
+
+def scene_description():
+    """The lines that scene_fingerprint digests (printed when a check fails)."""
     import bpy
-    h = hashlib.sha256()
+    lines = []
+
+    class _Lines:
+        def update(self, b):
+            lines.append(b.decode())
+    h = _Lines()
     for attr in ("objects", "meshes", "collections", "materials", "images", "node_groups",
                  "textures", "cameras", "lights", "curves", "worlds"):
         for idb in getattr(bpy.data, attr):
@@ -64,13 +74,13 @@ def scene_fingerprint():
     for scene in bpy.data.scenes:
         h.update(repr(sorted(o.name for o in scene.objects)).encode())
         h.update(repr(sorted(c.name for c in scene.collection.children)).encode())
-    return h.hexdigest()
+    return lines
 
 
 def expect_cancel(op, needle, **kwargs):
     """Runs an operator that must fail: it reports an error containing `needle`, returns
     CANCELLED (raised as RuntimeError in background) and leaves the scene unchanged."""
-    before = scene_fingerprint()
+    before = scene_description()
     try:
         result = op(**kwargs)
     except RuntimeError as exc:
@@ -78,8 +88,9 @@ def expect_cancel(op, needle, **kwargs):
         assert needle in msg, f"error {msg!r} lacks {needle!r}"
     else:
         raise AssertionError(f"{op} with {kwargs} returned {result}, expected an error")
-    after = scene_fingerprint()
-    assert before == after, f"{op} with {kwargs} changed the scene"
+    after = scene_description()
+    changed = [(a, b) for a, b in zip(before, after) if a != b]
+    assert before == after, f"{op} with {kwargs} changed the scene: {changed[:3]}"
 
 
 def main():

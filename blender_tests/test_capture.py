@@ -167,6 +167,38 @@ def test_sequence_average_of_sample_recording():
 
 
 @test
+def test_live_preview_ticks_update_the_preview_image():
+    fresh()
+    from tussock.capture import operators
+    scene = bpy.context.scene
+    src = lib.depth_open_files(os.path.join(harness.REPO, "samples", "blades", "depth_####.png"))
+    info = lib.depth_info(src)
+    depth = np.empty(info["width"] * info["height"], np.float32)
+    messages = [operators.preview_tick(scene, src, info, depth) for _ in range(14)]
+    lib.depth_close(src)
+    # 12 frames, then the sequence loops: every tick shows a frame with the 5 blades
+    assert all(m.startswith("5 blades in 1 blob") for m in messages), messages
+    img = bpy.data.images["Tussock Capture Preview"]
+    px = np.empty(640 * 480 * 4, np.float32)
+    img.pixels.foreach_get(px)
+    assert px.reshape(-1, 4)[:, :3].max() > 0.9  # contours drawn in white
+    # a live device: the Dummy stream, never blocking
+    dev = lib.depth_open_device("Dummy")
+    lib.depth_start(dev)
+    dinfo = lib.depth_info(dev)
+    ddepth = np.empty(dinfo["width"] * dinfo["height"], np.float32)
+    import time
+    got = ""
+    for _ in range(100):
+        got = got or operators.preview_tick(scene, dev, dinfo, ddepth)
+        if got:
+            break
+        time.sleep(0.02)
+    lib.depth_close(dev)
+    assert got.startswith("mask empty"), got
+
+
+@test
 def test_dummy_device_reads_frames_and_reports_no_blades():
     fresh()
     # OpenNI2's Dummy device streams a depth ramp with no blades in it: the capture must

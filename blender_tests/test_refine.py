@@ -90,6 +90,22 @@ def test_simulated_refine_and_refine_again_from_full_mesh():
 
 
 @test
+def test_uniform_method_spaces_knots_evenly():
+    objs, full = captured()
+    assert bpy.ops.tussock.refine_blades(knots="8", method="UNIFORM") == {"FINISHED"}
+    for o in objs:
+        co = np.empty(8 * 3, np.float32)
+        o.data.vertices.foreach_get("co", co)
+        seg = np.linalg.norm(np.diff(co.reshape(-1, 3), axis=0), axis=1)
+        src = full[o.name]
+        length = np.linalg.norm(np.diff(src, axis=0), axis=1).sum()
+        assert np.allclose(co.reshape(-1, 3)[[0, -1]], src[[0, -1]], atol=1e-5)
+        # evenly spaced along the arc: chords within 2 % of length / 7
+        assert np.all(np.abs(seg - length / 7) < 0.02 * length / 7), (seg, length / 7)
+        assert o["tussock_refine_method"] == "UNIFORM" and "source_first" not in o.data.attributes
+
+
+@test
 def test_bad_input_cancels_with_scene_unchanged():
     objs, _ = captured()
     op = bpy.ops.tussock.refine_blades

@@ -1,30 +1,32 @@
-"""Tussock's demo, run by `./build.sh demo` in background Blender: builds a scene from
-what Tussock can do today, renders it with Cycles and saves the .blend, all into out/.
+"""Tussock's demo, run by `./build.sh demo` in background Blender: from the sample depth
+recording it captures the blades, refines them to 16 knots, grows a meadow of over a
+million blades from them, grows a Weber-Penn tree beside it that sways in the scene's
+wind, saves the .blend and renders a short Cycles animation (frames and an MP4) into out/.
 Each step prints what it made and how long it took."""
 
+import math
 import os
 import sys
 import time
 
 import bpy
-import numpy as np
 
 OUT = os.path.abspath(sys.argv[sys.argv.index("--") + 1] if "--" in sys.argv else "out")
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SAMPLE = os.path.join(REPO, "samples", "blades", "depth_####.png")
+FRAMES = int(os.environ.get("TSK_DEMO_FRAMES", "12"))
 os.makedirs(OUT, exist_ok=True)
 
 import addon_utils  # noqa: E402
 
-addon_utils.enable("tussock", default_set=True)
-from tussock import native  # noqa: E402
-
-lib = native.require()
 _t0 = time.time()
+_start = _t0
 
 
 def step(msg):
     global _t0
     now = time.time()
-    print(f"[demo] {msg} ({now - _t0:.2f} s)", flush=True)
+    print(f"[demo] {msg} ({now - _t0:.1f} s)", flush=True)
     _t0 = now
 
 
@@ -33,96 +35,115 @@ def reset_scene():
     addon_utils.enable("tussock", default_set=True)
 
 
-def tuft_mesh(count, seed, size=2.0):
-    """A field of simple blades scattered by the native counter-based generator: every
-    blade's position, turn, height and lean come from (seed, stream, blade), so the same
-    seed gives the same field on every machine. Built with numpy, no Python loop."""
-    r = np.empty(count * 5, np.float32)
-    lib.rand_fill(seed, 1, r)
-    r = r.reshape(5, count)
-    x, y = (r[0] - 0.5) * size, (r[1] - 0.5) * size
-    turn = r[2] * 2.0 * np.pi
-    h = 0.12 + 0.18 * r[3]
-    lean = 0.35 * r[4]
-    w = 0.012
-    # three vertices per blade: two at the root, one at the tip
-    cx, cy = np.cos(turn), np.sin(turn)
-    verts = np.empty((count, 3, 3), np.float32)
-    verts[:, 0] = np.stack([x - cx * w, y - cy * w, np.zeros(count)], axis=1)
-    verts[:, 1] = np.stack([x + cx * w, y + cy * w, np.zeros(count)], axis=1)
-    verts[:, 2] = np.stack([x - cy * lean * h, y + cx * lean * h, h], axis=1)
-    mesh = bpy.data.meshes.new("Demo tufts")
-    mesh.vertices.add(count * 3)
-    mesh.vertices.foreach_set("co", verts.ravel())
-    mesh.loops.add(count * 3)
-    mesh.loops.foreach_set("vertex_index", np.arange(count * 3, dtype=np.int32))
-    mesh.polygons.add(count)
-    mesh.polygons.foreach_set("loop_start", np.arange(0, count * 3, 3, dtype=np.int32))
-    mesh.polygons.foreach_set("loop_total", np.full(count, 3, np.int32))
-    mesh.update()
-    mesh.validate()
-    return mesh
-
-
-def grass_material():
-    mat = bpy.data.materials.new("Demo grass")
-    mat.use_nodes = True
-    bsdf = mat.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (0.09, 0.32, 0.05, 1.0)
-    bsdf.inputs["Roughness"].default_value = 0.6
-    return mat
-
-
-def render(path, res=(480, 270), samples=16):
-    scene = bpy.context.scene
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = samples
-    scene.cycles.use_denoising = False  # Debian's Blender is built without OpenImageDenoise
-    scene.render.resolution_x, scene.render.resolution_y = res
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "PNG"
-    scene.render.filepath = path
-    bpy.ops.render.render(write_still=True)
-
-
 def main():
     reset_scene()
+    from tussock import native
+    lib = native.require()
+    scene = bpy.context.scene
     step(f"Tussock {native.version()} in Blender {bpy.app.version_string}, "
          f"{lib.get_threads()} threads")
-    mesh = tuft_mesh(20000, seed=7)
-    mesh.materials.append(grass_material())
-    obj = bpy.data.objects.new("Demo tufts", mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    step(f"scattered {len(mesh.polygons)} blades with the native counter-based generator")
 
-    bpy.ops.mesh.primitive_plane_add(size=2.2)
+    # 1. capture the blades of the sample recording (4 frames averaged)
+    bpy.ops.tussock.capture_blades(source="FILES", filepath=SAMPLE, frames=4)
+    blades = list(bpy.data.collections["Tussock Blades"].objects)
+    step(f"captured {len(blades)} blades from {SAMPLE}")
+
+    # 2. refine them to 16 knots with their motion tracked through the recording
+    for o in blades:
+        o.select_set(True)
+    bpy.ops.tussock.refine_blades(knots="16", movement="TRACKED", frames=12)
+    step(f"refined them to {len(blades[0].data.vertices)} knots (seed 000 Algorithm 1)")
+    # the captured cluster stands aside, out of the shot
+    for o in blades:
+        o.location.x += 100.0
+
+    # 3. a meadow of those blades on a 46 m ground
+    bpy.ops.mesh.primitive_plane_add(size=1.0)
     ground = bpy.context.active_object
-    gm = bpy.data.materials.new("Demo soil")
-    gm.use_nodes = True
-    gm.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.12, 0.08, 0.05, 1)
-    ground.data.materials.append(gm)
+    ground.scale = (46.0, 46.0, 1.0)
+    soil = bpy.data.materials.new("Soil")
+    soil.use_nodes = True
+    soil.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.09, 0.06, 0.035, 1)
+    ground.data.materials.append(soil)
+    bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=64, chunk_blades=16,
+                               scale_min=1.2, scale_max=2.4, noise_scale=9.0,
+                               noise_threshold=0.05, seed=3, display=0.1)
+    meadow = bpy.context.active_object
+    step(f"grew a meadow of {meadow['tussock_blades']:,} blades in "
+         f"{meadow['tussock_tiles']:,} tiles ({meadow['tussock_instances']:,} instances)")
+
+    # 4. a tree beside it, swaying in the scene's wind
+    w = scene.tussock_wind
+    w.base_speed, w.base_direction = 3.0, math.radians(20)
+    wave = w.waves.add()
+    wave.amplitude, wave.wavelength, wave.speed, wave.power = 4.0, 12.0, 5.0, 2.0
+    w.gust_strength = 2.0
+    scene.cursor.location = (2.5, 6.0, 0.0)
+    bpy.ops.tussock.add_tree(preset="black_tupelo", seed=2)
+    tree = bpy.context.active_object
+    tree.scale = (0.7, 0.7, 0.7)
+    step(f"grew a Weber-Penn black tupelo: {tree['tussock_branches']:,} branches, "
+         f"{tree['tussock_leaves']:,} leaves")
+
+    # camera, sun and sky
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    bpy.context.scene.collection.objects.link(cam)
-    cam.location = (0.0, -2.2, 0.9)
-    cam.rotation_euler = (1.25, 0.0, 0.0)
-    bpy.context.scene.camera = cam
+    scene.collection.objects.link(cam)
+    cam.location = (-5.0, -12.0, 1.5)
+    cam.rotation_euler = (math.radians(86), 0.0, math.radians(-24))
+    cam.data.lens = 24.0
+    cam.data.clip_end = 300.0
+    scene.camera = cam
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 3.0
-    sun.rotation_euler = (0.7, 0.2, 0.5)
-    bpy.context.scene.collection.objects.link(sun)
+    sun.data.energy = 3.5
+    sun.rotation_euler = (math.radians(50), 0.0, math.radians(30))
+    scene.collection.objects.link(sun)
     world = bpy.data.worlds.new("Sky")
     world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.5, 0.65, 0.9, 1)
-    bpy.context.scene.world = world
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.55, 0.7, 0.95, 1)
+    scene.world = world
 
+    scene.frame_start, scene.frame_end = 1, FRAMES
+    scene.render.fps = 12
     blend = os.path.join(OUT, "demo.blend")
     bpy.ops.wm.save_as_mainfile(filepath=blend)
     step(f"saved {blend}")
-    png = os.path.join(OUT, "demo_field.png")
-    render(png)
-    step(f"rendered {png}")
-    print(f"[demo] outputs in {OUT}")
+
+    # 5. render the animation: frames, then an MP4 through Blender's own video output
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 8
+    scene.cycles.use_denoising = False  # Debian's Blender has no OpenImageDenoise
+    scene.render.resolution_x, scene.render.resolution_y = 480, 270
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = os.path.join(OUT, "frames", "demo_")
+    bpy.ops.render.render(animation=True)
+    step(f"rendered {FRAMES} frames into {os.path.join(OUT, 'frames')}")
+    mp4 = os.path.join(OUT, "demo.mp4")
+    encode_video(os.path.join(OUT, "frames"), "demo_", FRAMES, mp4, scene.render.fps)
+    step(f"wrote {mp4}")
+    print(f"[demo] outputs in {OUT}; total {time.time() - _start:.0f} s", flush=True)
+
+
+def encode_video(folder, prefix, frames, path, fps):
+    """Frames -> MP4 with Blender's sequencer and FFmpeg output (no extra tools)."""
+    vscene = bpy.data.scenes.new("Video")
+    vscene.render.resolution_x, vscene.render.resolution_y = 480, 270
+    vscene.render.resolution_percentage = 100
+    vscene.render.fps = fps
+    vscene.frame_start, vscene.frame_end = 1, frames
+    seq = vscene.sequence_editor_create()
+    files = sorted(f for f in os.listdir(folder) if f.startswith(prefix))
+    strip = seq.sequences.new_image("frames", os.path.join(folder, files[0]), 1, 1)
+    for f in files[1:]:
+        strip.elements.append(f)
+    vscene.render.image_settings.file_format = "FFMPEG"
+    vscene.render.ffmpeg.format = "MPEG4"
+    vscene.render.ffmpeg.codec = "H264"
+    vscene.render.filepath = path
+    vscene.render.use_file_extension = False
+    bpy.context.window_manager.windows[0].scene = vscene if bpy.context.window_manager.windows else None
+    bpy.ops.render.render(animation=True, scene=vscene.name)
 
 
 main()

@@ -149,4 +149,75 @@ class TUSSOCK_OT_capture_blades(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (TUSSOCK_OT_capture_blades,)
+def preview_tick(scene, src, info, depth):
+    """One step of the live preview: reads the newest frame (a sequence or recording loops)
+    and, if there is one, shows its capture in the preview image. Returns the capture's
+    summary message, or "" when no new frame had arrived."""
+    lib = native.require()
+    frame = lib.depth_read(src, depth)
+    if frame["end"] and info["kind"] != "DEVICE":
+        lib.depth_seek(src, 0)  # a sequence or recording plays in a loop
+    if not frame["is_new"]:
+        return ""
+    s = scene.tussock_capture
+    near, far = (0.0, 0.0) if s.auto_band else (s.near, s.far)
+    result = pipeline.process(depth, info["width"], info["height"], near, far, info["fx"],
+                              info["fy"], info["cx"], info["cy"], s.min_area)
+    img = result["images"]
+    preview.show(preview.compose(img["DEPTH"], img["MASK"], img["LABELS"], img["OVERLAY"]))
+    return result["summary"]["message"]
+
+
+class TUSSOCK_OT_capture_preview(bpy.types.Operator):
+    """Show the capture live in the Image Editor ('Tussock Capture Preview'): depth, mask,
+    each blade in its colour, contours and skeletons. Esc or right-click stops"""
+    bl_idname = "tussock.capture_preview"
+    bl_label = "Live Preview"
+
+    _timer = None
+    _src = None
+
+    def invoke(self, context, event):
+        return errors.run(self, self._start, context)
+
+    def _start(self, context):
+        s = context.scene.tussock_capture
+        path = bpy.path.abspath(s.filepath) if s.filepath else ""
+        self._src = pipeline.open_source(s.source, path, s.device_uri)
+        self._info = native.lib.depth_info(self._src)
+        self._depth = np.empty(self._info["width"] * self._info["height"], np.float32)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(1.0 / 15.0, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type in {"ESC", "RIGHTMOUSE"}:
+            self._stop(context)
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            message = preview_tick(context.scene, self._src, self._info, self._depth)
+            if message:
+                context.workspace.status_text_set(f"Tussock preview: {message} (Esc to stop)")
+        except (native.Error, ValueError) as exc:
+            # a frame without blades is not an error for a preview; a lost device is
+            if "device" in str(exc).lower():
+                self._stop(context)
+                self.report({"ERROR"}, f"Tussock: {exc}")
+                return {"CANCELLED"}
+            context.workspace.status_text_set(f"Tussock preview: {exc}")
+        return {"RUNNING_MODAL"}
+
+    def _stop(self, context):
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+        if self._src is not None and native.lib is not None:
+            native.lib.depth_close(self._src)
+            self._src = None
+        context.workspace.status_text_set(None)
+
+
+classes = (TUSSOCK_OT_capture_blades, TUSSOCK_OT_capture_preview)

@@ -30,8 +30,10 @@ class TUSSOCK_PT_capture(bpy.types.Panel):
         row.prop(s, "frames")
         if s.source != "DEVICE":
             row.prop(s, "frame")
-        layout.operator("tussock.capture_blades", icon="OUTLINER_OB_CAMERA")
-        layout.label(text="Preview: Image Editor, 'Tussock Capture Preview'", icon="IMAGE_DATA")
+        row = layout.row(align=True)
+        row.operator("tussock.capture_preview", icon="HIDE_OFF")
+        row.operator("tussock.capture_blades", icon="OUTLINER_OB_CAMERA")
+        layout.label(text="Preview: Image Editor › 'Tussock Capture Preview'", icon="IMAGE_DATA")
 
 
 classes = (TUSSOCK_PT_capture,)

@@ -12,6 +12,12 @@ from ..nodes import blade_nodes
 from . import movement
 
 KNOT_ITEMS = [("64", "64", ""), ("32", "32", ""), ("16", "16", ""), ("8", "8", "")]
+METHOD_ITEMS = [
+    ("SIMILARITY", "Movement similarity", "Seed 000 Algorithm 1: merge the adjacent knots that "
+     "move most alike"),
+    ("UNIFORM", "Uniform", "Evenly spaced knots along the blade (needs no movement; measured "
+     "closer to the full blade's motion, see docs/performance.md)"),
+]
 MOVEMENT_ITEMS = [
     ("AUTO", "Automatic", "Tracked through the captured sequence when the blade came from "
      "one with enough frames, otherwise simulated"),
@@ -54,6 +60,7 @@ class TUSSOCK_OT_refine_blades(bpy.types.Operator):
     knots: bpy.props.EnumProperty(name="Knots", items=KNOT_ITEMS, default="16")
     custom_knots: bpy.props.IntProperty(name="Custom knots", default=0, min=0, max=64,
                                         description="Any count from 2 to 64 (0: use Knots)")
+    method: bpy.props.EnumProperty(name="Method", items=METHOD_ITEMS, default="SIMILARITY")
     mu: bpy.props.FloatProperty(name="μ", default=0.5, min=0.0, max=1.0,
                                 description="Weight of distance against variance of "
                                 "distance in the movement difference (seed 000 eq. 1); "
@@ -76,6 +83,16 @@ class TUSSOCK_OT_refine_blades(bpy.types.Operator):
         for obj in targets:  # one native call per blade object
             mesh = full_mesh(obj)
             local, widths, cam = read_blade(mesh)
+            if self.method == "UNIFORM":
+                out_k = np.empty(m * 3, np.float32)
+                out_w = np.empty(m, np.float32)
+                lib.refine_resample(np.ascontiguousarray(local, np.float32).ravel(), widths,
+                                    out_k, out_w)
+                local_out = out_k.reshape(-1, 3)
+                cam_out = (cam[0] + (local_out - local[0]) @ blades.CAMERA_TO_WORLD) \
+                    if cam is not None else local_out
+                results.append((obj, mesh, local_out, out_w, cam_out, None, "NONE"))
+                continue
             mode = self.movement
             if mode == "AUTO":
                 mode = "TRACKED" if (obj.get("tussock_source") in ("FILES", "ONI") and cam is not None
@@ -106,13 +123,15 @@ class TUSSOCK_OT_refine_blades(bpy.types.Operator):
         # everything computed: now change the scene
         for obj, mesh, local_out, out_w, cam_out, ranges, mode in results:
             new = blades.blade_mesh(f"{obj.name} {m} knots", local_out, out_w, cam_out)
-            first = new.attributes.new("source_first", "INT", "POINT")
-            first.data.foreach_set("value", np.ascontiguousarray(ranges[:, 0]))
-            count = new.attributes.new("source_count", "INT", "POINT")
-            count.data.foreach_set("value", np.ascontiguousarray(ranges[:, 1]))
+            if ranges is not None:  # which original knots each refined knot stands for
+                first = new.attributes.new("source_first", "INT", "POINT")
+                first.data.foreach_set("value", np.ascontiguousarray(ranges[:, 0]))
+                count = new.attributes.new("source_count", "INT", "POINT")
+                count.data.foreach_set("value", np.ascontiguousarray(ranges[:, 1]))
             mesh.use_fake_user = True
             obj["tussock_full_mesh"] = mesh.name
             obj["tussock_refined_knots"] = m
+            obj["tussock_refine_method"] = self.method
             obj["tussock_refine_mu"] = self.mu
             obj["tussock_refine_movement"] = mode
             old = obj.data

@@ -2,6 +2,8 @@
 
 import bpy
 
+from .. import compat
+
 
 class TUSSOCK_MT_tree_presets(bpy.types.Menu):
     bl_label = "Tree Presets"
@@ -32,7 +34,7 @@ class TUSSOCK_PT_tree(bpy.types.Panel):
         layout = self.layout
         layout.operator_menu_enum("tussock.add_tree", "preset", text="Add Tree", icon="OUTLINER_OB_FORCE_FIELD")
         obj = context.active_object
-        s = getattr(obj, "tussock_tree", None) if obj else None
+        s = compat.settings_of(obj, "tussock_tree")
         if s is None or not s.is_tree:
             return
         if s.last_error:

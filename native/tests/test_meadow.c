@@ -710,6 +710,41 @@ TEST(test_realised_knots_are_the_turned_scaled_model) {
     tsk_patch_destroy(p);
 }
 
+TEST(test_realise_identical_bytes_1_and_2_threads) {
+    tsk_patch* p = make_patch(4, 16384);
+    tsk_meadow_def d = tsk_default_meadow_def();
+    d.size[0] = 40.0f;
+    d.size[1] = 25.0f;
+    d.chunk_blades = 4;
+    uint64_t h[2];
+    for (int r = 0; r < 2; ++r) {
+        CHECK(tsk_set_threads(r + 1) == TSK_OK);
+        tsk_meadow* m = make_meadow(&d);
+        tsk_meadow_info info;
+        CHECK(tsk_meadow_get_info(m, &info) == TSK_OK);
+        const size_t n = (size_t)info.blade_count, I = (size_t)info.chunk_instances;
+        float* xyz = malloc(3 * n * sizeof(float));
+        float* knots = malloc(3 * 16 * n * sizeof(float));
+        float* org = malloc(3 * I * sizeof(float));
+        int32_t* chunk = malloc(I * sizeof(int32_t));
+        CHECK(tsk_meadow_realise(m, p, 0, info.tile_count, xyz, NULL, NULL, NULL) == TSK_OK);
+        CHECK(tsk_meadow_realise_knots(m, p, 0, info.tile_count, knots, NULL, NULL) == TSK_OK);
+        CHECK(tsk_meadow_chunk_instances(m, org, chunk, NULL) == TSK_OK);
+        h[r] = fnv(xyz, 3 * n * sizeof(float), 1469598103934665603ull);
+        h[r] = fnv(knots, 3 * 16 * n * sizeof(float), h[r]);
+        h[r] = fnv(org, 3 * I * sizeof(float), h[r]);
+        h[r] = fnv(chunk, I * sizeof(int32_t), h[r]);
+        free(xyz);
+        free(knots);
+        free(org);
+        free(chunk);
+        tsk_meadow_destroy(m);
+    }
+    tsk_set_threads(0);
+    CHECK(h[0] == h[1]);
+    tsk_patch_destroy(p);
+}
+
 /* ---- expansion ------------------------------------------------------------------------------ */
 
 TEST(test_expansion_widths_equal_model_widths_times_scale) {
@@ -1059,6 +1094,7 @@ TEST_MAIN(TEST_ENTRY(test_default_blade_matches_documented_formula),
           TEST_ENTRY(test_tile_runs_are_contiguous_and_wrap_at_patch_end),
           TEST_ENTRY(test_chunk_instances_reproduce_the_realised_meadow),
           TEST_ENTRY(test_realised_knots_are_the_turned_scaled_model),
+          TEST_ENTRY(test_realise_identical_bytes_1_and_2_threads),
           TEST_ENTRY(test_expansion_widths_equal_model_widths_times_scale),
           TEST_ENTRY(test_blade_expand_straight_blade_closed_form),
           TEST_ENTRY(test_patch_mesh_identical_bytes_1_and_2_threads),

@@ -6,7 +6,10 @@
  * Coordinates: the ground plane is world (x, y); z is up and ignored by the wind. The
  * fluid/continuum grid covers [origin_x, origin_x + nx*cell_size] x [origin_y, origin_y +
  * ny*cell_size]; outside it the fluid contributes its boundary value (zero-gradient).
- * Units: metres, seconds, m/s unless stated. All buffers are owned by the caller. */
+ * Units: metres, seconds, m/s unless stated. All buffers are owned by the caller.
+ * Threads: a handle may be sampled from several threads at once, but not while another
+ * thread steps it, changes it or destroys it (the library itself runs in parallel inside
+ * each call). */
 #ifndef TUSSOCK_WIND_H
 #define TUSSOCK_WIND_H
 
@@ -32,6 +35,12 @@ enum {
 ///   W = A * ((sin(theta) + 1) / 2)^k * D,  theta = (2 pi / L) * (D . (x, y) - s t) + phase
 /// so the wave pushes along D with a speed between 0 and A (never against D), crests move
 /// downwind along D at speed s, and k > 1 sharpens the peaks and widens the calm troughs.
+/// Departures from the printed eq. 14, on purpose: its (sin/2)^k is undefined for
+/// non-integer k where sin < 0, so we use the ((sin + 1) / 2)^k of [Fer04] that the seed
+/// cites for k; its 1/l (branch segment length) is applied by the tree module; and the time
+/// term has the sign that moves crests downwind (a negative s gives the seed's +t phi).
+/// Evaluated in float: points more than ~1e5 wavelengths from the origin lose phase detail
+/// (the result stays bounded).
 typedef struct tsk_wind_wave {
     float amplitude;   ///< A, peak wind speed of this wave, m/s, 0..100
     float dir_x;       ///< D, direction on the ground plane (normalised internally, not 0)
@@ -55,7 +64,7 @@ typedef struct tsk_wind_gust_def {
     float duration;     ///< s, 0 < duration <= interval
     float dir_x;        ///< D (normalised internally, not 0)
     float dir_y;
-    float front_speed;  ///< m/s, >= 0; 0 = the whole scene feels the gust at once
+    float front_speed;  ///< m/s, 0 or 0.001..1e4; 0 = the whole scene feels the gust at once
     uint64_t seed;
 } tsk_wind_gust_def;
 

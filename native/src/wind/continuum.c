@@ -7,7 +7,10 @@
 #include <math.h>
 #include <string.h>
 
-enum { ROW_GRAIN = 16 };
+/* rows per parallel chunk: see row_grain_of in fluid.c */
+static size_t row_grain_of(int nx, int ny) {
+    return (size_t)nx * (size_t)ny <= 20000u ? (size_t)ny + 1u : 16u;
+}
 
 /* For the scheme Vp+ = (1+g) Vp - g Vp- - mu Vp (mu = dt^2 (c^2 k^2 + drive) for a mode of
  * wave number k, at most dt^2 (8 c^2 / h^2 + drive) on the grid), both roots of
@@ -145,7 +148,7 @@ void tsk_continuum_step(tsk_continuum* w, const float* wind_x, const float* wind
                   {w->x[w->cur], w->y[w->cur]},
                   {w->x[prev], w->y[prev]},
                   {w->x[next], w->y[next]}};
-    tsk_parallel_for((size_t)w->ny, ROW_GRAIN, step_rows, &s);
+    tsk_parallel_for((size_t)w->ny, row_grain_of(w->nx, w->ny), step_rows, &s);
     mur_edges(w, w->x[w->cur], w->x[next]);
     mur_edges(w, w->y[w->cur], w->y[next]);
     w->cur = next;

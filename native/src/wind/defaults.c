@@ -147,7 +147,8 @@ tsk_status tsk_wind_sines_def_validate(const tsk_wind_sines_def* d) {
     TRY(check_range("sines.gust.interval", g->interval, 1e-3f, 1e6f));
     TRY(check_range("sines.gust.duration", g->duration, 1e-3f, g->interval));
     TRY(check_dir("sines.gust.dir", g->dir_x, g->dir_y));
-    TRY(check_range("sines.gust.front_speed", g->front_speed, 0.0f, 1e4f));
+    if (g->front_speed != 0.0f)
+        TRY(check_range("sines.gust.front_speed", g->front_speed, 1e-3f, 1e4f));
     return TSK_OK;
 }
 

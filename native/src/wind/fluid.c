@@ -8,7 +8,14 @@
 #include <math.h>
 #include <string.h>
 
-enum { ROW_GRAIN = 16 };
+/* Rows per parallel chunk. A grid of up to ~128^2 cells runs in one chunk on the calling
+ * thread: each step runs ~50 parallel loops of a few microseconds, and below that size the
+ * hand-offs to worker threads cost more than they save. Larger grids use chunks of 16 rows,
+ * handed out dynamically, which also copes best with a busy machine. The chunking depends
+ * only on the grid size, so the bytes never depend on the thread count. */
+static size_t row_grain_of(int nx, int ny) {
+    return (size_t)nx * (size_t)ny <= 20000u ? (size_t)ny + 1u : 16u;
+}
 
 tsk_status tsk_fluid_init(tsk_fluid* f, const tsk_wind_fluid_def* def) {
     memset(f, 0, sizeof *f);
@@ -141,8 +148,8 @@ static void advect_v_rows(size_t b, size_t e, size_t chunk, void* ctx) {
 }
 
 void tsk_fluid_advect(tsk_fluid* f) {
-    tsk_parallel_for((size_t)f->ny, ROW_GRAIN, advect_u_rows, f);
-    tsk_parallel_for((size_t)f->ny + 1, ROW_GRAIN, advect_v_rows, f);
+    tsk_parallel_for((size_t)f->ny, row_grain_of(f->nx, f->ny), advect_u_rows, f);
+    tsk_parallel_for((size_t)f->ny + 1, row_grain_of(f->nx, f->ny), advect_v_rows, f);
     float* t = f->u;
     f->u = f->u_tmp;
     f->u_tmp = t;
@@ -192,7 +199,7 @@ static void diffuse_field(tsk_fluid* f, float** field, float** tmp, int w, int h
     for (int it = 0; it < f->diffusion_iterations; ++it) {
         c.in = a;
         c.out = b;
-        tsk_parallel_for((size_t)h, ROW_GRAIN, diffuse_rows, &c);
+        tsk_parallel_for((size_t)h, row_grain_of(f->nx, f->ny), diffuse_rows, &c);
         float* t = a;
         a = b;
         b = t;
@@ -292,23 +299,23 @@ static void gradient_rows(size_t b, size_t e, size_t chunk, void* ctx) {
 }
 
 static float measure_residual(tsk_fluid* f) {
-    float partial[TSK_WIND_MAX_GRID / ROW_GRAIN + 1];
+    float partial[TSK_WIND_MAX_GRID / 16 + 1];
     jacobi_ctx c = {f, f->phi, NULL, partial};
-    tsk_parallel_for((size_t)f->ny, ROW_GRAIN, residual_rows, &c);
-    const size_t n = tsk_chunk_count((size_t)f->ny, ROW_GRAIN);
+    tsk_parallel_for((size_t)f->ny, row_grain_of(f->nx, f->ny), residual_rows, &c);
+    const size_t n = tsk_chunk_count((size_t)f->ny, row_grain_of(f->nx, f->ny));
     float mx = 0.0f;
     for (size_t i = 0; i < n; ++i) mx = partial[i] > mx ? partial[i] : mx;
     return mx;
 }
 
 int tsk_fluid_project(tsk_fluid* f) {
-    tsk_parallel_for((size_t)f->ny, ROW_GRAIN, divergence_rows, f);
+    tsk_parallel_for((size_t)f->ny, row_grain_of(f->nx, f->ny), divergence_rows, f);
     int it = 0;
     f->last_divergence = -1.0f;
     /* warm start: phi keeps the last step's solution */
     while (it < f->iterations) {
         jacobi_ctx c = {f, f->phi, f->phi_tmp, NULL};
-        tsk_parallel_for((size_t)f->ny, ROW_GRAIN, jacobi_rows, &c);
+        tsk_parallel_for((size_t)f->ny, row_grain_of(f->nx, f->ny), jacobi_rows, &c);
         float* t = f->phi;
         f->phi = f->phi_tmp;
         f->phi_tmp = t;
@@ -318,7 +325,7 @@ int tsk_fluid_project(tsk_fluid* f) {
             if (f->last_divergence < f->tolerance) break;
         }
     }
-    tsk_parallel_for((size_t)f->ny + 1, ROW_GRAIN, gradient_rows, f);
+    tsk_parallel_for((size_t)f->ny + 1, row_grain_of(f->nx, f->ny), gradient_rows, f);
     f->last_iterations = it;
     return it;
 }
@@ -363,7 +370,9 @@ static void finish_rows(size_t b, size_t e, size_t chunk, void* vctx) {
 
 void tsk_fluid_finish(tsk_fluid* f) {
     const size_t n = (size_t)(f->nx + 1) * (size_t)f->ny + (size_t)f->nx * (size_t)(f->ny + 1);
-    tsk_parallel_for(n, 16384, finish_rows, f);
+    /* one chunk for small grids (as row_grain_of), else 16 rows' worth of faces */
+    const size_t grain = (size_t)f->nx * (size_t)f->ny <= 20000u ? n : 16u * (size_t)f->nx;
+    tsk_parallel_for(n, grain, finish_rows, f);
 }
 
 /* ---- sources (seed 004, III-C: pushes of strength 0..1 every `interval` seconds) ------ */

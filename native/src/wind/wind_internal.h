@@ -5,6 +5,8 @@
 
 #include "tussock/wind.h"
 
+#include <string.h>
+
 /* ---- stable fluids on a MAC grid (fluid.c) ------------------------------------------- */
 
 /* u lives on vertical faces ((nx+1) x ny, index j*(nx+1)+i, world x = i*h), v on
@@ -134,9 +136,19 @@ void tsk_sines_history_push(tsk_sines_history* h, const tsk_wind_sines_def* def,
 /* The blended wind of the history at time t. */
 void tsk_sines_history_eval(const tsk_sines_history* h, double t, tsk_sines_eval* ev);
 
-/* sin(x) for |x| / pi < 2^22: reduce by the nearest multiple of pi (Cody-Waite, three
+/* sin(x), accurate for |x| < 1e7: reduce by the nearest multiple of pi (Cody-Waite, three
  * parts), then a degree-11 Taylor polynomial on [-pi/2, pi/2] (error < 1e-7). */
 static inline float tsk_fast_sin(float x) {
+    /* beyond 1e7 rad a float carries no phase at all; clamp so that the result stays a
+     * bounded value in [-1, 1] instead of a polynomial far outside its range */
+    {
+        int32_t b;
+        memcpy(&b, &x, sizeof b);
+        int32_t a = b & 0x7FFFFFFF; /* |x| as bits: ordered like |x| (NaN: above inf) */
+        a = a < 0x4B189680 ? a : 0x4B189680; /* 1e7f */
+        b = (b & (int32_t)0x80000000) | a;
+        memcpy(&x, &b, sizeof x);
+    }
     const float inv_pi = 0.318309886183790671f;
     const float magic = 12582912.0f; /* 1.5 * 2^23: adding it rounds to an integer */
     float q = (x * inv_pi + magic) - magic;
