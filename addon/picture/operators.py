@@ -204,6 +204,7 @@ class TUSSOCK_OT_animate_picture(bpy.types.Operator):
         s = obj.tussock_wind_source
         s.is_source = True
         s.radius = 0.3 * max(width, height) * px
+        s.strength, s.interval = 1.0, 1.0  # a push a second: the vegetation sways
         obj.empty_display_size = s.radius
         # the arrow (local +Z) points along +X: the wind blows from the left edge
         obj.location = (x0 + 0.1 * width * px, y0 + 0.5 * height * px, 0.0)
