@@ -183,6 +183,24 @@ def test_rendered_frames_equal_native_composite():
 
 
 @test
+def test_rendered_animation_writes_the_native_frames():
+    scene = fresh()
+    scene.frame_end = 12
+    expected = {f: frames.native_composite(scene, f) for f in (2, 7, 12)}
+    st = scene.render.image_settings
+    st.file_format, st.color_depth, st.color_mode = "OPEN_EXR", "32", "RGBA"
+    scene.render.filepath = os.path.join(TMP, "anim_")
+    bpy.ops.render.render(animation=True)
+    for f, want in expected.items():
+        pic = lib.picture_load(os.path.join(TMP, f"anim_{f:04d}.exr"))
+        got = np.empty((H, W, 4), np.float32)
+        lib.picture_read_rgba(pic, got)
+        err = float(np.max(np.abs(got - want)))
+        assert err < TOL, (f, err)
+    assert np.max(np.abs(expected[12] - expected[2])) > 0.01
+
+
+@test
 def test_zero_wind_leaves_picture_still():
     scene = fresh(source_strength=0.0)
     rest = render(scene, 1)

@@ -29,7 +29,8 @@ def setup():
     ground.scale = (40.0, 40.0, 1.0)
     soil = bpy.data.materials.new("Soil")
     soil.use_nodes = True
-    soil.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.10, 0.07, 0.04, 1)
+    bsdf = soil.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.10, 0.07, 0.04, 1)
     ground.data.materials.append(soil)
     bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=64, chunk_blades=16,
                                density="UNIFORM", seed=3, display=1.0, patch_blades=16384)
@@ -85,7 +86,7 @@ def close_mask(path, steps=4):
     img = bpy.data.images.load(path)
     w, h = img.size
     px = np.empty(w * h * 4, np.float32)
-    img.pixels.foreach_get(px)
+    img.pixels.foreach_get(px)  # 8-bit PNG: stored values, as the operator reads them
     m = px.reshape(h, w, 4)[..., 0] >= 0.5
     m = _grow(_grow(m, steps, True), steps, False)
     out = np.zeros((h, w, 4), np.float32)

@@ -1,5 +1,8 @@
 """Pictures move on the timeline: before every frame is drawn or rendered, each layer's UV
-pass of that frame is computed in C and written into its UV image."""
+pass of that frame is computed in C and written into its UV image. Two handlers, because
+rendering an animation does not change frames the way playing does: Blender (3.4 at least)
+calls no frame_change handler between the frames of an animation render, only render_pre,
+with the scene already on the frame to render."""
 
 import bpy
 
@@ -23,6 +26,11 @@ def on_frame_change(scene, depsgraph=None):
 
 
 @bpy.app.handlers.persistent
+def on_render_pre(scene, *_args):
+    on_frame_change(scene)
+
+
+@bpy.app.handlers.persistent
 def on_load(*_args):
     frames.forget()
     for scene in bpy.data.scenes:  # a freshly opened file: images hold no frame yet
@@ -34,6 +42,7 @@ classes = ()
 
 def register_extra():
     handlers.add("frame_change_post", on_frame_change)
+    handlers.add("render_pre", on_render_pre)
     handlers.add("load_post", on_load)
 
 

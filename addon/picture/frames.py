@@ -13,7 +13,6 @@ Frame N is the same whatever order frames are visited in: the wind steps from th
 frame (wind/runtime.py) and the sampled fields are kept per frame."""
 
 import json
-import math
 
 import numpy as np
 
@@ -284,7 +283,3 @@ def forget(scene_name=None):
             d.clear()
         else:
             d.pop(scene_name, None)
-
-
-def finite(*values):
-    return all(math.isfinite(v) for v in values)

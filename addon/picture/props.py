@@ -5,6 +5,22 @@ the masks and the separation settings take effect when Animate Picture runs agai
 
 import bpy
 
+
+def _motion_changed(self, context):
+    """Shows a changed motion setting at once on the current frame."""
+    scene = context.scene if context is not None else None
+    if scene is None or not scene.tussock_picture.applied:
+        return
+    from .. import native
+    from . import frames
+    try:
+        frames.update(scene)
+    except (native.Error, ValueError, OSError) as exc:
+        scene.tussock_picture.last_error = str(exc)
+    else:
+        scene.tussock_picture.last_error = ""
+
+
 MASK_ITEMS = [
     ("FILE", "Mask file", "A black-and-white image file the size of the picture "
      "(white = vegetation)"),
@@ -56,10 +72,11 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
     # motion (seed 004, eq. 5-7); no hard limits, so a bad value is reported, not clamped
     lambda_x: bpy.props.FloatProperty(name="λ x", default=24.0, soft_min=0.0, soft_max=200.0,
                                       description="How far the vegetation moves sideways: "
-                                      "cells per unit of continuum velocity and second")
+                                      "cells per unit of continuum velocity and second",
+                                      update=_motion_changed)
     lambda_y: bpy.props.FloatProperty(name="λ y", default=8.0, soft_min=0.0, soft_max=200.0,
                                       description="How far it moves up and down (keep low "
-                                      "for grass seen from the side)")
+                                      "for grass seen from the side)", update=_motion_changed)
     scale_map_path: bpy.props.StringProperty(name="Scale map", subtype="FILE_PATH",
                                              description="Optional image file the size of "
                                              "the picture multiplying λ (dark = far, moves "
@@ -67,21 +84,25 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
     rigidity: bpy.props.FloatProperty(name="Rigidity r", default=1.0, soft_min=0.0,
                                       soft_max=10.0,
                                       description="How much the roots hold: movement grows "
-                                      "as (height above the roots / layer height)^r")
-    root: bpy.props.EnumProperty(name="Roots", items=ROOT_ITEMS, default="BOTTOM")
+                                      "as (height above the roots / layer height)^r",
+                                      update=_motion_changed)
+    root: bpy.props.EnumProperty(name="Roots", items=ROOT_ITEMS, default="BOTTOM",
+                                 update=_motion_changed)
     root_auto: bpy.props.BoolProperty(name="Root line from mask", default=True,
                                       description="Root line and height from the mask's "
-                                      "bounding box")
+                                      "bounding box", update=_motion_changed)
     root_line: bpy.props.FloatProperty(name="Root line", default=0.0,
                                        description="Root line, pixels from the picture's "
-                                       "bottom")
+                                       "bottom", update=_motion_changed)
     root_height: bpy.props.FloatProperty(name="Height", default=100.0,
                                          description="Height of the vegetation above (or "
-                                         "below) its root line, pixels")
+                                         "below) its root line, pixels", update=_motion_changed)
     cell_x: bpy.props.IntProperty(name="Cell x", default=16, soft_min=1, soft_max=256,
-                                  description="Warp grid cell width, pixels")
+                                  description="Warp grid cell width, pixels",
+                                  update=_motion_changed)
     cell_y: bpy.props.IntProperty(name="Cell y", default=16, soft_min=1, soft_max=256,
-                                  description="Warp grid cell height, pixels")
+                                  description="Warp grid cell height, pixels",
+                                  update=_motion_changed)
 
 
 class TussockPictureImages(bpy.types.PropertyGroup):
@@ -110,7 +131,8 @@ class TussockPicture(bpy.types.PropertyGroup):
                                      "hard edge)")
     loop_frames: bpy.props.IntProperty(name="Loop", default=0, soft_min=0, soft_max=10000,
                                        description="Seamless loop of this many frames from "
-                                       "the scene's first frame (0 = no loop)")
+                                       "the scene's first frame (0 = no loop)",
+                                       update=_motion_changed)
     # what Animate Picture built (JSON); frames use this, not the edited settings above
     applied: bpy.props.StringProperty(default="", options={"HIDDEN"})
     background_image: bpy.props.PointerProperty(type=bpy.types.Image, options={"HIDDEN"})
