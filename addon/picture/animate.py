@@ -1,8 +1,8 @@
 """Pictures move on the timeline: before every frame is drawn or rendered, each layer's UV
 pass of that frame is computed in C and written into its UV image. Two handlers, because
-rendering an animation does not change frames the way playing does: Blender (3.4 at least)
-calls no frame_change handler between the frames of an animation render, only render_pre,
-with the scene already on the frame to render."""
+a picture's render is the compositor alone (no Render Layers node): Blender (3.4, measured)
+then evaluates no view layer and calls no frame_change handler between the frames of an
+animation render, only render_pre, with the scene already on the frame to render."""
 
 import bpy
 
