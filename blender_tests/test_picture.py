@@ -278,6 +278,81 @@ def test_loop_closes_on_itself():
     assert np.max(np.abs(render(scene, 7) - frames.native_composite(scene, 7))) < TOL
 
 
+@test
+def test_keyed_wind_source_drives_the_picture():
+    scene = fresh(two_layers=False)
+    src = next(o for o in scene.objects if o.tussock_wind_source.is_source)
+    src.tussock_wind_source.strength = 0.0
+    src.keyframe_insert("tussock_wind_source.strength", frame=1)
+    src.tussock_wind_source.strength = 1.0
+    src.keyframe_insert("tussock_wind_source.strength", frame=20)
+    for fc in src.animation_data.action.fcurves:
+        for k in fc.keyframe_points:
+            k.interpolation = "CONSTANT"
+    for f in (5, 19):  # no push before frame 20: still
+        scene.frame_set(f)
+        assert np.array_equal(uv_pixels(scene), rest_uv()), f
+    scene.frame_set(30)
+    assert not np.array_equal(uv_pixels(scene), rest_uv())
+
+
+@test
+def test_moving_a_source_recomputes_the_frames():
+    scene = fresh(two_layers=False)
+    scene.frame_set(20)
+    before = uv_pixels(scene).copy()
+    src = next(o for o in scene.objects if o.tussock_wind_source.is_source)
+    src.location.y += 4.0  # not keyed: the wind of every frame changes
+    scene.frame_set(21)
+    scene.frame_set(20)
+    after = uv_pixels(scene).copy()
+    assert not np.array_equal(before, after)
+    frames.forget()
+    wind_runtime.clear()
+    scene.frame_set(20)  # from scratch: the same as after the edit
+    assert np.array_equal(uv_pixels(scene), after)
+
+
+@test
+def test_black_scale_map_holds_the_layer_still():
+    scene = fresh(two_layers=False)
+    layer = scene.tussock_picture.layers[0]
+    layer.scale_map_path = save_png("scale_black", mask_rgba(np.zeros((H, W), bool)))
+    assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
+    scene.frame_set(30)
+    assert np.array_equal(uv_pixels(scene), rest_uv())
+    layer.scale_map_path = save_png("scale_white", mask_rgba(np.ones((H, W), bool)))
+    assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
+    scene.frame_set(29)
+    scene.frame_set(30)
+    assert not np.array_equal(uv_pixels(scene), rest_uv())
+
+
+class _Layout:
+    """Stands in for a UI layout: every call returns another; prop() checks the name."""
+
+    def __getattr__(self, name):
+        return lambda *a, **k: _Layout()
+
+    def prop(self, data, name, **kw):
+        assert hasattr(data, name), name
+        return _Layout()
+
+    def prop_search(self, data, name, *a, **kw):
+        assert hasattr(data, name), name
+
+
+@test
+def test_panel_draws_every_setting_it_names():
+    scene = fresh()
+    panel = bpy.types.TUSSOCK_PT_picture
+    for mode in ("FILE", "IMAGE", "GRABCUT"):
+        scene.tussock_picture.layers[0].mask_mode = mode
+        scene.tussock_picture.layers[0].root_auto = mode != "FILE"
+        me = type("P", (), {"layout": _Layout(), "_draw_layer": staticmethod(panel._draw_layer)})()
+        panel.draw(me, bpy.context)
+
+
 def _agreement(mask_u8, truth):
     return float(((mask_u8.reshape(H, W) >= 128) == truth).mean())
 
