@@ -6,35 +6,44 @@ animation render, only render_pre, with the scene already on the frame to render
 
 import bpy
 
-from .. import handlers, native
+from .. import compat, handlers, native
 from . import frames
 
 
-@bpy.app.handlers.persistent
-def on_frame_change(scene, depsgraph=None):
+def _update(scene):
     settings = getattr(scene, "tussock_picture", None)
     if settings is None or not settings.applied or not native.available():
-        return
+        return False
     try:
         frames.update(scene)
     except (native.Error, ValueError, OSError) as exc:
         # a handler cannot report; the panel shows why the picture stopped
         settings.last_error = str(exc)
-    else:
-        if settings.last_error:
-            settings.last_error = ""
+        return False
+    if settings.last_error:
+        settings.last_error = ""
+    return True
+
+
+@bpy.app.handlers.persistent
+def on_frame_change(scene, depsgraph=None):
+    if _update(scene) and not bpy.app.background:
+        # let the compositor (Viewer in the Image Editor, backdrop) redraw with the new pass
+        tree = compat.compositor_tree(scene, create=False)
+        if tree is not None:
+            tree.update_tag()
 
 
 @bpy.app.handlers.persistent
 def on_render_pre(scene, *_args):
-    on_frame_change(scene)
+    _update(scene)
 
 
 @bpy.app.handlers.persistent
 def on_load(*_args):
     frames.forget()
     for scene in bpy.data.scenes:  # a freshly opened file: images hold no frame yet
-        on_frame_change(scene)
+        _update(scene)
 
 
 classes = ()

@@ -46,6 +46,18 @@ class TUSSOCK_PT_picture(bpy.types.Panel):
         row.prop(s, "grow")
         box.prop(s, "feather")
         layout.prop(s, "loop_frames")
+        w = context.scene.tussock_wind  # the shared wind that moves the picture
+        box = layout.box()
+        box.label(text="Wind (shared with meadows and trees)")
+        row = box.row(align=True)
+        row.prop(w, "use_fluid", toggle=True)
+        row.prop(w, "use_continuum", toggle=True)
+        row = box.row(align=True)
+        row.prop(w, "fluid_size")
+        row.prop(w, "fluid_resolution")
+        row = box.row(align=True)
+        row.prop(w, "continuum_c")
+        row.prop(w, "continuum_gamma")
         if s.applied and frames.dumps(frames.spec(s, s.filepath, s.layers, bpy.path.abspath)) \
                 != s.applied:
             layout.label(text="Picture or masks changed: animate again", icon="INFO")
