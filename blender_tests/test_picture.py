@@ -201,6 +201,30 @@ def test_rendered_animation_writes_the_native_frames():
 
 
 @test
+def test_exr_picture_renders_like_native():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    harness.enable_addon()
+    frames.forget()
+    wind_runtime.clear()
+    im = bpy.data.images.new("tmp_exr", W, H, alpha=True, float_buffer=True)
+    linear = IMG.copy()
+    linear[..., :3] = IMG[..., :3] ** 2.2 * 1.5  # linear values, some above 1
+    im.pixels.foreach_set(np.ascontiguousarray(linear[::-1]).ravel())
+    path = os.path.join(TMP, "picture.exr")
+    im.filepath_raw = path
+    im.file_format = "OPEN_EXR"
+    im.save()
+    bpy.data.images.remove(im)
+    scene = bpy.context.scene
+    assert bpy.ops.tussock.animate_picture(filepath=path, mask_path=GRASS_MASK) == {"FINISHED"}
+    assert scene.view_settings.view_transform == "Standard"
+    rendered = render(scene, 20)
+    err = float(np.max(np.abs(rendered - frames.native_composite(scene, 20))))
+    assert err < TOL, err
+    assert rendered[..., :3].max() > 1.0  # linear values above 1 came through
+
+
+@test
 def test_zero_wind_leaves_picture_still():
     scene = fresh(source_strength=0.0)
     rest = render(scene, 1)
