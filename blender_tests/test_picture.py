@@ -25,6 +25,9 @@ from tussock.picture import frames  # noqa: E402
 from tussock.wind import runtime as wind_runtime  # noqa: E402
 
 lib = native.require()
+# Frames are the same bytes with any thread count; one thread keeps this small-picture file
+# quick on a loaded 2-core machine, where waiting for a busy second core costs more.
+lib.set_threads(1)
 W, H = 160, 120
 TMP = tempfile.mkdtemp(prefix="tsk_picture_", dir=os.environ.get("TSK_TEST_TMP"))
 TOL = 1e-5  # rendered vs native composite (Map UV's EWA re-implemented in C)
