@@ -439,6 +439,35 @@ def test_reopened_file_renders_the_same_frame():
     assert np.array_equal(render(scene, 20), expected)
 
 
+@test
+def test_relative_paths_follow_the_blend_file():
+    import shutil
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    harness.enable_addon()
+    frames.forget()
+    wind_runtime.clear()
+    here, there = os.path.join(TMP, "here"), os.path.join(TMP, "there")
+    for d in (here, there):
+        os.makedirs(d, exist_ok=True)
+    for f in (PICTURE, GRASS_MASK):
+        shutil.copy(f, here)
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(here, "rel.blend"))
+    scene = bpy.context.scene
+    s = scene.tussock_picture
+    s.filepath = "//picture.png"
+    layer = s.layers.add()
+    layer.mask_path = "//grass.png"
+    assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
+    assert "//picture.png" in s.applied
+    expected = render(scene, 15)
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(here, "rel.blend"))
+    for f in os.listdir(here):  # the whole folder moves, as to a farm
+        shutil.move(os.path.join(here, f), there)
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(there, "rel.blend"))
+    assert np.array_equal(render(bpy.context.scene, 15), expected)
+    assert bpy.context.scene.tussock_picture.last_error == ""
+
+
 def _png_header_only(path, width, height):
     """A PNG whose header claims width x height (and whose data is a stub)."""
     def chunk(kind, data):

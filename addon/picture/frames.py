@@ -30,25 +30,33 @@ ROOTS = {"BOTTOM": "bottom", "TOP": "top", "NONE": "none"}
 
 # ---- the description of a picture ---------------------------------------------------------
 
-def layer_spec(layer, abspath):
-    """What of a layer the build needs (the mask and the scale map), as plain values."""
-    return {"mask_mode": layer.mask_mode, "mask_path": abspath(layer.mask_path),
+def layer_spec(layer):
+    """What of a layer the build needs (the mask and the scale map), as plain values.
+    Paths stay as the artist wrote them ('//' = next to the .blend), so that a file moved
+    with its pictures, to a farm for instance, still finds them."""
+    return {"mask_mode": layer.mask_mode, "mask_path": layer.mask_path,
             "mask_image": layer.mask_image, "rect": [int(v) for v in layer.rect],
-            "strokes_path": abspath(layer.strokes_path),
+            "strokes_path": layer.strokes_path,
             "grabcut_iterations": layer.grabcut_iterations,
             "grabcut_max_side": layer.grabcut_max_side,
-            "scale_map_path": abspath(layer.scale_map_path)}
+            "scale_map_path": layer.scale_map_path}
 
 
-def spec(settings, filepath, layer_list, abspath):
-    return {"filepath": abspath(filepath),
-            "layers": [layer_spec(x, abspath) for x in layer_list],
+def spec(settings, filepath, layer_list):
+    return {"filepath": filepath,
+            "layers": [layer_spec(x) for x in layer_list],
             "inpaint": settings.inpaint, "inpaint_radius": settings.inpaint_radius,
             "grow": settings.grow, "feather": settings.feather}
 
 
 def dumps(d):
     return json.dumps(d, sort_keys=True)
+
+
+def abspath(path):
+    """A path of the spec made absolute ('//' = the .blend's folder)."""
+    import bpy
+    return bpy.path.abspath(path) if path else ""
 
 
 def image_pixels(name):
@@ -81,7 +89,7 @@ def built(scene):
     settings = scene.tussock_picture
     entry = _pictures.get(scene.name)
     if entry is None or entry["key"] != settings.applied:
-        b = layers.build(json.loads(settings.applied), image_pixels)
+        b = layers.build(json.loads(settings.applied), image_pixels, abspath)
         entry = {"key": settings.applied, "built": b}
         _pictures[scene.name] = entry
         _written.pop(scene.name, None)

@@ -138,11 +138,16 @@ def _mask(lib, pic, width, height, layer, index, image_pixels):
     raise ValueError(f"layer {index}: unknown mask mode {mode!r}")
 
 
-def build(spec, image_pixels=lambda name: None):
+def build(spec, image_pixels=lambda name: None, abspath=lambda path: path):
     """Loads spec['filepath'], adds spec['layers'] back to front and separates them.
     `image_pixels(name)` returns (width, height, straight RGBA (H, W, 4) top-first) of a
-    Blender image for painted masks, or None. Raises native.Error or ValueError."""
+    Blender image for painted masks, or None; `abspath` resolves the spec's paths.
+    Raises native.Error or ValueError."""
     lib = native.require()
+    spec = dict(spec, filepath=abspath(spec.get("filepath", "")),
+                layers=[dict(x, **{k: abspath(x.get(k, "")) for k in
+                                   ("mask_path", "strokes_path", "scale_map_path")})
+                        for x in spec.get("layers", [])])
     layers = spec.get("layers", [])
     if not layers:
         raise ValueError("add at least one vegetation layer")

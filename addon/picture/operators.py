@@ -115,9 +115,10 @@ class TUSSOCK_OT_animate_picture(bpy.types.Operator):
         layer_list = [_default_layer(self.mask_path)] if self.mask_path \
             else list(settings.layers)
         path = self.filepath or settings.filepath
-        spec = frames.spec(settings, path, layer_list, _abspath)
+        spec = frames.spec(settings, path, layer_list)
+        picture_path = _abspath(spec["filepath"])
         # everything that can fail runs before the scene changes
-        built = layers.build(spec, frames.image_pixels)
+        built = layers.build(spec, frames.image_pixels, _abspath)
         _check_motion(scene, built, layer_list, settings.loop_frames)
         _check_wind(scene, self.enable_wind)
 
@@ -140,11 +141,11 @@ class TUSSOCK_OT_animate_picture(bpy.types.Operator):
             pairs.append((out.layer_image, out.uv_image))
         self._remove_stale_images(len(pairs))
         picture_compositor.build(scene, settings.background_image, pairs)
-        self._render_settings(scene, w, h, spec["filepath"])
+        self._render_settings(scene, w, h, picture_path)
         if self.enable_wind:
             scene.tussock_wind.use_fluid = True
             scene.tussock_wind.use_continuum = True
-        self._picture_empty(context, scene, spec["filepath"], w, h)
+        self._picture_empty(context, scene, picture_path, w, h)
         if self.add_wind_source:
             self._wind_source(context, scene, w, h)
         settings.applied = frames.dumps(spec)

@@ -58,7 +58,7 @@ class TUSSOCK_PT_picture(bpy.types.Panel):
         row = box.row(align=True)
         row.prop(w, "continuum_c")
         row.prop(w, "continuum_gamma")
-        if s.applied and frames.dumps(frames.spec(s, s.filepath, s.layers, bpy.path.abspath)) \
+        if s.applied and frames.dumps(frames.spec(s, s.filepath, s.layers)) \
                 != s.applied:
             layout.label(text="Picture or masks changed: animate again", icon="INFO")
         layout.operator("tussock.animate_picture", icon="IMAGE_DATA")
