@@ -468,6 +468,21 @@ def test_relative_paths_follow_the_blend_file():
     assert bpy.context.scene.tussock_picture.last_error == ""
 
 
+@test
+def test_picture_replaced_on_disk_is_reported_not_crashing():
+    import shutil
+    path = os.path.join(TMP, "replaced.png")
+    shutil.copy(PICTURE, path)
+    scene = fresh(two_layers=False)
+    scene.tussock_picture.filepath = path
+    assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
+    shutil.copy(save_png("other_size", np.ones((60, 80, 4), np.float32)), path)
+    frames.forget()  # as when the .blend is opened again
+    scene.frame_set(7)
+    err = scene.tussock_picture.last_error
+    assert "Animate Picture again" in err or "80x60" in err, err
+
+
 def _png_header_only(path, width, height):
     """A PNG whose header claims width x height (and whose data is a stub)."""
     def chunk(kind, data):

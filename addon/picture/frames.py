@@ -97,10 +97,22 @@ def built(scene):
     return entry["built"]
 
 
+def _check_images(scene, b):
+    """Tussock's images must have the picture's size (a picture file replaced by one of
+    another size since Animate Picture would not fit them)."""
+    s = scene.tussock_picture
+    imgs = [s.background_image] + [x for out in s.images for x in (out.layer_image, out.uv_image)]
+    for img in imgs:
+        if img is not None and tuple(img.size) != (b.width, b.height):
+            raise ValueError(f"image '{img.name}' is {img.size[0]}x{img.size[1]}, the picture "
+                             f"is now {b.width}x{b.height}: run Animate Picture again")
+
+
 def write_rest_images(scene, b):
     """Writes the background plate and the layers at rest into their images."""
     lib = native.require()
     settings = scene.tussock_picture
+    _check_images(scene, b)
     buf = np.empty(b.width * b.height * 4, np.float32)
     if settings.background_image is not None:
         lib.picture_read_background(b.handle, buf, bottom_up=True)
@@ -266,6 +278,7 @@ def update(scene, frame=None):
     key = _motion_key(scene, frame)
     if _written.get(scene.name) == key:
         return
+    _check_images(scene, built(scene))
     for out, (uv, _) in zip(settings.images, layer_frames(scene, frame)):
         if out.uv_image is not None:
             out.uv_image.pixels.foreach_set(uv)
