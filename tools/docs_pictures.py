@@ -1,6 +1,7 @@
 """Renders the pictures of docs/ with Tussock itself, in background Blender:
   blender_run.py tools/docs_pictures.py -- OUT_DIR [FEATURE...]
-Features: capture, refine, meadow, trees. Each writes PNGs named <feature>_<view>.png into OUT_DIR."""
+Features: capture, refine, meadow, trees, picture. Each writes PNGs named <feature>_<view>.png
+into OUT_DIR."""
 
 import math
 import os
@@ -231,7 +232,66 @@ def trees():
     save_rgba("trees_wind_strip", np.concatenate(row[:-1], axis=1))
 
 
-FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees}
+PICTURE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "samples",
+                       "picture")
+
+
+def picture():
+    """samples/picture/ animated by tussock.animate_picture and rendered by the compositor:
+    the picture, its layers and background plate, and a strip of rendered frames."""
+    import tempfile
+    import numpy as np
+    from tussock import native
+    reset()
+    lib = native.require()
+    scene = bpy.context.scene
+    s = scene.tussock_picture
+    s.filepath = os.path.join(PICTURE, "meadow.png")
+    grass = s.layers.add()
+    grass.name, grass.mask_path, grass.root = "Grass", os.path.join(PICTURE, "grass_mask.png"), "TOP"
+    crown = s.layers.add()
+    crown.name, crown.mask_path = "Crown", os.path.join(PICTURE, "crown_mask.png")
+    crown.lambda_x, crown.lambda_y = 48.0, 12.0
+    bpy.ops.tussock.animate_picture()
+    w, h = scene.render.resolution_x, scene.render.resolution_y
+
+    def read(path):
+        p = lib.picture_load(path)
+        out = np.empty((h, w, 4), np.float32)
+        lib.picture_read_rgba(p, out)
+        return out
+
+    original = read(s.filepath)
+    save_rgba("picture_sample", original)
+    # layers tinted over the picture | the background plate with the layers taken out
+    tinted = original.copy()
+    for path, tint in ((grass.mask_path, (0.2, 0.4, 1.0)), (crown.mask_path, (1.0, 0.5, 0.1))):
+        m = read(path)[..., 0] >= 0.5
+        tinted[m, :3] = 0.45 * tinted[m, :3] + 0.55 * np.array(tint, np.float32)
+    plate = np.empty(w * h * 4, np.float32)
+    s.background_image.pixels.foreach_get(plate)
+    plate = plate.reshape(h, w, 4)[::-1]
+    gap = np.ones((h, 8, 4), np.float32)
+    save_rgba("picture_layers", np.concatenate([tinted, gap, plate], axis=1))
+    # frames rendered by Blender's compositor, cropped around the tree and the horizon
+    st = scene.render.image_settings
+    st.file_format, st.color_mode, st.color_depth = "PNG", "RGBA", "8"
+    tiles = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for frame in (1, 36, 48, 60):
+            scene.frame_set(frame)
+            scene.render.filepath = os.path.join(tmp, f"frame_{frame}.png")
+            t = time.time()
+            bpy.ops.render.render(write_still=True)
+            print(f"[pictures] frame {frame} rendered ({time.time() - t:.2f} s)", flush=True)
+            tile = read(scene.render.filepath)[0:140, 215:345]  # the crown and the horizon
+            tiles.append(np.repeat(np.repeat(tile, 2, axis=0), 2, axis=1))
+            tiles.append(np.ones((280, 8, 4), np.float32))
+    save_rgba("picture_frames", np.concatenate(tiles[:-1], axis=1))
+
+
+FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees,
+            "picture": picture}
 
 os.makedirs(OUT, exist_ok=True)
 for name, fn in FEATURES.items():

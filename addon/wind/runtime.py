@@ -144,3 +144,9 @@ def sample(scene, frame, xyz):
 
 def clear():
     _cache.clear()
+
+
+def forget(scene):
+    """Drops the scene's stepped wind, so that the next wind_at starts again from the first
+    frame (for callers that saw the wind sources change)."""
+    _cache.pop(scene.name, None)
