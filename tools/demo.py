@@ -1,8 +1,9 @@
 """Tussock's demo, run by `./build.sh demo` in background Blender: from the sample depth
 recording it captures the blades, refines them to 16 knots, grows a meadow of over a
-million blades from them, grows a Weber-Penn tree beside it that sways in the scene's
-wind, saves the .blend and renders a short Cycles animation (frames and an MP4) into out/.
-Each step prints what it made and how long it took."""
+million blades from them, rolls a rigid-body ball through it (every touched blade
+simulated), grows a Weber-Penn tree beside it that sways in the same wind, bakes, saves
+the .blend and renders a short Cycles animation (frames and an MP4) into out/. Each step
+prints what it made and how long it took."""
 
 import math
 import os
@@ -14,7 +15,7 @@ import bpy
 OUT = os.path.abspath(sys.argv[sys.argv.index("--") + 1] if "--" in sys.argv else "out")
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SAMPLE = os.path.join(REPO, "samples", "blades", "depth_####.png")
-FRAMES = int(os.environ.get("TSK_DEMO_FRAMES", "12"))
+FRAMES = int(os.environ.get("TSK_DEMO_FRAMES", "24"))
 os.makedirs(OUT, exist_ok=True)
 
 import addon_utils  # noqa: E402
@@ -58,9 +59,9 @@ def main():
         o.location.x += 100.0
 
     # 3. a meadow of those blades on a 46 m ground
-    bpy.ops.mesh.primitive_plane_add(size=1.0)
+    bpy.ops.mesh.primitive_plane_add(size=46.0)
     ground = bpy.context.active_object
-    ground.scale = (46.0, 46.0, 1.0)
+    bpy.ops.rigidbody.object_add(type="PASSIVE")
     soil = bpy.data.materials.new("Soil")
     soil.use_nodes = True
     soil.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.09, 0.06, 0.035, 1)
@@ -72,7 +73,26 @@ def main():
     step(f"grew a meadow of {meadow['tussock_blades']:,} blades in "
          f"{meadow['tussock_tiles']:,} tiles ({meadow['tussock_instances']:,} instances)")
 
-    # 4. a tree beside it, swaying in the scene's wind
+    # 4. a rigid-body ball rolls through it (Blender's Bullet world moves the ball; the
+    #    tiles it touches are simulated blade by blade, the rest stay instanced)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.3, location=(-4.8, -8.0, 0.3))
+    ball = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    red = bpy.data.materials.new("Ball")
+    red.use_nodes = True
+    red.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.6, 0.05, 0.03, 1)
+    ball.data.materials.append(red)
+    bpy.ops.rigidbody.object_add(type="ACTIVE")
+    ball.rigid_body.collision_shape = "SPHERE"
+    scene.gravity = (5.0, 0.6, -9.81)  # as on a gentle slope
+    colliders = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(colliders)
+    colliders.objects.link(ball)
+    meadow.tussock_meadow.colliders = colliders
+    meadow.tussock_meadow.use_simulation = True
+    step("a rigid-body ball rolls through the meadow; touched blades are simulated")
+
+    # 5. a tree beside it, swaying in the same wind
     w = scene.tussock_wind
     w.base_speed, w.base_direction = 3.0, math.radians(20)
     wave = w.waves.add()
@@ -104,11 +124,15 @@ def main():
 
     scene.frame_start, scene.frame_end = 1, FRAMES
     scene.render.fps = 12
+    scene.rigidbody_world.point_cache.frame_end = FRAMES
     blend = os.path.join(OUT, "demo.blend")
     bpy.ops.wm.save_as_mainfile(filepath=blend)
     step(f"saved {blend}")
 
-    # 5. render the animation: frames, then an MP4 through Blender's own video output
+    # 6. bake the tree for any render farm, then render: frames, then an MP4 through
+    #    Blender's own video output
+    bpy.ops.tussock.bake(save=True)
+    step(f"baked the tree into {os.path.join(OUT, 'tussock_cache')} (Mesh Cache .pc2)")
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = 8
@@ -117,8 +141,15 @@ def main():
     scene.render.resolution_percentage = 100
     scene.render.image_settings.file_format = "PNG"
     scene.render.filepath = os.path.join(OUT, "frames", "demo_")
+    simulated = []  # blades simulated in each rendered frame
+
+    def count(scene, depsgraph=None):
+        simulated.append(meadow.get("tussock_active_blades", 0))
+    bpy.app.handlers.frame_change_post.append(count)
     bpy.ops.render.render(animation=True)
-    step(f"rendered {FRAMES} frames into {os.path.join(OUT, 'frames')}")
+    bpy.app.handlers.frame_change_post.remove(count)
+    step(f"rendered {FRAMES} frames into {os.path.join(OUT, 'frames')} "
+         f"(up to {max(simulated, default=0):,} blades simulated in a frame)")
     mp4 = os.path.join(OUT, "demo.mp4")
     encode_video(os.path.join(OUT, "frames"), "demo_", FRAMES, mp4, scene.render.fps)
     step(f"wrote {mp4}")
