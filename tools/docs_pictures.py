@@ -290,7 +290,65 @@ def picture():
     save_rgba("picture_frames", np.concatenate(tiles[:-1], axis=1))
 
 
+def wind():
+    """The wind field of two keyframed sources in the fluid grid, as the debug image
+    shows it (hue: direction, brightness: speed), at three frames."""
+    import numpy as np
+    from tussock.wind import operators as wind_ops
+    reset()
+    scene = bpy.context.scene
+    w = scene.tussock_wind
+    w.base_speed = 0.0
+    w.use_fluid, w.fluid_resolution, w.fluid_size = True, 96, 20.0
+    for loc, rot, interval in (((-7.0, -3.0, 0.0), (0.0, 1.5708, 0.3), 0.0),
+                               ((5.0, 6.0, 0.0), (0.0, 1.5708, -2.2), 1.0)):
+        scene.cursor.location = loc
+        bpy.ops.tussock.add_wind_source(strength=1.0, radius=2.0, interval=interval)
+        bpy.context.active_object.rotation_euler = rot
+    tiles = []
+    for frame in (12, 36, 72):
+        rgba, _ = wind_ops.field_image(scene, frame, size=192)
+        tiles += [rgba, np.ones((192, 6, 4), np.float32)]
+    save_rgba("wind_field", np.concatenate(tiles[:-1], axis=1))
+
+
+def simulation():
+    """A ball rolled by Blender's rigid bodies through a meadow: the blades it touches are
+    simulated and pushed aside; the rest stay instanced."""
+    reset()
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=6.0)
+    ground = bpy.context.active_object
+    soil(ground)
+    bpy.ops.rigidbody.object_add(type="PASSIVE")
+    bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=96, density="UNIFORM",
+                               display=1.0, scale_min=0.7, scale_max=1.1)
+    meadow = bpy.context.active_object
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.22, location=(-2.4, 0.0, 0.22))
+    ball = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    red = bpy.data.materials.new("Ball")
+    red.use_nodes = True
+    red.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.6, 0.05, 0.03, 1)
+    ball.data.materials.append(red)
+    bpy.ops.rigidbody.object_add(type="ACTIVE")
+    ball.rigid_body.collision_shape = "SPHERE"
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    coll.objects.link(ball)
+    scene.gravity = (4.0, 0.0, -9.81)
+    scene.tussock_wind.base_speed = 0.5
+    meadow.tussock_meadow.colliders = coll
+    meadow.tussock_meadow.use_simulation = True
+    for f in range(1, 31):
+        scene.frame_set(f)
+    sky_and_sun(sun_angle=(0.8, 0.2, -0.6))
+    camera((-0.4, -2.3, 2.3), (math.radians(48), 0, 0), lens=35.0)
+    render("simulation_ball", res=(560, 315), samples=16)
+
+
 FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees,
+            "wind": wind, "simulation": simulation,
             "picture": picture}
 
 os.makedirs(OUT, exist_ok=True)
