@@ -26,6 +26,7 @@ import numpy as np
 from . import compat, errors, native
 from .trees import build as tree_build
 from .wind import runtime as wind_runtime
+from .ui import SubPanel
 
 CACHE_DIR = "//tussock_cache"
 CACHE_DIR_OVERRIDE = None  # an absolute folder instead of CACHE_DIR (tests of full disks)
@@ -321,13 +322,9 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class TUSSOCK_PT_bake(bpy.types.Panel):
+class TUSSOCK_PT_bake(SubPanel, bpy.types.Panel):
     bl_label = "Bake"
     bl_idname = "TUSSOCK_PT_bake"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
 
     def draw(self, context):
         row = self.layout.row(align=True)

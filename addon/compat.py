@@ -15,6 +15,18 @@ def node_group_add_socket(group, in_out, socket_type, name):
     return sockets.new(socket_type, name)
 
 
+def node_group_clear(group):
+    """Removes every node and interface socket of a node group (for a rebuild in place, so
+    that modifiers using the group keep it)."""
+    for node in list(group.nodes):
+        group.nodes.remove(node)
+    if hasattr(group, "interface"):
+        group.interface.clear()
+    else:
+        group.inputs.clear()
+        group.outputs.clear()
+
+
 def node_group_socket_names(group, in_out):
     """Names of a node group's input or output sockets, in order."""
     if hasattr(group, "interface"):

@@ -3,15 +3,12 @@
 import bpy
 
 from .. import compat
+from ..ui import SubPanel
 
 
-class TUSSOCK_PT_meadow(bpy.types.Panel):
+class TUSSOCK_PT_meadow(SubPanel, bpy.types.Panel):
     bl_label = "Meadow"
     bl_idname = "TUSSOCK_PT_meadow"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
 
     def draw(self, context):
         layout = self.layout

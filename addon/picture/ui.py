@@ -4,6 +4,7 @@ mask and motion, separation and loop settings, and Animate Picture."""
 import bpy
 
 from . import frames
+from ..ui import SubPanel
 
 
 class TUSSOCK_UL_picture_layers(bpy.types.UIList):
@@ -12,13 +13,9 @@ class TUSSOCK_UL_picture_layers(bpy.types.UIList):
         layout.label(text=item.mask_mode.title())
 
 
-class TUSSOCK_PT_picture(bpy.types.Panel):
+class TUSSOCK_PT_picture(SubPanel, bpy.types.Panel):
     bl_label = "Picture"
     bl_idname = "TUSSOCK_PT_picture"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):

@@ -3,6 +3,7 @@
 import bpy
 
 from .. import compat
+from ..ui import SubPanel
 
 
 class TUSSOCK_MT_tree_presets(bpy.types.Menu):
@@ -22,13 +23,9 @@ def _draw_group(layout, group):
             col.prop(group, name)
 
 
-class TUSSOCK_PT_tree(bpy.types.Panel):
+class TUSSOCK_PT_tree(SubPanel, bpy.types.Panel):
     bl_label = "Tree"
     bl_idname = "TUSSOCK_PT_tree"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
 
     def draw(self, context):
         layout = self.layout

@@ -3,15 +3,12 @@
 import bpy
 
 from .. import compat
+from ..ui import SubPanel
 
 
-class TUSSOCK_PT_wind(bpy.types.Panel):
+class TUSSOCK_PT_wind(SubPanel, bpy.types.Panel):
     bl_label = "Wind"
     bl_idname = "TUSSOCK_PT_wind"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
 
     def draw(self, context):
         layout = self.layout
