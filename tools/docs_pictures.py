@@ -347,8 +347,61 @@ def simulation():
     render("simulation_ball", res=(560, 315), samples=16)
 
 
+def farm():
+    """A tree baked in two halves by two background Blenders (as farm workers would), then
+    frame 12 rendered by a Blender with Tussock and by one without it: the same picture."""
+    import subprocess
+    import tempfile
+    import numpy as np
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import blender_env
+    reset()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 24
+    scene.tussock_wind.base_speed = 5.0
+    wave = scene.tussock_wind.waves.add()
+    wave.amplitude, wave.wavelength, wave.speed = 4.0, 8.0, 6.0
+    bpy.ops.tussock.add_tree(preset="quaking_aspen", seed=3)
+    sky_and_sun()
+    camera((0.0, -26.0, 7.0), (math.radians(84), 0, 0), lens=45.0)
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.use_denoising = 12, False
+    scene.render.resolution_x, scene.render.resolution_y = 240, 300
+    tiles = []
+    with tempfile.TemporaryDirectory() as tmp:
+        blend = os.path.join(tmp, "farm.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=blend)
+
+        def run(expr, addon=True):
+            with blender_env.BlenderUser() as user:
+                if not addon:
+                    os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
+                script = os.path.join(user.tmp, "run.py")
+                with open(script, "w") as f:
+                    f.write("import bpy, addon_utils\n")
+                    if addon:
+                        f.write("addon_utils.enable('tussock', default_set=True)\n")
+                    f.write(expr + "\n")
+                subprocess.run(blender_env.command(script, blend=blend), env=user.env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+
+        run("bpy.ops.tussock.bake(frame_start=1, frame_end=12, save=True)")
+        run("bpy.ops.tussock.bake(frame_start=13, frame_end=24, save=True)")
+        for addon in (True, False):
+            out = os.path.join(tmp, f"r{int(addon)}")
+            run(f"bpy.context.scene.render.filepath = {out!r}\nbpy.context.scene.frame_set(12)\n"
+                "bpy.ops.render.render(write_still=True)", addon=addon)
+            img = bpy.data.images.load(out + ".png")
+            px = np.empty(240 * 300 * 4, np.float32)
+            img.pixels.foreach_get(px)
+            tiles += [px.reshape(300, 240, 4)[::-1], np.ones((300, 8, 4), np.float32)]
+        same = np.array_equal(tiles[0], tiles[2])
+        print(f"[pictures] with and without Tussock identical: {same}", flush=True)
+    save_rgba("farm_with_without", np.concatenate(tiles[:-1], axis=1))
+
+
 FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees,
-            "wind": wind, "simulation": simulation,
+            "wind": wind, "simulation": simulation, "farm": farm,
             "picture": picture}
 
 os.makedirs(OUT, exist_ok=True)
