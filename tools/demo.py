@@ -142,6 +142,11 @@ def main():
     scene.render.resolution_percentage = 100
     scene.render.image_settings.file_format = "PNG"
     scene.render.filepath = os.path.join(OUT, "frames", "demo_")
+    # play the frames once: Blender's rigid-body world fills its cache (the render reads
+    # it) and the blade simulation records where the ball is in every frame
+    for f in range(scene.frame_start, scene.frame_end + 1):
+        scene.frame_set(f)
+    scene.frame_set(scene.frame_start)
     simulated = []  # blades simulated in each rendered frame
 
     def count(scene, depsgraph=None):
