@@ -12,13 +12,18 @@ bl_info = {
     "category": "Object",
 }
 
-from . import handlers, prefs, ui  # noqa: E402
+from . import bake, handlers, prefs, ui  # noqa: E402
 from .capture import operators as capture_operators  # noqa: E402
 from .capture import props as capture_props  # noqa: E402
 from .capture import ui as capture_ui  # noqa: E402
 from .meadow import operators as meadow_operators  # noqa: E402
 from .meadow import props as meadow_props  # noqa: E402
+from .meadow import simulate as meadow_simulate  # noqa: E402
 from .meadow import ui as meadow_ui  # noqa: E402
+from .picture import animate as picture_animate  # noqa: E402
+from .picture import operators as picture_operators  # noqa: E402
+from .picture import props as picture_props  # noqa: E402
+from .picture import ui as picture_ui  # noqa: E402
 from .refine import operators as refine_operators  # noqa: E402
 from .refine import ui as refine_ui  # noqa: E402
 from .trees import animate as tree_animate  # noqa: E402
@@ -31,9 +36,9 @@ from .wind import ui as wind_ui  # noqa: E402
 
 # One list of classes, registered in order and unregistered in reverse.
 _MODULES = (prefs, ui, capture_props, capture_operators, capture_ui, meadow_props,
-            meadow_operators, meadow_ui, refine_operators, refine_ui, wind_props, wind_operators,
-            wind_ui, tree_props,
-            tree_operators, tree_ui, tree_animate)
+            meadow_operators, meadow_ui, meadow_simulate, refine_operators, refine_ui,
+            wind_props, wind_operators, wind_ui, tree_props, tree_operators, tree_ui,
+            tree_animate, picture_props, picture_operators, picture_ui, picture_animate, bake)
 
 
 def _classes():

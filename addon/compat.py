@@ -15,6 +15,18 @@ def node_group_add_socket(group, in_out, socket_type, name):
     return sockets.new(socket_type, name)
 
 
+def node_group_clear(group):
+    """Removes every node and interface socket of a node group (for a rebuild in place, so
+    that modifiers using the group keep it)."""
+    for node in list(group.nodes):
+        group.nodes.remove(node)
+    if hasattr(group, "interface"):
+        group.interface.clear()
+    else:
+        group.inputs.clear()
+        group.outputs.clear()
+
+
 def node_group_socket_names(group, in_out):
     """Names of a node group's input or output sockets, in order."""
     if hasattr(group, "interface"):
@@ -76,3 +88,52 @@ def set_modifier_input(modifier, name, value):
 
 def get_modifier_input(modifier, name):
     return modifier[node_group_socket_identifier(modifier.node_group, "INPUT", name)]
+
+
+def settings_of(idblock, name):
+    """The Tussock property group `name` of a datablock if it was ever set, else None.
+    Reading `obj.<group>` would create an empty group on every object looked at (and so
+    change the file); this looks without touching."""
+    if idblock is None or name not in idblock.keys():
+        return None
+    return getattr(idblock, name, None)
+
+
+def compositor_output(tree):
+    """A node whose "Image" input is the compositor's result: the Composite node before
+    5.0; from 5.0 on the group output of the compositing node group, with an "Image"
+    output socket added to the group's interface when missing. (Written for 5.0 from its
+    API notes; only the pre-5.0 branch is exercised by the tests on Blender 3.4.)"""
+    if VERSION >= (5, 0, 0):
+        if "Image" not in node_group_socket_names(tree, "OUTPUT"):
+            node_group_add_socket(tree, "OUTPUT", "NodeSocketColor", "Image")
+        return tree.nodes.new("NodeGroupOutput")
+    return tree.nodes.new("CompositorNodeComposite")
+
+
+def map_uv_like_ewa(node):
+    """Makes a Map UV node filter as the native 'map_uv' sampling: always EWA in 3.x; the
+    'Anisotropic' filter from 4.x on (a property up to 4.x, an input socket later)."""
+    if hasattr(node, "filter_type"):
+        node.filter_type = "ANISOTROPIC"
+    elif "Filter" in node.inputs:
+        try:
+            node.inputs["Filter"].default_value = "Anisotropic"
+        except (TypeError, AttributeError):
+            pass
+
+
+def alpha_over_premultiplied(node):
+    """Alpha Over for premultiplied inputs: Convert Premultiplied off, Premultiplied 0
+    (properties up to 4.x; from 5.0 a "Straight Alpha" input that must stay off)."""
+    if hasattr(node, "use_premultiply"):
+        node.use_premultiply = False
+        node.premul = 0.0
+    elif "Straight Alpha" in node.inputs:
+        node.inputs["Straight Alpha"].default_value = False
+
+
+def alpha_over_inputs(node):
+    """(background, foreground) image inputs of an Alpha Over node."""
+    images = [s for s in node.inputs if s.type == "RGBA"]
+    return images[0], images[1]

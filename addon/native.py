@@ -5,9 +5,11 @@ BUILD_HINT = "run ./build.sh build in the Tussock source folder, then restart Bl
 
 import os
 
-# OpenMP threads that spin while waiting steal the core from Blender's own threads and from
-# each other on small machines; sleeping waiters are 2-3x faster there (docs/performance.md).
-# Only effective when set before the OpenMP runtime starts, i.e. before _tussock loads.
+# Spinning OpenMP waiters steal the cores from Blender's own threads on small machines.
+# Tussock's parallel loops run on their own sleeping threads (native/src/core/parallel.c);
+# this setting reaches only OpenMP code in libraries we load (OpenCV) and only where the
+# OpenMP runtime has not started yet: inside Blender it already has, so it changes nothing
+# there, while outside (scripts, tests) it keeps their waiters asleep too.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 lib = None

@@ -31,4 +31,12 @@ class TUSSOCK_PT_main(bpy.types.Panel):
         layout.label(text=f"Tussock {native.version()}")
 
 
+class SubPanel:
+    """Where every feature panel sits: under the Tussock tab's main panel."""
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Tussock"
+    bl_parent_id = "TUSSOCK_PT_main"
+
+
 classes = (TUSSOCK_PT_main,)

@@ -80,29 +80,27 @@ def _tussock_groups(idb):
             yield prop.identifier, getattr(idb, prop.identifier)
 
 
-def scene_fingerprint(parts=None):
+def scene_fingerprint():
     """A digest of every datablock and its key properties, to check that a cancelled
-    operator left the file exactly as it was: names and users of all datablocks; objects'
-    transforms, parents, custom properties, modifiers and Tussock settings; meshes' sizes
-    and vertex positions; images' sizes and custom properties; scenes' objects, frame and
-    Tussock settings (wind, capture)."""
+    operator left the file exactly as it was."""
+    import hashlib
+    return hashlib.sha256("\n".join(scene_description()).encode()).hexdigest()
+
+
+def scene_description():
+    """The lines that scene_fingerprint digests (printed when a check fails): names and users
+    of all datablocks; objects' transforms, parents, custom properties, modifiers and Tussock
+    settings; meshes' sizes and a digest of their vertex positions; images' sizes and custom
+    properties; scenes' objects, frame, cursor and Tussock settings (wind, capture)."""
     import hashlib
     import bpy
     import numpy as np
+    lines = []
 
-    class _Hash:  # sha256 that can also keep the pieces, to say what changed
-        def __init__(self):
-            self.h = hashlib.sha256()
-
+    class _Lines:
         def update(self, b):
-            self.h.update(b)
-            if parts is not None:
-                parts.append(b[:300])
-
-        def hexdigest(self):
-            return self.h.hexdigest()
-
-    h = _Hash()
+            lines.append(b.decode())
+    h = _Lines()
     for attr in ("objects", "meshes", "collections", "materials", "images", "node_groups",
                  "textures", "cameras", "lights", "curves", "worlds", "actions"):
         for idb in getattr(bpy.data, attr):
@@ -124,7 +122,7 @@ def scene_fingerprint(parts=None):
                 h.update(f"{len(idb.vertices)}:{len(idb.polygons)}:{len(idb.attributes)}".encode())
                 co = np.empty(len(idb.vertices) * 3, np.float32)
                 idb.vertices.foreach_get("co", co)
-                h.update(co.tobytes())
+                h.update(f"co:{hashlib.sha256(co.tobytes()).hexdigest()}".encode())
             elif attr == "collections":
                 h.update(repr(sorted(o.name for o in idb.objects)).encode())
             elif attr == "images":
@@ -135,14 +133,13 @@ def scene_fingerprint(parts=None):
         h.update(repr((scene.frame_current, tuple(scene.cursor.location))).encode())
         for name, group in _tussock_groups(scene):
             h.update(f"{name}:{_rna_digest(group)}".encode())
-    return h.hexdigest()
+    return lines
 
 
 def expect_cancel(op, needle, **kwargs):
     """Runs an operator that must fail: it reports an error containing `needle`, returns
     CANCELLED (raised as RuntimeError in background) and leaves the scene unchanged."""
-    parts_before = []
-    before = scene_fingerprint(parts_before)
+    before = scene_description()
     try:
         result = op(**kwargs)
     except RuntimeError as exc:
@@ -150,11 +147,10 @@ def expect_cancel(op, needle, **kwargs):
         assert needle in msg, f"error {msg!r} lacks {needle!r}"
     else:
         raise AssertionError(f"{op} with {kwargs} returned {result}, expected an error")
-    parts_after = []
-    after = scene_fingerprint(parts_after)
+    after = scene_description()
     if before != after:
-        gone = [p for p in parts_before if p not in parts_after][:3]
-        new = [p for p in parts_after if p not in parts_before][:3]
+        gone = [x[:300] for x in before if x not in after][:3]
+        new = [x[:300] for x in after if x not in before][:3]
         raise AssertionError(f"{op} with {kwargs} changed the scene: before {gone}, after {new}")
 
 

@@ -1,8 +1,10 @@
 """Tussock's demo, run by `./build.sh demo` in background Blender: from the sample depth
 recording it captures the blades, refines them to 16 knots, grows a meadow of over a
-million blades from them, grows a Weber-Penn tree beside it that sways in the scene's
-wind, saves the .blend and renders a short Cycles animation (frames and an MP4) into out/.
-Each step prints what it made and how long it took."""
+million blades from them, rolls a rigid-body ball through it (every touched blade
+simulated), grows a Weber-Penn tree beside it that sways in the same wind, bakes, saves
+the .blend and renders a short Cycles animation (frames and an MP4) into out/; then it
+brings the sample picture to life through the compositor into a second clip. Each step
+prints what it made and how long it took."""
 
 import math
 import os
@@ -14,7 +16,7 @@ import bpy
 OUT = os.path.abspath(sys.argv[sys.argv.index("--") + 1] if "--" in sys.argv else "out")
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SAMPLE = os.path.join(REPO, "samples", "blades", "depth_####.png")
-FRAMES = int(os.environ.get("TSK_DEMO_FRAMES", "12"))
+FRAMES = int(os.environ.get("TSK_DEMO_FRAMES", "24"))
 os.makedirs(OUT, exist_ok=True)
 
 import addon_utils  # noqa: E402
@@ -58,9 +60,9 @@ def main():
         o.location.x += 100.0
 
     # 3. a meadow of those blades on a 46 m ground
-    bpy.ops.mesh.primitive_plane_add(size=1.0)
+    bpy.ops.mesh.primitive_plane_add(size=46.0)
     ground = bpy.context.active_object
-    ground.scale = (46.0, 46.0, 1.0)
+    bpy.ops.rigidbody.object_add(type="PASSIVE")
     soil = bpy.data.materials.new("Soil")
     soil.use_nodes = True
     soil.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.09, 0.06, 0.035, 1)
@@ -72,7 +74,26 @@ def main():
     step(f"grew a meadow of {meadow['tussock_blades']:,} blades in "
          f"{meadow['tussock_tiles']:,} tiles ({meadow['tussock_instances']:,} instances)")
 
-    # 4. a tree beside it, swaying in the scene's wind
+    # 4. a rigid-body ball rolls through it (Blender's Bullet world moves the ball; the
+    #    tiles it touches are simulated blade by blade, the rest stay instanced)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.3, location=(-4.8, -8.0, 0.3))
+    ball = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    red = bpy.data.materials.new("Ball")
+    red.use_nodes = True
+    red.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.6, 0.05, 0.03, 1)
+    ball.data.materials.append(red)
+    bpy.ops.rigidbody.object_add(type="ACTIVE")
+    ball.rigid_body.collision_shape = "SPHERE"
+    scene.gravity = (5.0, 0.6, -9.81)  # as on a gentle slope
+    colliders = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(colliders)
+    colliders.objects.link(ball)
+    meadow.tussock_meadow.colliders = colliders
+    meadow.tussock_meadow.use_simulation = True
+    step("a rigid-body ball rolls through the meadow; touched blades are simulated")
+
+    # 5. a tree beside it, swaying in the same wind
     w = scene.tussock_wind
     w.base_speed, w.base_direction = 3.0, math.radians(20)
     wave = w.waves.add()
@@ -104,11 +125,15 @@ def main():
 
     scene.frame_start, scene.frame_end = 1, FRAMES
     scene.render.fps = 12
+    scene.rigidbody_world.point_cache.frame_end = FRAMES
     blend = os.path.join(OUT, "demo.blend")
     bpy.ops.wm.save_as_mainfile(filepath=blend)
     step(f"saved {blend}")
 
-    # 5. render the animation: frames, then an MP4 through Blender's own video output
+    # 6. bake the tree for any render farm, then render: frames, then an MP4 through
+    #    Blender's own video output
+    bpy.ops.tussock.bake(save=True)
+    step(f"baked the tree into {os.path.join(OUT, 'tussock_cache')} (Mesh Cache .pc2)")
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = 8
@@ -117,18 +142,58 @@ def main():
     scene.render.resolution_percentage = 100
     scene.render.image_settings.file_format = "PNG"
     scene.render.filepath = os.path.join(OUT, "frames", "demo_")
+    # play the frames once: Blender's rigid-body world fills its cache (the render reads
+    # it) and the blade simulation records where the ball is in every frame
+    for f in range(scene.frame_start, scene.frame_end + 1):
+        scene.frame_set(f)
+    scene.frame_set(scene.frame_start)
+    simulated = []  # blades simulated in each rendered frame
+
+    def count(scene, depsgraph=None):
+        simulated.append(meadow.get("tussock_active_blades", 0))
+    bpy.app.handlers.frame_change_post.append(count)
     bpy.ops.render.render(animation=True)
-    step(f"rendered {FRAMES} frames into {os.path.join(OUT, 'frames')}")
+    bpy.app.handlers.frame_change_post.remove(count)
+    step(f"rendered {FRAMES} frames into {os.path.join(OUT, 'frames')} "
+         f"(up to {max(simulated, default=0):,} blades simulated in a frame)")
     mp4 = os.path.join(OUT, "demo.mp4")
-    encode_video(os.path.join(OUT, "frames"), "demo_", FRAMES, mp4, scene.render.fps)
+    encode_video(os.path.join(OUT, "frames"), "demo_", FRAMES, mp4, scene.render.fps, (480, 270))
     step(f"wrote {mp4}")
+    picture_clip()
     print(f"[demo] outputs in {OUT}; total {time.time() - _start:.0f} s", flush=True)
 
 
-def encode_video(folder, prefix, frames, path, fps):
+def picture_clip():
+    """The sample picture (samples/picture/) brought to life through the compositor."""
+    reset_scene()
+    scene = bpy.context.scene
+    pictures = os.path.join(REPO, "samples", "picture")
+    s = scene.tussock_picture
+    s.filepath = os.path.join(pictures, "meadow.png")
+    grass = s.layers.add()
+    grass.name, grass.mask_path, grass.root = "Grass", os.path.join(pictures, "grass_mask.png"), "TOP"
+    crown = s.layers.add()
+    crown.name, crown.mask_path = "Crown", os.path.join(pictures, "crown_mask.png")
+    crown.lambda_x, crown.lambda_y = 48.0, 12.0
+    bpy.ops.tussock.animate_picture()
+    step(f"animated the picture {s.filepath}: 2 layers (grass, crown), background inpainted, "
+         "compositor tree built")
+    frames = max(FRAMES, 24)
+    scene.frame_start, scene.frame_end = 1, frames
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = os.path.join(OUT, "picture_frames", "picture_")
+    bpy.ops.render.render(animation=True)
+    step(f"rendered {frames} frames of the picture into {os.path.join(OUT, 'picture_frames')}")
+    mp4 = os.path.join(OUT, "picture.mp4")
+    encode_video(os.path.join(OUT, "picture_frames"), "picture_", frames, mp4, scene.render.fps,
+                 (scene.render.resolution_x, scene.render.resolution_y))
+    step(f"wrote {mp4}")
+
+
+def encode_video(folder, prefix, frames, path, fps, size):
     """Frames -> MP4 with Blender's sequencer and FFmpeg output (no extra tools)."""
     vscene = bpy.data.scenes.new("Video")
-    vscene.render.resolution_x, vscene.render.resolution_y = 480, 270
+    vscene.render.resolution_x, vscene.render.resolution_y = size
     vscene.render.resolution_percentage = 100
     vscene.render.fps = fps
     vscene.frame_start, vscene.frame_end = 1, frames

@@ -1,6 +1,7 @@
 """Renders the pictures of docs/ with Tussock itself, in background Blender:
   blender_run.py tools/docs_pictures.py -- OUT_DIR [FEATURE...]
-Features: capture, refine, meadow. Each writes PNGs named <feature>_<view>.png into OUT_DIR."""
+Features: capture, refine, meadow, trees, picture. Each writes PNGs named <feature>_<view>.png
+into OUT_DIR."""
 
 import math
 import os
@@ -160,7 +161,248 @@ def refine():
     render("refine_levels", res=(720, 300), samples=16)
 
 
-FEATURES = {"capture": capture, "refine": refine, "meadow": meadow}
+def _tree_row(names, gap=2.0):
+    """Adds one tree per preset in a row along x; returns (objects, width, height)."""
+    objs, x = [], 0.0
+    for name in names:
+        bpy.ops.tussock.add_tree(preset=name, seed=1, leaves=True)
+        obj = bpy.context.active_object
+        xs = [c[0] for c in obj.bound_box]
+        obj.location.x = x - min(xs)
+        x += max(xs) - min(xs) + gap
+        objs.append(obj)
+    height = max(max(c[2] for c in o.bound_box) for o in objs)
+    return objs, x - gap, height
+
+
+def _ortho_camera(width, height, aspect, margin=1.08):
+    cam = camera((width / 2, -200.0, height / 2), (math.radians(90), 0, 0))
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = margin * max(width, height * aspect)
+    return cam
+
+
+def _ground(size):
+    bpy.ops.mesh.primitive_plane_add(size=size, location=(size / 4, 0, 0))
+    soil(bpy.context.active_object)
+
+
+def trees():
+    from tussock import native
+    names = list(native.require().tree_presets())
+    # the presets side by side, at their true sizes
+    reset()
+    objs, width, height = _tree_row(names)
+    _ground(4 * width)
+    sky_and_sun(sun_angle=(0.8, 0.1, 0.6))
+    res = (1200, 400)
+    _ortho_camera(width, height, res[0] / res[1])
+    bpy.context.scene.camera.location.z = height * 0.5
+    render("trees_presets", res=res, samples=12)
+    # a frame strip of one tree in a steady wind with waves and gusts: every 12th frame
+    import numpy as np
+    reset()
+    scene = bpy.context.scene
+    w = scene.tussock_wind
+    w.base_speed = 2.0
+    w.gust_strength, w.gust_interval, w.gust_duration = 6.0, 2.0, 1.2
+    wave = w.waves.add()
+    wave.amplitude, wave.wavelength, wave.speed = 4.0, 10.0, 5.0
+    objs, width, height = _tree_row(["ca_black_oak"])
+    _ground(6 * max(width, height))
+    sky_and_sun(sun_angle=(0.8, 0.1, 0.6))
+    frame_res = (260, 320)
+    _ortho_camera(width, height, frame_res[0] / frame_res[1], margin=1.25)
+    bpy.context.scene.camera.location.z = height * 0.55
+    frames = (1, 13, 25, 37, 49)
+    tiles = []
+    for f in frames:
+        scene.frame_set(f)
+        render(f"trees_wind_f{f}", res=frame_res, samples=10)
+        img = bpy.data.images.load(scene.render.filepath)
+        px = np.empty(frame_res[0] * frame_res[1] * 4, np.float32)
+        img.pixels.foreach_get(px)
+        tiles.append(px.reshape(frame_res[1], frame_res[0], 4)[::-1])  # top row first
+        bpy.data.images.remove(img)
+        os.remove(scene.render.filepath)
+    sep = np.ones((frame_res[1], 4, 4), np.float32)
+    row = []
+    for t in tiles:
+        row += [t, sep]
+    save_rgba("trees_wind_strip", np.concatenate(row[:-1], axis=1))
+
+
+PICTURE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "samples",
+                       "picture")
+
+
+def picture():
+    """samples/picture/ animated by tussock.animate_picture and rendered by the compositor:
+    the picture, its layers and background plate, and a strip of rendered frames."""
+    import tempfile
+    import numpy as np
+    from tussock import native
+    reset()
+    lib = native.require()
+    scene = bpy.context.scene
+    s = scene.tussock_picture
+    s.filepath = os.path.join(PICTURE, "meadow.png")
+    grass = s.layers.add()
+    grass.name, grass.mask_path, grass.root = "Grass", os.path.join(PICTURE, "grass_mask.png"), "TOP"
+    crown = s.layers.add()
+    crown.name, crown.mask_path = "Crown", os.path.join(PICTURE, "crown_mask.png")
+    crown.lambda_x, crown.lambda_y = 48.0, 12.0
+    bpy.ops.tussock.animate_picture()
+    w, h = scene.render.resolution_x, scene.render.resolution_y
+
+    def read(path):
+        p = lib.picture_load(path)
+        out = np.empty((h, w, 4), np.float32)
+        lib.picture_read_rgba(p, out)
+        return out
+
+    original = read(s.filepath)
+    save_rgba("picture_sample", original)
+    # layers tinted over the picture | the background plate with the layers taken out
+    tinted = original.copy()
+    for path, tint in ((grass.mask_path, (0.2, 0.4, 1.0)), (crown.mask_path, (1.0, 0.5, 0.1))):
+        m = read(path)[..., 0] >= 0.5
+        tinted[m, :3] = 0.45 * tinted[m, :3] + 0.55 * np.array(tint, np.float32)
+    plate = np.empty(w * h * 4, np.float32)
+    s.background_image.pixels.foreach_get(plate)
+    plate = plate.reshape(h, w, 4)[::-1]
+    gap = np.ones((h, 8, 4), np.float32)
+    save_rgba("picture_layers", np.concatenate([tinted, gap, plate], axis=1))
+    # frames rendered by Blender's compositor, cropped around the tree and the horizon
+    st = scene.render.image_settings
+    st.file_format, st.color_mode, st.color_depth = "PNG", "RGBA", "8"
+    tiles = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for frame in (1, 36, 48, 60):
+            scene.frame_set(frame)
+            scene.render.filepath = os.path.join(tmp, f"frame_{frame}.png")
+            t = time.time()
+            bpy.ops.render.render(write_still=True)
+            print(f"[pictures] frame {frame} rendered ({time.time() - t:.2f} s)", flush=True)
+            tile = read(scene.render.filepath)[0:140, 215:345]  # the crown and the horizon
+            tiles.append(np.repeat(np.repeat(tile, 2, axis=0), 2, axis=1))
+            tiles.append(np.ones((280, 8, 4), np.float32))
+    save_rgba("picture_frames", np.concatenate(tiles[:-1], axis=1))
+
+
+def wind():
+    """The wind field of two keyframed sources in the fluid grid, as the debug image
+    shows it (hue: direction, brightness: speed), at three frames."""
+    import numpy as np
+    from tussock.wind import operators as wind_ops
+    reset()
+    scene = bpy.context.scene
+    w = scene.tussock_wind
+    w.base_speed = 0.0
+    w.use_fluid, w.fluid_resolution, w.fluid_size = True, 96, 20.0
+    for loc, rot, interval in (((-7.0, -3.0, 0.0), (0.0, 1.5708, 0.3), 0.0),
+                               ((5.0, 6.0, 0.0), (0.0, 1.5708, -2.2), 1.0)):
+        scene.cursor.location = loc
+        bpy.ops.tussock.add_wind_source(strength=1.0, radius=2.0, interval=interval)
+        bpy.context.active_object.rotation_euler = rot
+    tiles = []
+    for frame in (12, 36, 72):
+        rgba, _ = wind_ops.field_image(scene, frame, size=192)
+        tiles += [rgba, np.ones((192, 6, 4), np.float32)]
+    save_rgba("wind_field", np.concatenate(tiles[:-1], axis=1))
+
+
+def simulation():
+    """A ball rolled by Blender's rigid bodies through a meadow: the blades it touches are
+    simulated and pushed aside; the rest stay instanced."""
+    reset()
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=6.0)
+    ground = bpy.context.active_object
+    soil(ground)
+    bpy.ops.rigidbody.object_add(type="PASSIVE")
+    bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=96, density="UNIFORM",
+                               display=1.0, scale_min=0.7, scale_max=1.1)
+    meadow = bpy.context.active_object
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.22, location=(-2.4, 0.0, 0.22))
+    ball = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    red = bpy.data.materials.new("Ball")
+    red.use_nodes = True
+    red.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.6, 0.05, 0.03, 1)
+    ball.data.materials.append(red)
+    bpy.ops.rigidbody.object_add(type="ACTIVE")
+    ball.rigid_body.collision_shape = "SPHERE"
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    coll.objects.link(ball)
+    scene.gravity = (4.0, 0.0, -9.81)
+    scene.tussock_wind.base_speed = 0.5
+    meadow.tussock_meadow.colliders = coll
+    meadow.tussock_meadow.use_simulation = True
+    for f in range(1, 31):
+        scene.frame_set(f)
+    sky_and_sun(sun_angle=(0.8, 0.2, -0.6))
+    camera((-0.4, -2.3, 2.3), (math.radians(48), 0, 0), lens=35.0)
+    render("simulation_ball", res=(560, 315), samples=16)
+
+
+def farm():
+    """A tree baked in two halves by two background Blenders (as farm workers would), then
+    frame 12 rendered by a Blender with Tussock and by one without it: the same picture."""
+    import subprocess
+    import tempfile
+    import numpy as np
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import blender_env
+    reset()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 24
+    scene.tussock_wind.base_speed = 5.0
+    wave = scene.tussock_wind.waves.add()
+    wave.amplitude, wave.wavelength, wave.speed = 4.0, 8.0, 6.0
+    bpy.ops.tussock.add_tree(preset="quaking_aspen", seed=3)
+    sky_and_sun()
+    camera((0.0, -26.0, 7.0), (math.radians(84), 0, 0), lens=45.0)
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.use_denoising = 12, False
+    scene.render.resolution_x, scene.render.resolution_y = 240, 300
+    tiles = []
+    with tempfile.TemporaryDirectory() as tmp:
+        blend = os.path.join(tmp, "farm.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=blend)
+
+        def run(expr, addon=True):
+            with blender_env.BlenderUser() as user:
+                if not addon:
+                    os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
+                script = os.path.join(user.tmp, "run.py")
+                with open(script, "w") as f:
+                    f.write("import bpy, addon_utils\n")
+                    if addon:
+                        f.write("addon_utils.enable('tussock', default_set=True)\n")
+                    f.write(expr + "\n")
+                subprocess.run(blender_env.command(script, blend=blend), env=user.env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+
+        run("bpy.ops.tussock.bake(frame_start=1, frame_end=12, save=True)")
+        run("bpy.ops.tussock.bake(frame_start=13, frame_end=24, save=True)")
+        for addon in (True, False):
+            out = os.path.join(tmp, f"r{int(addon)}")
+            run(f"bpy.context.scene.render.filepath = {out!r}\nbpy.context.scene.frame_set(12)\n"
+                "bpy.ops.render.render(write_still=True)", addon=addon)
+            img = bpy.data.images.load(out + ".png")
+            px = np.empty(240 * 300 * 4, np.float32)
+            img.pixels.foreach_get(px)
+            tiles += [px.reshape(300, 240, 4)[::-1], np.ones((300, 8, 4), np.float32)]
+        same = np.array_equal(tiles[0], tiles[2])
+        print(f"[pictures] with and without Tussock identical: {same}", flush=True)
+    save_rgba("farm_with_without", np.concatenate(tiles[:-1], axis=1))
+
+
+FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees,
+            "wind": wind, "simulation": simulation, "farm": farm,
+            "picture": picture}
 
 os.makedirs(OUT, exist_ok=True)
 for name, fn in FEATURES.items():

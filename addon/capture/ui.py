@@ -1,15 +1,12 @@
 """The Capture panel in the Tussock sidebar tab."""
 
 import bpy
+from ..ui import SubPanel
 
 
-class TUSSOCK_PT_capture(bpy.types.Panel):
+class TUSSOCK_PT_capture(SubPanel, bpy.types.Panel):
     bl_label = "Capture"
     bl_idname = "TUSSOCK_PT_capture"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
 
     def draw(self, context):
         layout = self.layout

@@ -63,8 +63,8 @@ def patch_key(settings):
                  settings.seed, round(settings.tile_size, 6), settings.chunk_blades, model_names))
 
 
-def compute_patch(settings):
-    """The patch expanded into one mesh in tile-local metres, as plain arrays."""
+def make_patch(settings):
+    """The native patch of a meadow's settings."""
     lib = native.require()
     models = blade_models(settings.models)
     kw = dict(blade_count=settings.patch_blades, scale_min=settings.scale_min,
@@ -72,9 +72,15 @@ def compute_patch(settings):
     if models is not None:
         kw.update(knots=models[0], widths=models[1], knot_counts=models[2])
     try:
-        patch = lib.patch_create(**kw)
+        return lib.patch_create(**kw)
     except lib.Error as exc:  # name the setting the artist knows
         raise lib.Error(f"patch ({settings.patch_blades} blades): {exc}") from None
+
+
+def compute_patch(settings):
+    """The patch expanded into one mesh in tile-local metres, as plain arrays."""
+    lib = native.require()
+    patch = make_patch(settings)
     pinfo = lib.patch_info(patch)
     nv, nt = pinfo["vertex_count"], pinfo["triangle_count"]
     positions = np.empty(nv * 3, np.float32)
@@ -99,20 +105,26 @@ def density_image_values(settings):
     return np.ascontiguousarray(px.reshape(-1, 4)[:, :3].mean(axis=1), np.float32), iw, ih
 
 
-def compute_layout(settings, origin, size):
-    """Tiles, density map and chunk instances of the meadow, as plain arrays."""
+def make_meadow(settings, origin, size):
+    """The native meadow layout of a meadow's settings."""
     lib = native.require()
     density = settings.density.lower()
     image, iw, ih = (None, 0, 0)
     if density == "image":
         image, iw, ih = density_image_values(settings)
-    meadow = lib.meadow_create(
+    return lib.meadow_create(
         origin=origin, size=size, tile_size=settings.tile_size,
         blades_per_tile=settings.blades_per_tile, patch_blades=settings.patch_blades,
         chunk_blades=settings.chunk_blades, seed=settings.seed, density=density,
         noise_scale=settings.noise_scale, noise_octaves=settings.noise_octaves,
         noise_threshold=settings.noise_threshold, image=image, image_width=iw,
         image_height=ih)
+
+
+def compute_layout(settings, origin, size):
+    """Tiles, density map and chunk instances of the meadow, as plain arrays."""
+    lib = native.require()
+    meadow = make_meadow(settings, origin, size)
     info = lib.meadow_info(meadow)
     n = info["chunk_instances"]
     origins = np.empty(n * 3, np.float32)

@@ -20,6 +20,11 @@ def _rebuild(self, context):
         self.last_error = ""
 
 
+def _reset_simulation(self, context):
+    from . import simulate
+    simulate.forget(self.id_data.name)
+
+
 DENSITY_ITEMS = [
     ("NOISE", "Noise", "Perlin-noise density map (seed 000, Fig. 8)"),
     ("UNIFORM", "Uniform", "Every tile has the full number of blades"),
@@ -66,6 +71,26 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
                                      max=1.0, subtype="FACTOR", update=_rebuild,
                                      description="Fraction of instances shown in the "
                                      "viewport; renders show all")
+    use_simulation: bpy.props.BoolProperty(name="Simulate touched blades", default=False,
+                                           update=_reset_simulation,
+                                           description="Blades that the colliders touch are "
+                                           "pushed aside and recover (seed 000)")
+    colliders: bpy.props.PointerProperty(name="Colliders", type=bpy.types.Collection,
+                                         update=_reset_simulation,
+                                         description="Objects that push blades aside (spheres "
+                                         "or capsules fitted to their bounds; rigid bodies too)")
+    sim_iterations: bpy.props.IntProperty(name="Iterations", default=4, min=1, max=64,
+                                          update=_reset_simulation)
+    sim_damping: bpy.props.FloatProperty(name="Damping", default=4.0, min=0.0, max=1000.0,
+                                         update=_reset_simulation,
+                                         description="1/s: how fast blade motion dies down")
+    sim_stiffness: bpy.props.FloatProperty(name="Shape stiffness", default=30.0, min=0.0,
+                                           max=10000.0, update=_reset_simulation,
+                                           description="1/s: pull toward the rest shape at the root")
+    sim_local_stiffness: bpy.props.FloatProperty(name="Bending stiffness", default=120.0,
+                                                 min=0.0, max=100000.0, update=_reset_simulation,
+                                                 description="1/s: how strongly each segment "
+                                                 "keeps its bend relative to its parent")
 
 
 classes = (TussockMeadowSettings,)

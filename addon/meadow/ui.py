@@ -2,22 +2,21 @@
 
 import bpy
 
+from .. import compat
+from ..ui import SubPanel
 
-class TUSSOCK_PT_meadow(bpy.types.Panel):
+
+class TUSSOCK_PT_meadow(SubPanel, bpy.types.Panel):
     bl_label = "Meadow"
     bl_idname = "TUSSOCK_PT_meadow"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
 
     def draw(self, context):
         layout = self.layout
         layout.operator("tussock.add_meadow", icon="OUTLINER_OB_HAIR")
         obj = context.active_object
-        if obj is None or not obj.tussock_meadow.is_meadow:
+        s = compat.settings_of(obj, "tussock_meadow")
+        if s is None or not s.is_meadow:
             return
-        s = obj.tussock_meadow
         if s.last_error:
             box = layout.box()
             box.alert = True
@@ -45,6 +44,17 @@ class TUSSOCK_PT_meadow(bpy.types.Panel):
             layout.template_ID(s, "density_image", open="image.open")
         layout.prop(s, "seed")
         layout.prop(s, "display", slider=True)
+        box = layout.box()
+        box.prop(s, "use_simulation")
+        if s.use_simulation:
+            box.prop(s, "colliders")
+            col = box.column(align=True)
+            col.prop(s, "sim_iterations")
+            col.prop(s, "sim_damping")
+            col.prop(s, "sim_stiffness")
+            col.prop(s, "sim_local_stiffness")
+            box.label(text=f"{obj.get('tussock_active_tiles', 0)} tiles, "
+                           f"{obj.get('tussock_active_blades', 0):,} blades simulated")
 
 
 classes = (TUSSOCK_PT_meadow,)

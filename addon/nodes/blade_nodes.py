@@ -13,13 +13,7 @@ MODIFIER = "Tussock Ribbon"
 
 
 def _build(ng):
-    for node in list(ng.nodes):
-        ng.nodes.remove(node)
-    if hasattr(ng, "interface"):
-        ng.interface.clear()
-    else:
-        ng.inputs.clear()
-        ng.outputs.clear()
+    compat.node_group_clear(ng)
     compat.node_group_add_socket(ng, "INPUT", "NodeSocketGeometry", "Geometry")
     compat.node_group_add_socket(ng, "INPUT", "NodeSocketMaterial", "Material")
     compat.node_group_add_socket(ng, "OUTPUT", "NodeSocketGeometry", "Geometry")

@@ -19,13 +19,7 @@ GROUP_VERSION = 1
 
 
 def _build(ng):
-    for node in list(ng.nodes):
-        ng.nodes.remove(node)
-    if hasattr(ng, "interface"):
-        ng.interface.clear()
-    else:
-        ng.inputs.clear()
-        ng.outputs.clear()
+    compat.node_group_clear(ng)
     compat.node_group_add_socket(ng, "INPUT", "NodeSocketGeometry", "Geometry")
     compat.node_group_add_socket(ng, "INPUT", "NodeSocketCollection", "Chunks")
     display = compat.node_group_add_socket(ng, "INPUT", "NodeSocketFloat", "Display")

@@ -1,15 +1,12 @@
 """The Refine panel in the Tussock sidebar tab."""
 
 import bpy
+from ..ui import SubPanel
 
 
-class TUSSOCK_PT_refine(bpy.types.Panel):
+class TUSSOCK_PT_refine(SubPanel, bpy.types.Panel):
     bl_label = "Refine"
     bl_idname = "TUSSOCK_PT_refine"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
 
     def draw(self, context):
         layout = self.layout

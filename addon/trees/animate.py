@@ -3,7 +3,7 @@ the scene's wind at that frame."""
 
 import bpy
 
-from .. import handlers, native
+from .. import compat, handlers, native
 
 
 @bpy.app.handlers.persistent
@@ -11,10 +11,13 @@ def on_frame_change(scene, depsgraph=None):
     if not native.available():
         return
     from . import build
+    from .. import bake
     for obj in scene.objects:  # one pose per tree object
-        s = getattr(obj, "tussock_tree", None)
+        s = compat.settings_of(obj, "tussock_tree")
         if s is None or not s.is_tree:
             continue
+        if bake.baked_frame(obj, scene, scene.frame_current):
+            continue  # the Mesh Cache modifier shows the baked frame
         try:
             build.pose(obj, scene, scene.frame_current)
         except (native.Error, ValueError) as exc:

@@ -31,8 +31,13 @@ def _key(d, settings):
 
 def compute(settings):
     """Native work for a tree: generate, mesh topology, rest pose. No Blender data touched."""
-    lib = native.require()
     d = definition(settings)
+    return compute_from(d, settings.smooth_levels, _key(d, settings))
+
+
+def compute_from(d, smooth_levels, key=""):
+    """compute() from plain values (usable off the main thread)."""
+    lib = native.require()
     tree = lib.tree_create(d)
     counts = lib.tree_counts(tree)
     nv, nq = lib.tree_mesh_count(tree, leaves=True)
@@ -42,14 +47,14 @@ def compute(settings):
     positions = np.empty(nv * 3, np.float32)
     lib.tree_mesh_deform(tree, positions, leaves=True)
     leaf_quads = counts["leaves"]
-    data = dict(key=_key(d, settings), tree=tree, counts=counts, faces=faces.reshape(-1, 4),
+    data = dict(key=key, tree=tree, counts=counts, faces=faces.reshape(-1, 4),
                 uvs=uvs, positions=positions, leaf_quads=leaf_quads, smooth=None)
     tips = np.empty(counts["branches"] * 3, np.float32)
     lib.tree_tips(tree, tips)
     data["rest_tips"] = tips.reshape(-1, 3)
-    if settings.smooth_levels > 0:
+    if smooth_levels > 0:
         cage_v, cage_q = lib.tree_mesh_count(tree, leaves=False)
-        h = lib.subdiv_create(np.ascontiguousarray(faces[:cage_q * 4]), cage_v, settings.smooth_levels)
+        h = lib.subdiv_create(np.ascontiguousarray(faces[:cage_q * 4]), cage_v, smooth_levels)
         sv, sq = lib.subdiv_counts(h)
         sfaces = np.empty(sq * 4, np.int32)
         lib.subdiv_faces(h, sfaces)
@@ -91,7 +96,12 @@ def write(obj, data):
     index = np.zeros(nq, np.int32)
     if data["leaf_quads"]:
         index[nq - data["leaf_quads"]:] = 1
-    mesh.polygons.foreach_set("material_index", index)
+    # the generic attribute (Blender >= 3.4) takes the array in one copy; the polygon
+    # property goes face by face
+    attr = mesh.attributes.get("material_index")
+    if attr is None:
+        attr = mesh.attributes.new("material_index", "INT", "FACE")
+    attr.data.foreach_set("value", index)
     mesh.polygons.foreach_set("use_smooth", index == 0)
     if uvs is not None:
         layer = mesh.uv_layers.new(name="UVMap")
@@ -122,30 +132,45 @@ def _data(obj):
     return data
 
 
-def pose(obj, scene, frame):
-    """Bends the tree by the scene's wind at `frame` and writes the vertex positions."""
+def posed_vertices(data, matrix_world, strength, wind_sample, out=None):
+    """Vertex positions (V, 3) of the tree bent by the wind: `wind_sample(world_xyz)` gives
+    the wind (m/s) at world points; the pose depends on nothing else (exact mode), so it is
+    the same whatever frames came before. Pure: usable by a bake worker thread. `out`: a
+    float32 buffer of len(data["positions"]) to deform into (the result may be a view of
+    it), else a new one."""
     lib = native.require()
-    s = obj.tussock_tree
-    data = _data(obj)
     tree = data["tree"]
-    if s.wind_strength > 0.0:
+    lib.tree_reset(tree)
+    if strength > 0.0:
         # the wind at the rest tips, in world space, turned into the tree's local frame
-        m = np.array(obj.matrix_world, np.float64)
+        m = np.asarray(matrix_world, np.float64)
         tips_world = data["rest_tips"] @ m[:3, :3].T + m[:3, 3]
-        vel = wind_runtime.sample(scene, frame, tips_world)
+        vel = wind_sample(tips_world)
         force = np.ascontiguousarray(vel @ np.linalg.inv(m[:3, :3]).T, np.float32)
-        lib.tree_reset(tree)
-        lib.tree_wind_step(tree, force.ravel(), mode=1, strength=float(s.wind_strength))
-    else:
-        lib.tree_reset(tree)
-    positions = np.empty(len(data["positions"]), np.float32)
+        lib.tree_wind_step(tree, force.ravel(), mode=1, strength=float(strength))
+    positions = out if out is not None else np.empty(len(data["positions"]), np.float32)
     lib.tree_mesh_deform(tree, positions, leaves=True)
     verts, _, _ = _mesh_arrays(data, positions)
+    return verts
+
+
+def pose(obj, scene, frame):
+    """Bends the tree by the scene's wind at `frame` and writes the vertex positions."""
+    s = obj.tussock_tree
+    data = _data(obj)
+    # one buffer per tree, reused every frame (no fresh pages to fault in)
+    buffer = data.get("pose_buffer")
+    if buffer is None:
+        buffer = data["pose_buffer"] = np.empty(len(data["positions"]), np.float32)
+    verts = posed_vertices(data, obj.matrix_world, s.wind_strength,
+                           lambda xyz: wind_runtime.sample(scene, frame, xyz), out=buffer)
     mesh = obj.data
     if len(mesh.vertices) != len(verts):
         write(obj, data)
         mesh = obj.data
-    mesh.vertices.foreach_set("co", np.ascontiguousarray(verts, np.float32).ravel())
+    mesh.vertices.foreach_set("co", verts.ravel() if verts.dtype == np.float32
+                              and verts.flags.c_contiguous else
+                              np.ascontiguousarray(verts, np.float32).ravel())
     mesh.update()
 
 

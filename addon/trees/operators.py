@@ -2,7 +2,7 @@
 
 import bpy
 
-from .. import errors, native
+from .. import compat, errors, native
 from . import build, params, presets
 
 
@@ -59,7 +59,8 @@ class TUSSOCK_OT_tree_preset_add(bpy.types.Operator):
     @classmethod
     def poll(cls, context):
         obj = context.active_object
-        return obj is not None and obj.tussock_tree.is_tree
+        s = compat.settings_of(obj, "tussock_tree")
+        return s is not None and s.is_tree
 
     def invoke(self, context, event):
         return context.window_manager.invoke_props_dialog(self)
@@ -101,7 +102,8 @@ class TUSSOCK_OT_tree_apply_preset(bpy.types.Operator):
     @classmethod
     def poll(cls, context):
         obj = context.active_object
-        return obj is not None and obj.tussock_tree.is_tree
+        s = compat.settings_of(obj, "tussock_tree")
+        return s is not None and s.is_tree
 
     def execute(self, context):
         return errors.run(self, self._apply, context)

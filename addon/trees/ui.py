@@ -2,6 +2,9 @@
 
 import bpy
 
+from .. import compat
+from ..ui import SubPanel
+
 
 class TUSSOCK_MT_tree_presets(bpy.types.Menu):
     bl_label = "Tree Presets"
@@ -20,19 +23,15 @@ def _draw_group(layout, group):
             col.prop(group, name)
 
 
-class TUSSOCK_PT_tree(bpy.types.Panel):
+class TUSSOCK_PT_tree(SubPanel, bpy.types.Panel):
     bl_label = "Tree"
     bl_idname = "TUSSOCK_PT_tree"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
 
     def draw(self, context):
         layout = self.layout
         layout.operator_menu_enum("tussock.add_tree", "preset", text="Add Tree", icon="OUTLINER_OB_FORCE_FIELD")
         obj = context.active_object
-        s = getattr(obj, "tussock_tree", None) if obj else None
+        s = compat.settings_of(obj, "tussock_tree")
         if s is None or not s.is_tree:
             return
         if s.last_error:

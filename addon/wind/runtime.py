@@ -11,10 +11,10 @@ import math
 import numpy as np
 from mathutils import Euler, Vector
 
-from .. import native
+from .. import compat, native
 
 STEPS_PER_FRAME = 2
-_cache = {}  # scene name -> {"key", "handle", "frame"}
+_cache = {}  # scene name -> Stepper
 
 
 def _animated(obj, path, index, frame, default):
@@ -31,7 +31,7 @@ def sources(scene, frame):
     """float32 (n, 8) wind sources: x, y, dir_x, dir_y, strength, radius, interval, start."""
     rows = []
     for obj in scene.objects:  # one row per wind source empty
-        s = getattr(obj, "tussock_wind_source", None)
+        s = compat.settings_of(obj, "tussock_wind_source")
         if s is None or not s.is_source:
             continue
         loc = [_animated(obj, "location", i, frame, obj.location[i]) for i in range(3)]
@@ -73,42 +73,80 @@ def wind_kwargs(scene):
     return kw
 
 
+class Stepper:
+    """The native wind of one set of settings, stepped frame by frame from `frame_start`.
+    Pure: it holds no Blender data, so a bake worker thread can own one. `sources_at`
+    gives the float32 (n, 8) source rows of a frame (read from Blender beforehand)."""
+
+    def __init__(self, kwargs, frame_start, fps, sources_at):
+        self.lib = native.require()
+        self.kwargs = kwargs
+        self.handle = self.lib.wind_create(**kwargs)
+        self.frame_start = frame_start
+        self.fps = fps
+        self.frame = frame_start
+        self.sources_at = sources_at
+        self.fluid = kwargs.get("nx", 0) > 0
+
+    def advance(self, frame):
+        """Steps the fluid to `frame` (forward only); returns the time in seconds."""
+        if self.fluid:
+            while self.frame < frame:  # one frame of fluid at a time, sources as keyed then
+                self.lib.wind_set_sources(self.handle, self.sources_at(self.frame).ravel())
+                self.lib.wind_step(self.handle, STEPS_PER_FRAME)
+                self.frame += 1
+        else:
+            self.frame = frame
+        return (frame - self.frame_start) / self.fps
+
+    def sample(self, frame, xyz):
+        t = self.advance(frame)
+        xyz = np.ascontiguousarray(xyz, np.float32)
+        out = np.empty_like(xyz)
+        self.lib.wind_sample_xyz(self.handle, t, xyz.ravel(), out.reshape(-1))
+        return out
+
+
 def _key(scene):
     kw = wind_kwargs(scene)
     return repr(sorted((k, v.tobytes() if isinstance(v, np.ndarray) else v) for k, v in kw.items())) \
         + repr(scene.frame_start) + repr(scene.render.fps)
 
 
-def wind_at(scene, frame):
-    """(native wind handle, time in seconds) for `frame` of `scene`."""
-    lib = native.require()
-    fps = scene.render.fps / scene.render.fps_base
-    t = (frame - scene.frame_start) / fps
+def fps_of(scene):
+    return scene.render.fps / scene.render.fps_base
+
+
+def stepper(scene, frame):
+    """The scene's cached Stepper, able to reach `frame` (recreated when the settings
+    changed or when going back in time)."""
     key = _key(scene)
     entry = _cache.get(scene.name)
-    if entry is None or entry["key"] != key or frame < entry["frame"]:
-        entry = {"key": key, "handle": lib.wind_create(**wind_kwargs(scene)),
-                 "frame": scene.frame_start}
+    if entry is None or entry.key != key or frame < entry.frame:
+        entry = Stepper(wind_kwargs(scene), scene.frame_start, fps_of(scene),
+                        lambda f, scene=scene: sources(scene, f))
+        entry.key = key
         _cache[scene.name] = entry
-    if scene.tussock_wind.use_fluid:
-        while entry["frame"] < frame:  # one frame of fluid at a time, sources as keyed then
-            lib.wind_set_sources(entry["handle"], sources(scene, entry["frame"]).ravel())
-            lib.wind_step(entry["handle"], STEPS_PER_FRAME)
-            entry["frame"] += 1
-    else:
-        entry["frame"] = frame
-    return entry["handle"], t
+    return entry
+
+
+def wind_at(scene, frame):
+    """(native wind handle, time in seconds) for `frame` of `scene`."""
+    st = stepper(scene, frame)
+    t = st.advance(frame)
+    return st.handle, t
 
 
 def sample(scene, frame, xyz):
     """Wind velocity (m/s) at points xyz (float32 (n, 3)) at `frame`."""
-    lib = native.require()
-    handle, t = wind_at(scene, frame)
-    xyz = np.ascontiguousarray(xyz, np.float32)
-    out = np.empty_like(xyz)
-    lib.wind_sample_xyz(handle, t, xyz.ravel(), out.reshape(-1))
-    return out
+    return stepper(scene, frame).sample(frame, xyz)
 
 
 def clear():
     _cache.clear()
+
+
+def forget(scene):
+    """Drops the scene's stepped wind, so that the next wind_at starts again from the first
+    frame (for callers that saw the wind sources change)."""
+    _cache.pop(scene.name, None)

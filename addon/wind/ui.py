@@ -2,14 +2,13 @@
 
 import bpy
 
+from .. import compat
+from ..ui import SubPanel
 
-class TUSSOCK_PT_wind(bpy.types.Panel):
+
+class TUSSOCK_PT_wind(SubPanel, bpy.types.Panel):
     bl_label = "Wind"
     bl_idname = "TUSSOCK_PT_wind"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Tussock"
-    bl_parent_id = "TUSSOCK_PT_main"
 
     def draw(self, context):
         layout = self.layout
@@ -49,7 +48,7 @@ class TUSSOCK_PT_wind(bpy.types.Panel):
         row.operator("tussock.add_wind_source", icon="FORCE_WIND")
         row.operator("tussock.wind_debug_image", icon="IMAGE_DATA")
         obj = context.active_object
-        s = getattr(obj, "tussock_wind_source", None) if obj else None
+        s = compat.settings_of(obj, "tussock_wind_source")
         if s is not None and s.is_source:
             box = layout.box()
             box.label(text=f"Source: {obj.name} (keyframe these)")

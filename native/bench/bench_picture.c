@@ -1,8 +1,12 @@
-/* Benchmark of the picture module: one 1920x1080 layer warped by a 16-px grid (seed 004,
- * eq. 5-8) per frame - warp + UV pass (headline picture_1080p), the UV pass alone and the
- * RGBA warp alone - with cv::remap of the same frame as the peer. Medians over repeats. */
+/* Benchmark of the picture module. Headline picture_1080p: one frame as the add-on makes
+ * it - the shared wind's 128^2 fluid + wave continuum stepped one frame (2 steps of 1/48 s,
+ * seed 004 eq. 1-4), its continuum sampled over the picture, then one 1920x1080 layer
+ * warped by a 16-px grid (eq. 5-8) to RGBA + UV pass. Also the warp alone
+ * (picture_1080p_warp), the UV pass alone, the RGBA warp alone, with cv::remap of the same
+ * frame as the peer. Medians over repeats. */
 #include "bench.h"
 #include "tussock/picture.h"
+#include "tussock/wind.h"
 
 #include "bridge/opencv_picture_bridge.h"
 
@@ -19,6 +23,80 @@ static void fill_field(float* vx, float* vy, int frame) {
             vx[b * FW + a] = 0.8f * sinf(0.4f * a - 0.15f * b - 3.0f * t);
             vy[b * FW + a] = 0.2f * cosf(0.3f * a + 0.2f * b - 2.0f * t);
         }
+}
+
+/* The headline frame: wind 128^2 fluid + continuum stepped one frame (as the add-on: 2
+ * steps of 1/48 s at 24 fps), the continuum sampled at a 128x72 field over the picture
+ * (which spans the wind grid's width), the layer warped to RGBA and the UV pass. */
+static void bench_wind_frame(const tsk_picture* pic, float* out, float* uv) {
+    enum { NX = 128, FX = 128, FY = 72, STEPS = 2, WARMUP = 48 };
+    const float side = 20.0f, cell = side / NX;
+    tsk_wind_def wd = tsk_default_wind_def();
+    wd.fluid.nx = wd.fluid.ny = NX;
+    wd.fluid.cell_size = cell;
+    wd.fluid.origin_x = wd.fluid.origin_y = -0.5f * side;
+    wd.fluid.dt = 1.0f / 48.0f;
+    wd.fluid.speed = 4.0f;
+    wd.fluid.decay = 0.2f;
+    wd.continuum.enabled = 1;
+    wd.continuum.c = 2.0f;
+    wd.continuum.gamma = 0.96f;
+    tsk_wind_source src = tsk_default_wind_source();
+    src.x = -8.0f;
+    src.y = 0.0f;
+    src.dir_x = 1.0f;
+    src.dir_y = 0.0f;
+    src.strength = 1.0f;
+    src.radius = 6.0f;
+    src.interval = 1.0f;
+    tsk_wind* wind = NULL;
+    float *px = tsk_alloc(FX * FY * sizeof(float), "field x"), *py = tsk_alloc(FX * FY * sizeof(float), "field y");
+    float *vx = tsk_alloc(FX * FY * sizeof(float), "wind vx"), *vy = tsk_alloc(FX * FY * sizeof(float), "wind vy");
+    float *sx = tsk_alloc(FX * FY * sizeof(float), "sway x"), *sy = tsk_alloc(FX * FY * sizeof(float), "sway y");
+    if (!px || !py || !vx || !vy || !sx || !sy || tsk_wind_create(&wd, &wind) != TSK_OK ||
+        tsk_wind_set_sources(wind, &src, 1) != TSK_OK || tsk_wind_step(wind, WARMUP * STEPS) != TSK_OK) {
+        fprintf(stderr, "bench_picture wind: %s\n", tsk_last_error());
+        goto done;
+    }
+    const float ph = side * (float)H / W; /* the picture spans the grid's width */
+    for (int b = 0; b < FY; ++b)
+        for (int a = 0; a < FX; ++a) {
+            px[b * FX + a] = -0.5f * side + (a + 0.5f) * side / FX;
+            py[b * FX + a] = -0.5f * ph + (b + 0.5f) * ph / FY;
+        }
+    const size_t n = (size_t)W * H;
+    tsk_warp_def d = tsk_default_warp_def();
+    d.lambda_x = 24.0f;
+    d.lambda_y = 8.0f;
+    tsk_picture_field f = {sx, sy, FX, FY, 1};
+    double t[REPS], tw[REPS];
+    for (int r = 0; r < REPS; ++r) {
+        double s0 = bench_now_s();
+        tsk_wind_step(wind, STEPS);
+        tsk_wind_sample(wind, tsk_wind_time(wind), FX * FY, px, py, vx, vy, sx, sy);
+        tw[r] = bench_now_s() - s0;
+        tsk_picture_layer_frame(pic, 0, &d, &f, NULL, 0, out, n * 4, uv, n * 4, 1);
+        t[r] = bench_now_s() - s0;
+    }
+    char params[320];
+    snprintf(params, sizeof params,
+             "\"width\": %d, \"height\": %d, \"layers\": 1, \"cell\": 16, \"threads\": %d, "
+             "\"wind\": \"fluid %dx%d + continuum, %d steps of 1/48 s\", \"field\": \"%dx%d\", "
+             "\"outputs\": \"rgba+uv\", \"sampling\": \"bilinear\"",
+             W, H, tsk_get_threads(), NX, NX, STEPS, FX, FY);
+    bench_emit("picture_1080p", 1e3 * bench_median(t, REPS), "ms per frame", params, NULL);
+    snprintf(params, sizeof params,
+             "\"grid\": \"%dx%d\", \"steps\": %d, \"field\": \"%dx%d\", \"threads\": %d", NX, NX,
+             STEPS, FX, FY, tsk_get_threads());
+    bench_emit("picture_1080p_wind", 1e3 * bench_median(tw, REPS), "ms per frame", params, NULL);
+done:
+    tsk_wind_destroy(wind);
+    tsk_free(px);
+    tsk_free(py);
+    tsk_free(vx);
+    tsk_free(vy);
+    tsk_free(sx);
+    tsk_free(sy);
 }
 
 static void bench_picture(int argc, char** argv) {
@@ -61,7 +139,7 @@ static void bench_picture(int argc, char** argv) {
     tsk_picture_field f = {vx, vy, FW, FH, 1};
     const int threads = tsk_get_threads();
     char params[256];
-    const char* names[3] = {"picture_1080p", "picture_1080p_uv", "picture_1080p_rgba"};
+    const char* names[3] = {"picture_1080p_warp", "picture_1080p_uv", "picture_1080p_rgba"};
     for (int mode = 0; mode < 3; ++mode) {
         double t[REPS];
         for (int r = 0; r < REPS; ++r) {
@@ -97,7 +175,9 @@ static void bench_picture(int argc, char** argv) {
              W, H, threads);
     const double remap_ms = 1e3 * bench_median(t, REPS);
     bench_emit("picture_1080p_rgba", remap_ms, "ms per frame", params, "opencv_remap");
+    bench_emit("picture_1080p_warp", remap_ms, "ms per frame", params, "opencv_remap");
     bench_emit("picture_1080p", remap_ms, "ms per frame", params, "opencv_remap");
+    bench_wind_frame(pic, out, uv);
     /* the same frame sampled as Blender's Map UV draws it (for previews equal to renders) */
     d.sampling = TSK_SAMPLE_MAP_UV;
     for (int r = 0; r < REPS; ++r) {

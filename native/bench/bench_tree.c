@@ -59,9 +59,12 @@ static void bench_wind(const char* name, size_t target, int b12, int repeats) {
     float* force = malloc(3 * n * sizeof(float));
     tsk_tree_tip_positions(t, tips);
     sines(tips, n, 0.0, force);
-    for (int mode = 0; mode < 2; ++mode) {
+    /* mode 0 lagged, 1 exact, 2 lagged on one thread (what one core does, for scaling) */
+    const int threads = tsk_get_threads();
+    for (int mode = 0; mode < 3; ++mode) {
         tsk_tree_wind_def w = tsk_default_tree_wind_def();
-        w.mode = mode;
+        w.mode = mode == 1 ? TSK_TREE_WIND_EXACT : TSK_TREE_WIND_LAGGED;
+        tsk_set_threads(mode == 2 ? 1 : threads);
         double samples[64];
         tsk_tree_wind_step(t, force, &w); /* warm up */
         const clock_t c0 = clock();
@@ -77,11 +80,12 @@ static void bench_wind(const char* name, size_t target, int b12, int repeats) {
         snprintf(params, sizeof params,
                  "\"branches\": %zu, \"threads\": %d, \"mode\": \"%s\", \"repeats\": %d, "
                  "\"ms_per_step\": %.3f, \"cpu_ns_per_branch\": %.1f",
-                 n, tsk_get_threads(), mode ? "exact" : "lagged", repeats, med * 1e3, cpu_ns);
-        snprintf(full, sizeof full, "%s%s", name, mode ? "_exact" : "");
+                 n, tsk_get_threads(), mode == 1 ? "exact" : "lagged", repeats, med * 1e3, cpu_ns);
+        snprintf(full, sizeof full, "%s%s", name, mode == 1 ? "_exact" : mode == 2 ? "_1t" : "");
         bench_emit(full, (double)n / med * 1e-6, "million branch updates per second", params,
                    NULL);
     }
+    tsk_set_threads(0);
     free(tips), free(force);
     tsk_tree_destroy(t);
 }
@@ -100,23 +104,29 @@ static void bench_mesh(int repeats) {
     tsk_tree_mesh_count(t, &m, &nv, &nf);
     float* pos = malloc(3 * nv * sizeof(float));
     float* nrm = malloc(3 * nv * sizeof(float));
-    double samples[64];
-    tsk_tree_mesh_deform(t, &m, pos, nrm);
-    const clock_t c0 = clock();
-    for (int r = 0; r < repeats; ++r) {
-        double t0 = bench_now_s();
-        tsk_tree_mesh_deform(t, &m, pos, nrm);
-        samples[r] = bench_now_s() - t0;
-    }
-    const double cpu_ns = (double)(clock() - c0) / CLOCKS_PER_SEC / ((double)repeats * nv) * 1e9;
-    double med = bench_median(samples, repeats);
+    double samples[64], med = 0;
     char params[256];
-    snprintf(params, sizeof params,
-             "\"preset\": \"black_tupelo\", \"branches\": %zu, \"vertices\": %zu, \"threads\": %d, "
-             "\"normals\": true, \"ms_per_frame\": %.3f, \"cpu_ns_per_vertex\": %.1f",
-             tsk_tree_branch_count(t), nv, tsk_get_threads(), med * 1e3, cpu_ns);
-    bench_emit("tree_mesh", (double)nv / med * 1e-6, "million deformed vertices per second", params,
-               NULL);
+    /* all threads, then one thread (what one core does, for scaling) */
+    const int threads = tsk_get_threads();
+    for (int pass = 0; pass < 2; ++pass) {
+        tsk_set_threads(pass ? 1 : threads);
+        tsk_tree_mesh_deform(t, &m, pos, nrm);
+        const clock_t c0 = clock();
+        for (int r = 0; r < repeats; ++r) {
+            double t0 = bench_now_s();
+            tsk_tree_mesh_deform(t, &m, pos, nrm);
+            samples[r] = bench_now_s() - t0;
+        }
+        const double cpu_ns = (double)(clock() - c0) / CLOCKS_PER_SEC / ((double)repeats * nv) * 1e9;
+        med = bench_median(samples, repeats);
+        snprintf(params, sizeof params,
+                 "\"preset\": \"black_tupelo\", \"branches\": %zu, \"vertices\": %zu, \"threads\": %d, "
+                 "\"normals\": true, \"ms_per_frame\": %.3f, \"cpu_ns_per_vertex\": %.1f",
+                 tsk_tree_branch_count(t), nv, tsk_get_threads(), med * 1e3, cpu_ns);
+        bench_emit(pass ? "tree_mesh_1t" : "tree_mesh", (double)nv / med * 1e-6,
+                   "million deformed vertices per second", params, NULL);
+    }
+    tsk_set_threads(0);
 
     /* the smooth option: one Catmull–Clark level through the OpenSubdiv stencils */
     int32_t* faces = malloc(4 * nf * sizeof(int32_t));

@@ -1,4 +1,6 @@
 /* Tests of the core: errors, allocation, counter-based RNG, parallel-for determinism. */
+#include <pthread.h>
+
 #include "test.h"
 #include "tussock/core.h"
 
@@ -162,6 +164,68 @@ TEST(test_parallel_for_covers_every_index_once) {
     tsk_set_threads(0);
 }
 
+/* A loop started inside a chunk runs (serially) and still covers its range once. */
+typedef struct nest_ctx {
+    int* hits; /* 64 x 97 */
+} nest_ctx;
+
+static void inner(size_t b, size_t e, size_t c, void* vctx) {
+    (void)c;
+    int* row = vctx;
+    for (size_t i = b; i < e; ++i) row[i]++;
+}
+
+static void outer(size_t b, size_t e, size_t c, void* vctx) {
+    (void)c;
+    nest_ctx* ctx = vctx;
+    for (size_t r = b; r < e; ++r) tsk_parallel_for(97, 5, inner, ctx->hits + 97 * r);
+}
+
+TEST(test_parallel_for_nested_covers_every_index_once) {
+    static int hits[64 * 97];
+    memset(hits, 0, sizeof hits);
+    tsk_set_threads(2);
+    nest_ctx ctx = {hits};
+    tsk_parallel_for(64, 1, outer, &ctx);
+    int ok = 1;
+    for (int i = 0; i < 64 * 97; ++i) ok &= hits[i] == 1;
+    CHECK(ok);
+    tsk_set_threads(0);
+}
+
+/* Two threads running loops at the same time (one of them gets the workers, the other runs
+ * serially) and thousands of back-to-back small loops: every index once, no hang. */
+typedef struct many_ctx {
+    int* hits;
+    int n, loops;
+} many_ctx;
+
+static void* many_loops(void* arg) {
+    many_ctx* m = arg;
+    struct {
+        int* h;
+    } ctx = {m->hits};
+    for (int k = 0; k < m->loops; ++k) tsk_parallel_for((size_t)m->n, 16, mark, &ctx);
+    return NULL;
+}
+
+TEST(test_parallel_for_concurrent_callers_and_many_loops) {
+    enum { N = 257, LOOPS = 2000 };
+    static int a[N], b[N];
+    memset(a, 0, sizeof a);
+    memset(b, 0, sizeof b);
+    tsk_set_threads(3);
+    many_ctx ma = {a, N, LOOPS}, mb = {b, N, LOOPS};
+    pthread_t th;
+    CHECK(pthread_create(&th, NULL, many_loops, &mb) == 0);
+    many_loops(&ma);
+    pthread_join(th, NULL);
+    int ok = 1;
+    for (int i = 0; i < N; ++i) ok &= a[i] == LOOPS && b[i] == LOOPS;
+    CHECK(ok);
+    tsk_set_threads(0);
+}
+
 TEST(test_set_threads_rejects_out_of_range) {
     CHECK_STATUS(tsk_set_threads(-1), TSK_ERR_ARGUMENT, "threads");
     CHECK_STATUS(tsk_set_threads(1000), TSK_ERR_ARGUMENT, "threads");
@@ -218,5 +282,7 @@ TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_m
           TEST_ENTRY(test_rand_uniform_statistics),
           TEST_ENTRY(test_parallel_for_identical_bytes_1_and_2_threads),
           TEST_ENTRY(test_parallel_for_covers_every_index_once),
+          TEST_ENTRY(test_parallel_for_nested_covers_every_index_once),
+          TEST_ENTRY(test_parallel_for_concurrent_callers_and_many_loops),
           TEST_ENTRY(test_set_threads_rejects_out_of_range),
           TEST_ENTRY(test_vec3_lengths_and_nonfinite_rejected), TEST_ENTRY(test_version_is_semver))

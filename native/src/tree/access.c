@@ -42,10 +42,9 @@ static void leaf_pose(const tsk_tree* t, size_t j, v3* pos, v3* dir, v3* nrm, v3
     v3 P[4];
     tree_load_points(t->cur, p, P);
     v3 U, V;
-    const float th = t->leaf_attach[3 * j + 1];
-    tree_attach_frame(P, &t->frames[p], t->leaf_attach[3 * j], cosf(th), sinf(th), pos, &U, &V);
-    const float a = t->leaf_attach[3 * j + 2];
-    *dir = v3_comb(U, cosf(a), V, sinf(a));
+    const float* trig = t->leaf_trig + 4 * j; /* cos/sin of theta and alpha, made once */
+    tree_attach_frame(P, &t->frames[p], t->leaf_attach[3 * j], trig[0], trig[1], pos, &U, &V);
+    *dir = v3_comb(U, trig[2], V, trig[3]);
     *wid = v3_cross(U, V);
     *nrm = v3_norm_or(v3_cross(*dir, *wid), V);
 }

@@ -427,7 +427,7 @@ static void free_tree_arrays(tsk_tree* t) {
     void* arrays[] = {t->seg12, t->inv_l, t->parent, t->level, t->depth, t->attach_v, t->attach_theta,
                       t->attach_alpha, t->trig, t->has_kids, t->frames, t->prev_frames, t->length, t->rest_seg, t->shape, t->local, t->root,
                       t->rest, t->rest_O, t->cur, t->cur_O, t->prev, t->prev_O,
-                      t->leaf_parent, t->leaf_attach, t->leaf_size};
+                      t->leaf_parent, t->leaf_attach, t->leaf_size, t->leaf_trig};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i) tsk_free(arrays[i]);
 }
 
@@ -480,11 +480,12 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
     t->leaf_parent = tsk_alloc(m * sizeof(int32_t), "tree leaves");
     t->leaf_attach = tsk_alloc(3 * m * sizeof(float), "tree leaves");
     t->leaf_size = tsk_alloc(2 * m * sizeof(float), "tree leaves");
+    t->leaf_trig = tsk_alloc(4 * m * sizeof(float), "tree leaves");
     if (!t->parent || !t->level || !t->depth || !t->attach_v || !t->attach_theta ||
         !t->attach_alpha || !t->trig || !t->has_kids || !t->frames || !t->prev_frames ||
         !t->length || !t->rest_seg || !t->seg12 || !t->inv_l || !t->shape || !t->local || !t->root ||
         !t->rest || !t->rest_O || !t->cur || !t->cur_O || !t->prev || !t->prev_O ||
-        !t->leaf_parent || !t->leaf_attach || !t->leaf_size) {
+        !t->leaf_parent || !t->leaf_attach || !t->leaf_size || !t->leaf_trig) {
         tsk_tree_destroy(t);
         return TSK_ERR_MEMORY;
     }
@@ -540,6 +541,10 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
         t->leaf_attach[3 * j + 2] = l->alpha;
         t->leaf_size[2 * j] = l->length;
         t->leaf_size[2 * j + 1] = l->width;
+        t->leaf_trig[4 * j] = cosf(l->theta);
+        t->leaf_trig[4 * j + 1] = sinf(l->theta);
+        t->leaf_trig[4 * j + 2] = cosf(l->alpha);
+        t->leaf_trig[4 * j + 3] = sinf(l->alpha);
     }
     tree_rest_frames(t);
     tree_set_length_power(t, 1.0f);

@@ -135,6 +135,7 @@ struct tsk_tree {
     int32_t* leaf_parent;
     float* leaf_attach; /* 3m: v, theta, alpha */
     float* leaf_size;   /* 2m: length, width */
+    float* leaf_trig;   /* 4m: cos theta, sin theta, cos alpha, sin alpha (per-frame leaf pose) */
 };
 
 
@@ -249,7 +250,8 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
     *O_out = v3_scale(side, -1.0f);
 }
 
-/* Tests set these to 1 to run the wind step / the deformer through the scalar path only. */
+/* Tests set these to 1 to run the wind step / the deformer through the scalar path only;
+ * tree_wind_force_scalar = 2 keeps the wind step on the 4-wide SSE path (no AVX2). */
 extern int tree_wind_force_scalar;
 extern int tree_mesh_force_scalar;
 

@@ -1,0 +1,341 @@
+"""Farm-safe caches (tussock.bake, tussock.free_bake).
+
+Trees are baked into Point Cache 2 files that Blender's own Mesh Cache modifier reads, so a
+.blend renders the same frames where Tussock is not installed. Every frame is first written
+as its own verified file (`//tussock_cache/<object>/frame_NNNNNN.tskf`, atomic), then the
+frames of the scene's range are assembled into `//tussock_cache/<object>.pc2` (atomic)
+once all exist. So:
+  - a killed bake keeps every completed frame and the next bake resumes after them;
+  - farm workers may bake disjoint parts (frame_start/frame_end) of the range in separate
+    processes; whichever finishes the last frame assembles the same bytes as one process;
+  - a cache from another Tussock version, a corrupt or missing frame is reported, never
+    used.
+Interactive bakes run off Blender's main thread: everything the worker needs is read from
+Blender first; the worker does native work only and a modal timer shows progress (Esc
+cancels). Scripts and background runs bake in the calling thread."""
+
+import hashlib
+import json
+import os
+import re
+import threading
+
+import bpy
+import numpy as np
+
+from . import compat, errors, native
+from .trees import build as tree_build
+from .wind import runtime as wind_runtime
+from .ui import SubPanel
+
+CACHE_DIR = "//tussock_cache"
+CACHE_DIR_OVERRIDE = None  # an absolute folder instead of CACHE_DIR (tests of full disks)
+MODIFIER = "Tussock Cache"
+
+
+def cache_root():
+    if not bpy.data.filepath:
+        raise ValueError("save the .blend first: caches live beside it (//tussock_cache)")
+    return CACHE_DIR_OVERRIDE or bpy.path.abspath(CACHE_DIR)
+
+
+def safe_name(name):
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", name)
+
+
+def frame_path(folder, frame):
+    return os.path.join(folder, f"frame_{frame:06d}.tskf")
+
+
+class TreeJob:
+    """Everything needed to bake one tree, read from Blender on the main thread."""
+
+    def __init__(self, obj, scene, root):
+        s = obj.tussock_tree
+        self.name = obj.name
+        self.definition = tree_build.definition(s)
+        self.smooth = s.smooth_levels
+        self.matrix = np.array(obj.matrix_world, np.float64)
+        self.strength = s.wind_strength
+        self.folder = os.path.join(root, safe_name(obj.name))
+        self.pc2 = os.path.join(root, safe_name(obj.name) + ".pc2")
+        self.rel_pc2 = CACHE_DIR + "/" + safe_name(obj.name) + ".pc2"
+        self.range = (scene.frame_start, scene.frame_end)
+        self.key = inputs_key(obj, scene)
+        self.wind_kwargs = wind_runtime.wind_kwargs(scene)
+        self.fps = wind_runtime.fps_of(scene)
+        # wind sources at every frame of the range, read now (F-curves need bpy)
+        self.sources = {f: wind_runtime.sources(scene, f)
+                        for f in range(scene.frame_start, scene.frame_end + 1)}
+
+    def frames(self, part):
+        lo, hi = part
+        return list(range(max(lo, self.range[0]), min(hi, self.range[1]) + 1))
+
+    def bake_frames(self, frames, progress, cancel):
+        """Worker part: native only. Skips frames whose files verify (resume)."""
+        lib = native.require()
+        os.makedirs(self.folder, exist_ok=True)
+        for name in os.listdir(self.folder):  # temporary files of a killed bake
+            if ".tmp" in name:
+                os.remove(os.path.join(self.folder, name))
+        todo = []
+        for f in frames:
+            try:
+                got, _ = lib.bake_frame_info(frame_path(self.folder, f))
+                if got == f:
+                    progress()
+                    continue
+            except lib.Error as exc:
+                if "another Tussock" in str(exc):
+                    raise
+            todo.append(f)
+        if not todo:
+            return
+        data = tree_build.compute_from(self.definition, self.smooth)
+        wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
+                                    lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)))
+        for f in todo:
+            if cancel():
+                return
+            verts = tree_build.posed_vertices(data, self.matrix, self.strength,
+                                              lambda xyz, f=f: wind.sample(f, xyz))
+            lib.bake_write_frame(frame_path(self.folder, f), f,
+                                 np.ascontiguousarray(verts, np.float32).ravel())
+            progress()
+
+    def assemble_if_complete(self):
+        """Assembles the .pc2 when every frame of the range exists; True if it did."""
+        lib = native.require()
+        paths = [frame_path(self.folder, f) for f in range(self.range[0], self.range[1] + 1)]
+        if not all(os.path.exists(p) for p in paths):
+            return False
+        lib.bake_assemble_pc2(self.pc2, paths, float(self.range[0]), 1.0)
+        return True
+
+
+def inputs_key(obj, scene):
+    """A digest of everything a tree's baked poses depend on: its definition, smoothing,
+    placement and wind response, the scene's wind settings, first frame and frame rate
+    (wind time counts from the first frame). A cache whose key differs is out of date.
+    Keyframed wind sources are not part of it: bake again after changing them."""
+    s = obj.tussock_tree
+    kw = wind_runtime.wind_kwargs(scene)
+    parts = [json.dumps(tree_build.definition(s), sort_keys=True), s.smooth_levels,
+             np.round(np.array(obj.matrix_world, np.float64), 9).tobytes().hex(),
+             round(s.wind_strength, 9), scene.frame_start, wind_runtime.fps_of(scene),
+             sorted((k, v.tobytes().hex() if isinstance(v, np.ndarray) else v)
+                    for k, v in kw.items())]
+    return hashlib.sha256(repr(parts).encode()).hexdigest()
+
+
+def jobs_for(scene):
+    root = cache_root()
+    return [TreeJob(o, scene, root) for o in scene.objects
+            if compat.settings_of(o, "tussock_tree") is not None and o.tussock_tree.is_tree]
+
+
+def wire(scene, job):
+    """Points the object's Mesh Cache modifier at the job's .pc2 (stock Blender)."""
+    obj = scene.objects[job.name]
+    mod = obj.modifiers.get(MODIFIER)
+    if mod is None:
+        mod = obj.modifiers.new(MODIFIER, "MESH_CACHE")
+    mod.cache_format = "PC2"
+    mod.filepath = job.rel_pc2
+    mod.deform_mode = "OVERWRITE"
+    mod.time_mode = "FRAME"
+    mod.play_mode = "SCENE"
+    mod.frame_start = float(job.range[0])
+    mod.frame_scale = 1.0
+    obj["tussock_baked_range"] = job.range
+    obj["tussock_bake_key"] = job.key
+
+
+def cached_range(obj, scene):
+    """(start, end) of a bake of obj that is complete and made from the inputs obj and
+    scene have now, or None (missing, incomplete, or out of date)."""
+    mod = obj.modifiers.get(MODIFIER)
+    rng = obj.get("tussock_baked_range")
+    if mod is None or rng is None or not native.available():
+        return None
+    if obj.get("tussock_bake_key") != inputs_key(obj, scene):
+        return None
+    try:
+        info = native.lib.pc2_info(bpy.path.abspath(mod.filepath))
+    except native.Error:
+        return None
+    start, end = int(rng[0]), int(rng[1])
+    if info["samples"] != end - start + 1 or int(info["start_frame"]) != start:
+        return None
+    return start, end
+
+
+def baked_frame(obj, scene, frame):
+    """True when obj's cache holds `frame` (its pose comes from the cache). When the cache
+    is out of date or the frame lies outside it, the cache is switched off so that it
+    cannot show a wrong frame, and the live tree is used instead."""
+    mod = obj.modifiers.get(MODIFIER)
+    if mod is None:
+        return False
+    rng = cached_range(obj, scene)
+    ok = rng is not None and rng[0] <= frame <= rng[1]
+    if mod.show_render != ok or mod.show_viewport != ok:
+        mod.show_render = mod.show_viewport = ok
+        if not ok:
+            print(f"Tussock: the bake of {obj.name} does not hold frame {frame} (cache "
+                  "missing, frame range or settings changed): using the live tree; bake again")
+    return ok
+
+
+class TUSSOCK_OT_bake(bpy.types.Operator):
+    """Bake Tussock's animation (trees) into caches that Blender reads without Tussock"""
+    bl_idname = "tussock.bake"
+    bl_label = "Bake"
+    bl_options = {"REGISTER"}
+
+    frame_start: bpy.props.IntProperty(name="From", default=0,
+                                       description="First frame of this part (0: the scene's)")
+    frame_end: bpy.props.IntProperty(name="To", default=0,
+                                     description="Last frame of this part (0: the scene's)")
+    save: bpy.props.BoolProperty(name="Save", default=False,
+                                 description="Save the .blend after baking (farm workers)")
+
+    _thread = None
+
+    def _part(self, scene):
+        return (self.frame_start or scene.frame_start, self.frame_end or scene.frame_end)
+
+    def _prepare(self, context):
+        scene = context.scene
+        native.require()
+        jobs = jobs_for(scene)
+        if not jobs:
+            raise ValueError("nothing to bake: add a Tussock tree first")
+        part = self._part(scene)
+        if part[0] > part[1]:
+            raise ValueError(f"frame_start: {part[0]} is after frame_end {part[1]}")
+        os.makedirs(cache_root(), exist_ok=True)
+        return jobs, part
+
+    def _finish(self, context, jobs):
+        done = 0
+        for job in jobs:
+            wire(context.scene, job)
+            done += job.assemble_if_complete()
+        if self.save:
+            bpy.ops.wm.save_mainfile()
+        frames = sum(len(j.frames(self._part(context.scene))) for j in jobs)
+        self.report({"INFO"}, f"Baked {frames} frames of {len(jobs)} objects; "
+                              f"{done} caches complete")
+        return {"FINISHED"}
+
+    def execute(self, context):  # scripts, background, farm workers: in this thread
+        return errors.run(self, self._execute, context)
+
+    def _execute(self, context):
+        jobs, part = self._prepare(context)
+        for job in jobs:
+            job.bake_frames(job.frames(part), lambda: None, lambda: False)
+        return self._finish(context, jobs)
+
+    def invoke(self, context, event):  # interactive: a worker thread and a modal timer
+        return errors.run(self, self._start, context)
+
+    def _start(self, context):
+        jobs, part = self._prepare(context)
+        self._jobs = jobs
+        self._total = sum(len(j.frames(part)) for j in jobs)
+        self._state = {"done": 0, "error": None, "cancel": False, "finished": False}
+        state = self._state
+
+        def work():
+            try:
+                for job in jobs:
+                    job.bake_frames(job.frames(part),
+                                    lambda: state.__setitem__("done", state["done"] + 1),
+                                    lambda: state["cancel"])
+            except Exception as exc:  # reported by the modal timer on the main thread
+                state["error"] = str(exc)
+            state["finished"] = True
+
+        self._thread = threading.Thread(target=work, name="tussock-bake", daemon=True)
+        self._thread.start()
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, max(1, self._total))
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._state["cancel"] = True
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        context.window_manager.progress_update(self._state["done"])
+        if not self._state["finished"]:
+            return {"RUNNING_MODAL"}
+        self._thread.join()
+        context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+        if self._state["error"]:
+            self.report({"ERROR"}, f"Tussock: {self._state['error']}")
+            return {"CANCELLED"}
+        if self._state["cancel"]:
+            self.report({"INFO"}, f"Bake cancelled after {self._state['done']} frames "
+                                  "(they are kept; bake again to resume)")
+            return {"CANCELLED"}
+        return errors.run(self, self._finish, context, self._jobs)
+
+
+class TUSSOCK_OT_free_bake(bpy.types.Operator):
+    """Delete Tussock's caches of this scene and go back to live animation"""
+    bl_idname = "tussock.free_bake"
+    bl_label = "Free Bake"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        return errors.run(self, self._free, context)
+
+    def _free(self, context):
+        root = cache_root()
+        removed = 0
+        for obj in context.scene.objects:
+            mod = obj.modifiers.get(MODIFIER)
+            if mod is None:
+                continue
+            name = safe_name(obj.name)
+            folder = os.path.join(root, name)
+            if os.path.isdir(folder):
+                for f in os.listdir(folder):
+                    if f.endswith(".tskf") or ".tmp" in f:
+                        os.remove(os.path.join(folder, f))
+                if not os.listdir(folder):
+                    os.rmdir(folder)
+            pc2 = os.path.join(root, name + ".pc2")
+            if os.path.exists(pc2):
+                os.remove(pc2)
+            obj.modifiers.remove(mod)
+            obj.pop("tussock_baked_range", None)
+            removed += 1
+        self.report({"INFO"}, f"Freed the caches of {removed} objects")
+        return {"FINISHED"}
+
+
+class TUSSOCK_PT_bake(SubPanel, bpy.types.Panel):
+    bl_label = "Bake"
+    bl_idname = "TUSSOCK_PT_bake"
+
+    def draw(self, context):
+        row = self.layout.row(align=True)
+        row.operator("tussock.bake", icon="FILE_CACHE")
+        row.operator("tussock.free_bake", icon="TRASH")
+        for obj in context.scene.objects:
+            if obj.modifiers.get(MODIFIER) is not None:
+                rng = cached_range(obj, context.scene)
+                self.layout.label(text=f"{obj.name}: " + (f"frames {rng[0]}–{rng[1]}" if rng
+                                                         else "cache missing or out of date"),
+                                  icon="CHECKMARK" if rng else "ERROR")
+
+
+classes = (TUSSOCK_OT_bake, TUSSOCK_OT_free_bake, TUSSOCK_PT_bake)

@@ -1,0 +1,59 @@
+"""Pictures move on the timeline: before every frame is drawn or rendered, each layer's UV
+pass of that frame is computed in C and written into its UV image. Two handlers, because
+a picture's render is the compositor alone (no Render Layers node): Blender (3.4, measured)
+then evaluates no view layer and calls no frame_change handler between the frames of an
+animation render, only render_pre, with the scene already on the frame to render."""
+
+import bpy
+
+from .. import compat, handlers, native
+from . import frames
+
+
+def _update(scene):
+    settings = getattr(scene, "tussock_picture", None)
+    if settings is None or not settings.applied or not native.available():
+        return False
+    try:
+        frames.update(scene)
+    except (native.Error, ValueError, OSError) as exc:
+        # a handler cannot report; the panel shows why the picture stopped
+        settings.last_error = str(exc)
+        return False
+    if settings.last_error:
+        settings.last_error = ""
+    return True
+
+
+@bpy.app.handlers.persistent
+def on_frame_change(scene, depsgraph=None):
+    if _update(scene) and not bpy.app.background:
+        # let the compositor (Viewer in the Image Editor, backdrop) redraw with the new pass
+        tree = compat.compositor_tree(scene, create=False)
+        if tree is not None:
+            tree.update_tag()
+
+
+@bpy.app.handlers.persistent
+def on_render_pre(scene, *_args):
+    _update(scene)
+
+
+@bpy.app.handlers.persistent
+def on_load(*_args):
+    frames.forget()
+    for scene in bpy.data.scenes:  # a freshly opened file: images hold no frame yet
+        _update(scene)
+
+
+classes = ()
+
+
+def register_extra():
+    handlers.add("frame_change_post", on_frame_change)
+    handlers.add("render_pre", on_render_pre)
+    handlers.add("load_post", on_load)
+
+
+def unregister_extra():
+    frames.forget()

@@ -1,0 +1,277 @@
+"""Bakes for farms: the .pc2 holds exactly the live poses and Blender's Mesh Cache plays
+them; a bake split over two `blender -b` processes gives the same bytes as one; a .blend
+renders the same with Tussock disabled; a bake killed with SIGKILL resumes; a cache of
+another version, a missing frame, a changed frame range, a full disk and a read-only
+folder are reported, never silently rendered wrong."""
+
+import filecmp
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import harness  # noqa: E402
+from harness import expect_cancel, test  # noqa: E402
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.join(harness.REPO, "tools"))
+import blender_env  # noqa: E402
+
+harness.enable_addon()
+from tussock import bake, native  # noqa: E402
+from tussock.trees import build as tree_build  # noqa: E402
+from tussock.wind import runtime  # noqa: E402
+
+lib = native.require()
+TMP = os.environ.get("TSK_TEST_TMP", "/tmp")
+FRAMES = 8
+
+
+def make_scene(folder, frames=FRAMES, preset="quaking_aspen"):
+    """A saved .blend with a swaying tree and a small Cycles camera; returns its path."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    harness.enable_addon()
+    runtime.clear()
+    tree_build.forget()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, frames
+    w = scene.tussock_wind
+    w.base_speed = 4.0
+    wave = w.waves.add()
+    wave.amplitude, wave.wavelength, wave.speed = 3.0, 5.0, 6.0
+    assert bpy.ops.tussock.add_tree(preset=preset, seed=2, leaves=False) == {"FINISHED"}
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = (0.0, -25.0, 6.0), (1.45, 0.0, 0.0)
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.use_denoising = False
+    scene.cycles.seed = 0
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    scene.render.resolution_percentage = 100
+    scene.render.film_transparent = True  # alpha shows where the tree is
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    scene.collection.objects.link(sun)
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, "scene.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    return path
+
+
+def blender(blend, expr, addon=True):
+    """Runs background Blender on a .blend with a python expression (a farm worker)."""
+    with blender_env.BlenderUser() as user:
+        if not addon:
+            os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
+        script = os.path.join(user.tmp, "run.py")
+        with open(script, "w") as f:
+            f.write("import bpy, addon_utils, sys\n")
+            if addon:
+                f.write("addon_utils.enable('tussock', default_set=True)\n")
+            f.write(expr + "\n")
+        proc = subprocess.run(blender_env.command(script, blend=blend), env=user.env,
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        assert proc.returncode == 0, proc.stdout[-3000:]
+        return proc.stdout
+
+
+def cache_files(folder):
+    root = os.path.join(folder, "tussock_cache")
+    out = []
+    for dirpath, _, files in os.walk(root):
+        out += [os.path.relpath(os.path.join(dirpath, f), root) for f in files]
+    return sorted(out)
+
+
+@test
+def test_pc2_holds_live_poses_and_mesh_cache_plays_them():
+    path = make_scene(os.path.join(TMP, "live"))
+    obj = bpy.data.objects[[o.name for o in bpy.context.scene.objects if o.type == "MESH"][0]]
+    scene = bpy.context.scene
+    live = {}
+    for f in range(1, FRAMES + 1):
+        scene.frame_set(f)
+        co = np.empty(len(obj.data.vertices) * 3, np.float32)
+        obj.data.vertices.foreach_get("co", co)
+        live[f] = co
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    pc2 = os.path.join(os.path.dirname(path), "tussock_cache", bake.safe_name(obj.name) + ".pc2")
+    info = lib.pc2_info(pc2)
+    assert info["samples"] == FRAMES and info["start_frame"] == 1.0
+    out = np.empty(info["points"] * 3, np.float32)
+    for f in range(1, FRAMES + 1):
+        lib.pc2_read_sample(pc2, f - 1, out)
+        assert np.array_equal(out, live[f]), f  # the cache is the live pose, bit for bit
+    # Blender's own Mesh Cache modifier plays the right frame
+    for f in (1, 4, FRAMES):
+        scene.frame_set(f)
+        ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+        co = np.empty(len(ev.vertices) * 3, np.float32)
+        ev.vertices.foreach_get("co", co)
+        assert np.allclose(co, live[f], atol=1e-6), f
+
+
+@test
+def test_split_bake_equals_single_bake_and_renders_without_tussock():
+    one = make_scene(os.path.join(TMP, "one"))
+    two = os.path.join(TMP, "two", "scene.blend")
+    os.makedirs(os.path.dirname(two), exist_ok=True)
+    shutil.copyfile(one, two)
+    blender(one, "bpy.ops.tussock.bake(save=True)")
+    blender(two, "bpy.ops.tussock.bake(frame_start=1, frame_end=3, save=True)")
+    blender(two, "bpy.ops.tussock.bake(frame_start=4, frame_end=8, save=True)")
+    a, b = cache_files(os.path.dirname(one)), cache_files(os.path.dirname(two))
+    assert a == b and any(x.endswith(".pc2") for x in a), (a, b)
+    for rel in a:
+        assert filecmp.cmp(os.path.join(os.path.dirname(one), "tussock_cache", rel),
+                           os.path.join(os.path.dirname(two), "tussock_cache", rel),
+                           shallow=False), rel
+    # frame 6 rendered from the baked .blend: Tussock enabled, disabled, and the split bake
+    renders = []
+    for blend, addon in ((one, True), (one, False), (two, False)):
+        out = os.path.join(os.path.dirname(blend), f"r_{addon}_")
+        blender(blend, f"bpy.context.scene.render.filepath = {out!r}\n"
+                       "bpy.context.scene.frame_set(6)\n"
+                       "bpy.ops.render.render(write_still=True)", addon=addon)
+        img = bpy.data.images.load(out + ".png")
+        px = np.empty(64 * 48 * 4, np.float32)
+        img.pixels.foreach_get(px)
+        renders.append(px)
+    assert np.array_equal(renders[0], renders[1]) and np.array_equal(renders[1], renders[2])
+    alpha = renders[0].reshape(-1, 4)[:, 3]
+    assert 0.02 < (alpha > 0.5).mean() < 0.9, (alpha > 0.5).mean()  # the tree is in the picture
+
+
+@test
+def test_killed_bake_resumes_to_the_same_cache():
+    ref = make_scene(os.path.join(TMP, "ref"), frames=24, preset="black_tupelo")
+    killed = os.path.join(TMP, "killed", "scene.blend")
+    os.makedirs(os.path.dirname(killed), exist_ok=True)
+    shutil.copyfile(ref, killed)
+    blender(ref, "bpy.ops.tussock.bake()")
+    folder = os.path.join(os.path.dirname(killed), "tussock_cache")
+    with blender_env.BlenderUser() as user:
+        script = os.path.join(user.tmp, "run.py")
+        with open(script, "w") as f:
+            f.write("import bpy, addon_utils\naddon_utils.enable('tussock')\nbpy.ops.tussock.bake()\n")
+        proc = subprocess.Popen(blender_env.command(script, blend=killed), env=user.env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            done = [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
+            if len(done) >= 3:
+                break
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    done = [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
+    assert 3 <= len(done) < 24, len(done)  # killed part-way
+    assert not any(f.endswith(".pc2") for f in os.listdir(folder))
+    blender(killed, "bpy.ops.tussock.bake()")  # resumes
+    a, b = cache_files(os.path.dirname(ref)), cache_files(os.path.dirname(killed))
+    assert a == b
+    for rel in a:
+        assert filecmp.cmp(os.path.join(os.path.dirname(ref), "tussock_cache", rel),
+                           os.path.join(folder, rel), shallow=False), rel
+
+
+@test
+def test_version_missing_frame_and_range_change_are_reported():
+    path = make_scene(os.path.join(TMP, "errors"))
+    scene = bpy.context.scene
+    obj = [o for o in scene.objects if o.type == "MESH"][0]
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    folder = os.path.join(os.path.dirname(path), "tussock_cache", bake.safe_name(obj.name))
+    # a frame from another format version: refused with its path, nothing baked over it
+    f3 = bake.frame_path(folder, 3)
+    with open(f3, "r+b") as f:
+        f.seek(8)
+        f.write(bytes([9, 0, 0, 0]))
+    expect_cancel(bpy.ops.tussock.bake, "another Tussock")
+    # a missing frame: the bake writes it again; assembling without it is refused
+    os.remove(f3)
+    try:
+        lib.bake_assemble_pc2(os.path.join(TMP, "x.pc2"),
+                              [bake.frame_path(folder, f) for f in range(1, FRAMES + 1)], 1.0, 1.0)
+    except lib.Error as exc:
+        assert "frame_000003" in str(exc)
+    else:
+        raise AssertionError("a missing frame was assembled")
+    assert bpy.ops.tussock.bake() == {"FINISHED"} and os.path.exists(f3)
+    # the frame range grows after baking: frames beyond the cache show the live tree,
+    # never the cache's held last frame
+    mod = obj.modifiers[bake.MODIFIER]
+    scene.frame_end = FRAMES + 4
+    scene.frame_set(FRAMES + 2)
+    assert not mod.show_render and bake.cached_range(obj, scene) == (1, FRAMES)
+    scene.frame_set(2)
+    assert mod.show_render
+    # the first frame moves: wind time starts elsewhere, every cached pose is out of date
+    scene.frame_start = 2
+    scene.frame_set(3)
+    assert not mod.show_render and bake.cached_range(obj, scene) is None
+    scene.frame_start, scene.frame_end = 1, FRAMES
+    scene.frame_set(3)
+    assert mod.show_render
+    # a changed setting (the tree's wind response) makes the cache out of date too
+    obj.tussock_tree.wind_strength *= 2
+    assert bake.cached_range(obj, scene) is None
+    # free: caches gone, live animation back
+    assert bpy.ops.tussock.free_bake() == {"FINISHED"}
+    assert bake.MODIFIER not in obj.modifiers and not os.path.exists(folder)
+
+
+def mount_tmpfs(where, options):
+    os.makedirs(where, exist_ok=True)
+    return subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", where],
+                          stderr=subprocess.DEVNULL).returncode == 0
+
+
+@test
+def test_full_disk_and_read_only_folder_are_reported():
+    make_scene(os.path.join(TMP, "disk"))
+    expect_unsaved = bpy.ops.wm.read_factory_settings(use_empty=True)
+    harness.enable_addon()
+    bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=False)
+    expect_cancel(bpy.ops.tussock.bake, "save the .blend first")
+    assert expect_unsaved == {"FINISHED"}
+    full, ro = os.path.join(TMP, "full"), os.path.join(TMP, "ro")
+    if os.geteuid() == 0 and mount_tmpfs(full, "size=96k"):
+        try:
+            bpy.ops.wm.save_as_mainfile(filepath=os.path.join(full, "scene.blend"), compress=True)
+        except RuntimeError:
+            pass  # the .blend itself may not fit; then save it outside and point the cache in
+        if not bpy.data.filepath.startswith(full):
+            bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "scene_full.blend"))
+            bake.CACHE_DIR_OVERRIDE = os.path.join(full, "tussock_cache")
+        try:
+            expect_cancel(bpy.ops.tussock.bake, "No space left")
+        finally:
+            bake.CACHE_DIR_OVERRIDE = None
+            subprocess.run(["umount", full])
+        assert mount_tmpfs(ro, "ro,size=64k")
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "scene_ro.blend"))
+        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
+        try:
+            expect_cancel(bpy.ops.tussock.bake, "Read-only file system")
+        finally:
+            bake.CACHE_DIR_OVERRIDE = None
+            subprocess.run(["umount", ro])
+    else:  # not root: a folder without write permission, and a file-size quota
+        os.makedirs(ro, exist_ok=True)
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "scene_ro.blend"))
+        os.chmod(ro, 0o555)
+        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
+        try:
+            expect_cancel(bpy.ops.tussock.bake, "Permission denied")
+        finally:
+            bake.CACHE_DIR_OVERRIDE = None
+
+
+harness.main()

@@ -1,0 +1,418 @@
+/* Binding of the blade simulation (tussock/sim.h): a simulation handle (PyCapsule), colliders as
+ * a float32 (n, 8) array, rest blades and wind as float32 arrays, results into caller buffers.
+ * Argument and buffer checks only. */
+#include "binding.h"
+
+#include <stddef.h>
+#include <string.h>
+
+#include "tussock/sim.h"
+
+#define SIM_CAPSULE "tussock.blade_sim"
+
+static void sim_capsule_free(PyObject* capsule) {
+    tsk_blade_sim_destroy(PyCapsule_GetPointer(capsule, SIM_CAPSULE));
+}
+
+static tsk_blade_sim* get_sim(PyObject* obj) {
+    if (!PyCapsule_IsValid(obj, SIM_CAPSULE)) {
+        tsk_py_raise_arg("sim", "expected a blade simulation handle from blade_sim_create");
+        return NULL;
+    }
+    return PyCapsule_GetPointer(obj, SIM_CAPSULE);
+}
+
+/* The definition's fields by name, for keyword arguments and the defaults dict. */
+typedef enum { F_FLOAT, F_INT, F_VEC3 } field_kind;
+typedef struct field {
+    const char* name;
+    field_kind kind;
+    size_t offset;
+} field;
+
+#define FLD(name, kind) {#name, kind, offsetof(tsk_blade_sim_def, name)}
+static const field k_fields[] = {
+    FLD(origin, F_VEC3),
+    FLD(tile_size, F_FLOAT),
+    FLD(tiles_x, F_INT),
+    FLD(tiles_y, F_INT),
+    FLD(knot_count, F_INT),
+    FLD(gravity, F_VEC3),
+    FLD(gravity_preload, F_FLOAT),
+    FLD(damping, F_FLOAT),
+    FLD(wind_drag, F_FLOAT),
+    FLD(linear_density, F_FLOAT),
+    FLD(global_stiffness_root, F_FLOAT),
+    FLD(global_stiffness_tip, F_FLOAT),
+    FLD(local_stiffness, F_FLOAT),
+    FLD(iterations, F_INT),
+    FLD(ground_height, F_FLOAT),
+    FLD(collision_margin, F_FLOAT),
+    FLD(activation_margin, F_FLOAT),
+    FLD(max_blade_height, F_FLOAT),
+    FLD(rest_distance, F_FLOAT),
+    FLD(rest_speed, F_FLOAT),
+    FLD(rest_frames, F_INT),
+    FLD(blend_frames, F_INT),
+};
+#define N_FIELDS (sizeof k_fields / sizeof k_fields[0])
+
+static int set_field(tsk_blade_sim_def* def, const field* f, PyObject* value) {
+    char* base = (char*)def + f->offset;
+    if (f->kind == F_INT) {
+        long v = PyLong_AsLong(value);
+        if (v == -1 && PyErr_Occurred()) {
+            PyErr_Clear();
+            tsk_py_raise_arg(f->name, "expected an int");
+            return 0;
+        }
+        if (v < INT32_MIN || v > INT32_MAX) {
+            tsk_py_raise_arg(f->name, "out of range");
+            return 0;
+        }
+        *(int32_t*)base = (int32_t)v;
+        return 1;
+    }
+    if (f->kind == F_FLOAT) {
+        double v = PyFloat_AsDouble(value);
+        if (v == -1.0 && PyErr_Occurred()) {
+            PyErr_Clear();
+            tsk_py_raise_arg(f->name, "expected a number");
+            return 0;
+        }
+        *(float*)base = (float)v;
+        return 1;
+    }
+    if (!PySequence_Check(value) || PySequence_Size(value) != 3) {
+        PyErr_Clear();
+        tsk_py_raise_arg(f->name, "expected a sequence of 3 numbers");
+        return 0;
+    }
+    for (Py_ssize_t c = 0; c < 3; ++c) {
+        PyObject* item = PySequence_GetItem(value, c);
+        double v = item ? PyFloat_AsDouble(item) : -1.0;
+        Py_XDECREF(item);
+        if (v == -1.0 && PyErr_Occurred()) {
+            PyErr_Clear();
+            tsk_py_raise_arg(f->name, "expected a sequence of 3 numbers");
+            return 0;
+        }
+        ((float*)base)[c] = (float)v;
+    }
+    return 1;
+}
+
+static PyObject* def_to_dict(const tsk_blade_sim_def* def) {
+    PyObject* d = PyDict_New();
+    if (!d) return NULL;
+    for (size_t i = 0; i < N_FIELDS; ++i) {
+        const field* f = &k_fields[i];
+        const char* base = (const char*)def + f->offset;
+        PyObject* v;
+        if (f->kind == F_INT) v = PyLong_FromLong(*(const int32_t*)base);
+        else if (f->kind == F_FLOAT) v = PyFloat_FromDouble(*(const float*)base);
+        else {
+            const float* x = (const float*)base;
+            v = Py_BuildValue("(ddd)", (double)x[0], (double)x[1], (double)x[2]);
+        }
+        if (!v || PyDict_SetItemString(d, f->name, v) != 0) {
+            Py_XDECREF(v);
+            Py_DECREF(d);
+            return NULL;
+        }
+        Py_DECREF(v);
+    }
+    return d;
+}
+
+static PyObject* py_default_def(PyObject* self, PyObject* args) {
+    (void)self;
+    (void)args;
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    return def_to_dict(&def);
+}
+
+static PyObject* py_create(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    if (args && PyTuple_Size(args) != 0)
+        return tsk_py_raise_arg("blade_sim_create", "takes keyword arguments only");
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    if (kw) {
+        Py_ssize_t pos = 0;
+        PyObject *key, *value;
+        while (PyDict_Next(kw, &pos, &key, &value)) {
+            const char* name = PyUnicode_AsUTF8AndSize(key, NULL);
+            if (!name) return NULL;
+            size_t i = 0;
+            for (; i < N_FIELDS; ++i)
+                if (strcmp(k_fields[i].name, name) == 0) break;
+            if (i == N_FIELDS) return tsk_py_raise_arg(name, "unknown setting");
+            if (!set_field(&def, &k_fields[i], value)) return NULL;
+        }
+    }
+    tsk_blade_sim* sim = NULL;
+    tsk_status s = tsk_blade_sim_create(&def, &sim);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    PyObject* cap = PyCapsule_New(sim, SIM_CAPSULE, sim_capsule_free);
+    if (!cap) tsk_blade_sim_destroy(sim);
+    return cap;
+}
+
+static PyObject* py_set_colliders(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *sim_obj, *col_obj;
+    if (!PyArg_ParseTuple(args, "OO:blade_sim_set_colliders", &sim_obj, &col_obj)) return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    Py_buffer cb;
+    if (!tsk_py_buffer(col_obj, "colliders", TSK_PY_F32, -1, 0, &cb)) return NULL;
+    const Py_ssize_t n = tsk_py_count(&cb);
+    if (n % 8 != 0) {
+        PyBuffer_Release(&cb);
+        return tsk_py_raise_arg("colliders", "must hold 8 floats per collider "
+                                             "(kind, radius, ax, ay, az, bx, by, bz), got %zd",
+                                n);
+    }
+    const Py_ssize_t count = n / 8;
+    if (count > TSK_BLADE_SIM_MAX_COLLIDERS) {
+        PyBuffer_Release(&cb);
+        tsk_status s = tsk_blade_sim_set_colliders(sim, NULL, TSK_BLADE_SIM_MAX_COLLIDERS + 1);
+        return tsk_py_raise(s);
+    }
+    tsk_blade_collider* cols = NULL;
+    if (count > 0) {
+        cols = PyMem_Malloc(sizeof(tsk_blade_collider) * (size_t)count);
+        if (!cols) {
+            PyBuffer_Release(&cb);
+            return PyErr_NoMemory();
+        }
+    }
+    const float* v = cb.buf;
+    for (Py_ssize_t i = 0; i < count; ++i) {
+        const float k = v[8 * i];
+        cols[i].kind = k == 0.0f ? TSK_COLLIDER_SPHERE : (k == 1.0f ? TSK_COLLIDER_CAPSULE : -1);
+        cols[i].radius = v[8 * i + 1];
+        for (int c = 0; c < 3; ++c) {
+            cols[i].a[c] = v[8 * i + 2 + c];
+            cols[i].b[c] = v[8 * i + 5 + c];
+        }
+    }
+    PyBuffer_Release(&cb);
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_blade_sim_set_colliders(sim, cols, (int32_t)count);
+    Py_END_ALLOW_THREADS
+    PyMem_Free(cols);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_activate_tile(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* sim_obj;
+    int tile;
+    if (!PyArg_ParseTuple(args, "Oi:blade_sim_activate_tile", &sim_obj, &tile)) return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    tsk_status s = tsk_blade_sim_activate_tile(sim, tile);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_pending(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *sim_obj, *out_obj = NULL;
+    if (!PyArg_ParseTuple(args, "O|O:blade_sim_pending", &sim_obj, &out_obj)) return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    const int32_t n = tsk_blade_sim_pending_count(sim);
+    if (out_obj && out_obj != Py_None) {
+        Py_buffer out;
+        if (!tsk_py_buffer(out_obj, "tiles", TSK_PY_I32, n, 1, &out)) return NULL;
+        tsk_status s = tsk_blade_sim_get_pending(sim, out.buf);
+        PyBuffer_Release(&out);
+        if (s != TSK_OK) return tsk_py_raise(s);
+    }
+    return PyLong_FromLong(n);
+}
+
+static PyObject* py_provide_tile(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *sim_obj, *knots_obj, *widths_obj, *sides_obj = Py_None;
+    int tile;
+    if (!PyArg_ParseTuple(args, "OiOO|O:blade_sim_provide_tile", &sim_obj, &tile, &knots_obj,
+                          &widths_obj, &sides_obj))
+        return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    tsk_blade_sim_info info;
+    tsk_blade_sim_get_info(sim, &info);
+    const Py_ssize_t K = info.knot_count;
+    Py_buffer widths, knots, sides;
+    if (!tsk_py_buffer(widths_obj, "widths", TSK_PY_F32, -1, 0, &widths)) return NULL;
+    const Py_ssize_t nw = tsk_py_count(&widths);
+    if (nw % K != 0) {
+        PyBuffer_Release(&widths);
+        return tsk_py_raise_arg("widths", "must hold %zd floats per blade, got %zd", K, nw);
+    }
+    const Py_ssize_t blades = nw / K;
+    if (blades > TSK_BLADE_SIM_MAX_BLADES_PER_TILE) {
+        PyBuffer_Release(&widths);
+        tsk_status s = tsk_blade_sim_provide_tile(sim, tile, TSK_BLADE_SIM_MAX_BLADES_PER_TILE + 1,
+                                                  NULL, NULL, NULL);
+        return tsk_py_raise(s);
+    }
+    if (!tsk_py_buffer(knots_obj, "knots", TSK_PY_F32, 3 * nw, 0, &knots)) {
+        PyBuffer_Release(&widths);
+        return NULL;
+    }
+    const float* sp = NULL;
+    if (sides_obj != Py_None) {
+        if (!tsk_py_buffer(sides_obj, "sides", TSK_PY_F32, 3 * blades, 0, &sides)) {
+            PyBuffer_Release(&widths);
+            PyBuffer_Release(&knots);
+            return NULL;
+        }
+        sp = sides.buf;
+    }
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_blade_sim_provide_tile(sim, tile, (int32_t)blades, knots.buf, widths.buf, sp);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&widths);
+    PyBuffer_Release(&knots);
+    if (sp) PyBuffer_Release(&sides);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_step(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *sim_obj, *wind_obj = Py_None;
+    float dt;
+    int layout = TSK_WIND_NONE;
+    if (!PyArg_ParseTuple(args, "Of|Oi:blade_sim_step", &sim_obj, &dt, &wind_obj, &layout))
+        return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    if (layout < TSK_WIND_NONE || layout > TSK_WIND_PER_KNOT)
+        return tsk_py_raise_arg("layout", "must be 0 (none), 1 (uniform), 2 (per blade) or "
+                                          "3 (per knot), got %d", layout);
+    tsk_blade_sim_info info;
+    tsk_blade_sim_get_info(sim, &info);
+    Py_ssize_t need = 0;
+    if (layout == TSK_WIND_UNIFORM) need = 3;
+    else if (layout == TSK_WIND_PER_BLADE) need = 3 * (Py_ssize_t)info.active_blades;
+    else if (layout == TSK_WIND_PER_KNOT) need = 3 * (Py_ssize_t)info.active_blades * info.knot_count;
+    Py_buffer wind;
+    const float* wp = NULL;
+    if (layout != TSK_WIND_NONE) {
+        if (wind_obj == Py_None) return tsk_py_raise_arg("wind", "is None but layout needs wind");
+        if (!tsk_py_buffer(wind_obj, "wind", TSK_PY_F32, need, 0, &wind)) return NULL;
+        wp = wind.buf;
+    }
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_blade_sim_step(sim, dt, wp, (tsk_wind_layout)layout);
+    Py_END_ALLOW_THREADS
+    if (wp) PyBuffer_Release(&wind);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_info(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* sim_obj;
+    if (!PyArg_ParseTuple(args, "O:blade_sim_info", &sim_obj)) return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    tsk_blade_sim_info info;
+    tsk_status s = tsk_blade_sim_get_info(sim, &info);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    return Py_BuildValue("{s:i,s:i,s:L,s:i,s:i,s:i,s:n}", "knot_count", info.knot_count,
+                         "active_tiles", info.active_tiles, "active_blades",
+                         (long long)info.active_blades, "pending_tiles", info.pending_tiles,
+                         "blending_tiles", info.blending_tiles, "collider_count",
+                         info.collider_count, "state_bytes", (Py_ssize_t)info.state_bytes);
+}
+
+static PyObject* py_get_active(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *sim_obj, *tiles_obj, *counts_obj;
+    if (!PyArg_ParseTuple(args, "OOO:blade_sim_get_active", &sim_obj, &tiles_obj, &counts_obj))
+        return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    tsk_blade_sim_info info;
+    tsk_blade_sim_get_info(sim, &info);
+    Py_buffer tiles, counts;
+    if (!tsk_py_buffer(tiles_obj, "tiles", TSK_PY_I32, info.active_tiles, 1, &tiles)) return NULL;
+    if (!tsk_py_buffer(counts_obj, "blade_counts", TSK_PY_I32, info.active_tiles, 1, &counts)) {
+        PyBuffer_Release(&tiles);
+        return NULL;
+    }
+    tsk_status s = tsk_blade_sim_get_active(sim, tiles.buf, counts.buf);
+    PyBuffer_Release(&tiles);
+    PyBuffer_Release(&counts);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_get_knots(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *sim_obj, *out_obj;
+    if (!PyArg_ParseTuple(args, "OO:blade_sim_get_knots", &sim_obj, &out_obj)) return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    tsk_blade_sim_info info;
+    tsk_blade_sim_get_info(sim, &info);
+    Py_buffer out;
+    if (!tsk_py_buffer(out_obj, "knots", TSK_PY_F32,
+                       3 * (Py_ssize_t)info.active_blades * info.knot_count, 1, &out))
+        return NULL;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_blade_sim_get_knots(sim, out.buf);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&out);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_tile_state(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* sim_obj;
+    int tile;
+    if (!PyArg_ParseTuple(args, "Oi:blade_sim_tile_state", &sim_obj, &tile)) return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    return PyLong_FromLong(tsk_blade_sim_tile_state(sim, tile));
+}
+
+PyMethodDef tsk_py_sim_methods[] = {
+    {"default_blade_sim_def", py_default_def, METH_NOARGS,
+     "default_blade_sim_def() -> dict: every blade-simulation setting and its default."},
+    {"blade_sim_create", (PyCFunction)(void (*)(void))py_create, METH_VARARGS | METH_KEYWORDS,
+     "blade_sim_create(**settings) -> handle. Settings as default_blade_sim_def()."},
+    {"blade_sim_set_colliders", py_set_colliders, METH_VARARGS,
+     "blade_sim_set_colliders(sim, colliders): float32 (n, 8) rows kind (0 sphere, 1 capsule), "
+     "radius, ax, ay, az, bx, by, bz; updates which tiles are touched and pending."},
+    {"blade_sim_activate_tile", py_activate_tile, METH_VARARGS,
+     "blade_sim_activate_tile(sim, tile): make a tile pending (or keep it active) without a collider."},
+    {"blade_sim_pending", py_pending, METH_VARARGS,
+     "blade_sim_pending(sim, tiles=None) -> count; fills int32 tiles (count) when given."},
+    {"blade_sim_provide_tile", py_provide_tile, METH_VARARGS,
+     "blade_sim_provide_tile(sim, tile, knots, widths, sides=None): rest blades of a tile, float32 "
+     "knots (n*K*3), widths (n*K), sides (n*3)."},
+    {"blade_sim_step", py_step, METH_VARARGS,
+     "blade_sim_step(sim, dt, wind=None, layout=0): advance dt seconds; wind float32 for layout "
+     "1 uniform (3), 2 per active blade (3n), 3 per knot (3nK)."},
+    {"blade_sim_info", py_info, METH_VARARGS, "blade_sim_info(sim) -> dict."},
+    {"blade_sim_get_active", py_get_active, METH_VARARGS,
+     "blade_sim_get_active(sim, tiles, blade_counts): int32 arrays of info['active_tiles']."},
+    {"blade_sim_get_knots", py_get_knots, METH_VARARGS,
+     "blade_sim_get_knots(sim, out): float32 out of info['active_blades'] * K * 3."},
+    {"blade_sim_tile_state", py_tile_state, METH_VARARGS,
+     "blade_sim_tile_state(sim, tile) -> 1 active, 2 pending, 0 neither, -1 out of range."},
+    {NULL, NULL, 0, NULL},
+};

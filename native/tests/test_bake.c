@@ -1,0 +1,172 @@
+/* Tests of bake caches: frame files round-trip exactly, corruption, truncation, other
+ * versions, read-only folders and full disks are reported, and .pc2 assembly verifies
+ * every frame and writes the layout Blender's Mesh Cache modifier reads. */
+#define _DEFAULT_SOURCE
+#include "test.h"
+#include "tussock/bake.h"
+
+#include <dirent.h>
+#include <signal.h>
+#include <stdint.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static char g_dir[256];
+
+static const char* tmp_path(const char* name) {
+    static char buf[4][512];
+    static int k;
+    k = (k + 1) % 4;
+    if (g_dir[0] == '\0') {
+        snprintf(g_dir, sizeof g_dir, "/tmp/tsk_test_bake_%d", (int)getpid());
+        mkdir(g_dir, 0755);
+    }
+    snprintf(buf[k], sizeof buf[k], "%s/%s", g_dir, name);
+    return buf[k];
+}
+
+static void fill(float* xyz, int n, int frame) {
+    for (int i = 0; i < 3 * n; ++i) xyz[i] = (float)(i * 0.001 + frame * 0.5);
+}
+
+TEST(test_frame_round_trip_is_exact) {
+    float a[300], b[300];
+    fill(a, 100, 7);
+    const char* p = tmp_path("f7.tskf");
+    CHECK(tsk_bake_write_frame(p, 7, a, 100) == TSK_OK);
+    int32_t frame = 0;
+    uint32_t count = 0;
+    CHECK(tsk_bake_frame_info(p, &frame, &count) == TSK_OK);
+    CHECK(frame == 7 && count == 100);
+    CHECK(tsk_bake_read_frame(p, b, 100) == TSK_OK);
+    CHECK(memcmp(a, b, sizeof a) == 0);
+    struct stat st;
+    CHECK(stat(p, &st) == 0 && st.st_size == 32 + 1200);
+}
+
+static void flip_byte(const char* path, long offset) {
+    FILE* f = fopen(path, "r+b");
+    fseek(f, offset, SEEK_SET);
+    int c = fgetc(f);
+    fseek(f, offset, SEEK_SET);
+    fputc(c ^ 0x40, f);
+    fclose(f);
+}
+
+TEST(test_corrupt_truncated_and_foreign_frames_are_refused) {
+    float a[30];
+    fill(a, 10, 1);
+    const char* p = tmp_path("c.tskf");
+    CHECK(tsk_bake_write_frame(p, 1, a, 10) == TSK_OK);
+    flip_byte(p, 32 + 17);
+    CHECK_STATUS(tsk_bake_frame_info(p, NULL, NULL), TSK_ERR_FORMAT, "checksum");
+    CHECK(tsk_bake_write_frame(p, 1, a, 10) == TSK_OK);
+    CHECK(truncate(p, 32 + 100) == 0);
+    CHECK_STATUS(tsk_bake_frame_info(p, NULL, NULL), TSK_ERR_FORMAT, "truncated");
+    CHECK(tsk_bake_write_frame(p, 1, a, 10) == TSK_OK);
+    flip_byte(p, 8); /* format version 1 -> 65 */
+    CHECK_STATUS(tsk_bake_frame_info(p, NULL, NULL), TSK_ERR_FORMAT, "another Tussock");
+    FILE* f = fopen(p, "wb");
+    fputs("hello, not a frame at all, but long enough for a header", f);
+    fclose(f);
+    CHECK_STATUS(tsk_bake_frame_info(p, NULL, NULL), TSK_ERR_FORMAT, "not a Tussock bake frame");
+    CHECK_STATUS(tsk_bake_frame_info(tmp_path("missing.tskf"), NULL, NULL), TSK_ERR_IO, "missing");
+    float b[30];
+    CHECK(tsk_bake_write_frame(p, 1, a, 10) == TSK_OK);
+    CHECK_STATUS(tsk_bake_read_frame(p, b, 11), TSK_ERR_FORMAT, "expected 11");
+}
+
+TEST(test_non_finite_points_and_limits_are_refused) {
+    float a[6] = {0, 0, 0, 1, NAN, 1};
+    CHECK_STATUS(tsk_bake_write_frame(tmp_path("nan.tskf"), 1, a, 2), TSK_ERR_ARGUMENT,
+                 "point 1");
+    CHECK_STATUS(tsk_bake_write_frame(tmp_path("big.tskf"), 1, a, TSK_BAKE_MAX_POINTS + 1),
+                 TSK_ERR_LIMIT, "limit");
+    CHECK(access(tmp_path("nan.tskf"), F_OK) != 0);
+}
+
+TEST(test_read_only_folder_and_full_disk_report_io_errors) {
+    float a[3] = {1, 2, 3};
+    if (geteuid() != 0) { /* root ignores permissions: only check as a normal user */
+        const char* ro = tmp_path("ro");
+        mkdir(ro, 0555);
+        char p[600];
+        snprintf(p, sizeof p, "%s/f.tskf", ro);
+        CHECK_STATUS(tsk_bake_write_frame(p, 1, a, 1), TSK_ERR_IO, "cannot write");
+    }
+    /* a full disk, simulated by a file-size limit (a quota): the write fails part-way */
+    static float big[3 * 1000];
+    fill(big, 1000, 3);
+    struct rlimit old;
+    getrlimit(RLIMIT_FSIZE, &old);
+    struct rlimit small = {4096, old.rlim_max};
+    signal(SIGXFSZ, SIG_IGN);
+    CHECK(setrlimit(RLIMIT_FSIZE, &small) == 0);
+    tsk_status s = tsk_bake_write_frame(tmp_path("full.tskf"), 3, big, 1000);
+    setrlimit(RLIMIT_FSIZE, &old);
+    CHECK(s == TSK_ERR_IO);
+    CHECK_MSG(strstr(tsk_last_error(), "cannot write") != NULL, "%s", tsk_last_error());
+    CHECK(access(tmp_path("full.tskf"), F_OK) != 0);  /* no half frame */
+    DIR* d = opendir(g_dir);                          /* and no temporary file left */
+    int leftovers = 0;
+    for (struct dirent* e; d && (e = readdir(d)) != NULL;)
+        leftovers += strstr(e->d_name, ".tmp") != NULL;
+    if (d) closedir(d);
+    CHECK(leftovers == 0);
+    CHECK_STATUS(tsk_bake_write_frame("/proc/no/such/dir/f.tskf", 1, a, 1), TSK_ERR_IO,
+                 "cannot write");
+    /* sysfs refuses new files even to root: a read-only place whoever runs the tests */
+    CHECK_STATUS(tsk_bake_write_frame("/sys/tussock_test.tskf", 1, a, 1), TSK_ERR_IO,
+                 "Permission denied");
+}
+
+TEST(test_pc2_assembly_matches_frames_and_header) {
+    enum { N = 50, F = 5 };
+    static float frames[F][N * 3], got[N * 3];
+    const char* paths[F];
+    char names[F][64];
+    for (int f = 0; f < F; ++f) {
+        fill(frames[f], N, f + 10);
+        snprintf(names[f], sizeof names[f], "p%d.tskf", f);
+        paths[f] = strdup(tmp_path(names[f]));
+        CHECK(tsk_bake_write_frame(paths[f], 10 + f, frames[f], N) == TSK_OK);
+    }
+    const char* pc2 = tmp_path("out.pc2");
+    CHECK(tsk_bake_assemble_pc2(pc2, paths, F, 10.0f, 1.0f) == TSK_OK);
+    uint32_t points, samples;
+    float start, rate;
+    CHECK(tsk_pc2_info(pc2, &points, &start, &rate, &samples) == TSK_OK);
+    CHECK(points == N && samples == F && start == 10.0f && rate == 1.0f);
+    for (int f = 0; f < F; ++f) {
+        CHECK(tsk_pc2_read_sample(pc2, (uint32_t)f, got, N) == TSK_OK);
+        CHECK(memcmp(got, frames[f], sizeof got) == 0);
+    }
+    /* the header, byte by byte, as the Point Cache 2 format defines it */
+    FILE* fp = fopen(pc2, "rb");
+    unsigned char h[32];
+    CHECK(fread(h, 1, 32, fp) == 32);
+    fclose(fp);
+    CHECK(memcmp(h, "POINTCACHE2\0", 12) == 0);
+    int32_t v;
+    memcpy(&v, h + 12, 4);
+    CHECK(v == 1);
+    memcpy(&v, h + 16, 4);
+    CHECK(v == N);
+    memcpy(&v, h + 28, 4);
+    CHECK(v == F);
+    /* a missing or out-of-order frame: refused, and the old .pc2 is left as it was */
+    const char* swapped[F] = {paths[0], paths[2], paths[1], paths[3], paths[4]};
+    CHECK_STATUS(tsk_bake_assemble_pc2(pc2, swapped, F, 10.0f, 1.0f), TSK_ERR_FORMAT,
+                 "expected frame 11");
+    unlink(paths[3]);
+    CHECK_STATUS(tsk_bake_assemble_pc2(pc2, paths, F, 10.0f, 1.0f), TSK_ERR_IO, "p3.tskf");
+    CHECK(tsk_pc2_info(pc2, &points, NULL, NULL, &samples) == TSK_OK && samples == F);
+    for (int f = 0; f < F; ++f) free((void*)paths[f]);
+}
+
+TEST_MAIN(TEST_ENTRY(test_frame_round_trip_is_exact),
+          TEST_ENTRY(test_corrupt_truncated_and_foreign_frames_are_refused),
+          TEST_ENTRY(test_non_finite_points_and_limits_are_refused),
+          TEST_ENTRY(test_read_only_folder_and_full_disk_report_io_errors),
+          TEST_ENTRY(test_pc2_assembly_matches_frames_and_header))

@@ -1,0 +1,613 @@
+/* Tests of the blade simulation: rest stays rest, collisions as hard constraints (sphere,
+ * capsule, ground), recovery to the rest shape, segment lengths in contact, determinism across
+ * thread counts, tile activation and release with memory freed, and argument checks. */
+#include "test.h"
+#include "tussock/sim.h"
+
+#include <stdint.h>
+
+#if defined(__SANITIZE_ADDRESS__)
+#define SLOW 0
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define SLOW 0
+#else
+#define SLOW 1
+#endif
+#else
+#define SLOW 1
+#endif
+
+#define K16 16
+
+/* An analytic blade (the meadow's default shape): with t = k/(K-1), height H, lean e,
+ * turned by `turn` about +z:  local (e H t^2, 0, H t), width W (1 - t^3). */
+static void make_blade(int K, const float root[3], float H, float lean, float turn, float* knots,
+                       float* widths, float* side) {
+    const float c = cosf(turn), s = sinf(turn);
+    for (int k = 0; k < K; ++k) {
+        const float t = (float)k / (float)(K - 1);
+        const float lx = lean * H * t * t, lz = H * t;
+        knots[3 * k] = root[0] + c * lx;
+        knots[3 * k + 1] = root[1] + s * lx;
+        knots[3 * k + 2] = root[2] + lz;
+        widths[k] = 0.008f * (1.0f - t * t * t);
+    }
+    if (side) side[0] = -s, side[1] = c, side[2] = 0.0f;
+}
+
+static float blade_length(int K, const float* knots) {
+    float L = 0;
+    for (int k = 1; k < K; ++k) {
+        float d0 = knots[3 * k] - knots[3 * k - 3], d1 = knots[3 * k + 1] - knots[3 * k - 2],
+              d2 = knots[3 * k + 2] - knots[3 * k - 1];
+        L += sqrtf(d0 * d0 + d1 * d1 + d2 * d2);
+    }
+    return L;
+}
+
+static float seg_len(const float* a, const float* b) {
+    float d0 = b[0] - a[0], d1 = b[1] - a[1], d2 = b[2] - a[2];
+    return sqrtf(d0 * d0 + d1 * d1 + d2 * d2);
+}
+
+/* Distance from p to segment a-b. */
+static double dist_segment(const float* p, const float* a, const float* b) {
+    double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+    double ab2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+    double t = ab2 > 0 ? (ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / ab2 : 0;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    double d[3] = {ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]};
+    return sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+}
+
+/* A row of n blades along x at y = y0, spacing dx, starting at x0; varied lean and turn. */
+static void make_row(int K, int n, float x0, float dx, float y0, float* knots, float* widths,
+                     float* sides) {
+    for (int b = 0; b < n; ++b) {
+        float root[3] = {x0 + dx * (float)b, y0, 0.0f};
+        make_blade(K, root, 0.3f + 0.02f * (float)(b % 3), 0.25f * (float)(b % 4) / 3.0f,
+                   0.7f * (float)b, knots + (size_t)b * K * 3, widths + (size_t)b * K,
+                   sides + 3 * b);
+    }
+}
+
+/* One big tile holding everything, kept active for the whole test. */
+static tsk_blade_sim* one_tile_sim(tsk_blade_sim_def def, int n, const float* knots,
+                                   const float* widths, const float* sides) {
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    if (!sim) return NULL;
+    CHECK(tsk_blade_sim_activate_tile(sim, 0) == TSK_OK);
+    CHECK(tsk_blade_sim_pending_count(sim) == 1);
+    CHECK(tsk_blade_sim_provide_tile(sim, 0, n, knots, widths, sides) == TSK_OK);
+    return sim;
+}
+
+static tsk_blade_sim_def big_tile_def(void) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.origin[0] = def.origin[1] = -1.0f;
+    def.tile_size = 4.0f;
+    def.tiles_x = def.tiles_y = 1;
+    def.collision_margin = 0.0f;
+    def.rest_frames = 1000000; /* never release during these tests */
+    return def;
+}
+
+TEST(test_sim_starts_exactly_at_rest_pose) {
+    enum { N = 20 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], out[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.0f, knots, widths, sides);
+    tsk_blade_sim* sim = one_tile_sim(big_tile_def(), N, knots, widths, sides);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    double worst = 0;
+    for (int i = 0; i < N * K16 * 3; ++i) worst = fmax(worst, fabs(out[i] - knots[i]));
+    CHECK_MSG(worst < 2e-6, "activation pops by %g m", worst);
+    tsk_blade_sim_destroy(sim);
+}
+
+TEST(test_sim_blade_at_rest_stays_at_rest) {
+    enum { N = 20 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], start[N * K16 * 3],
+        out[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.0f, knots, widths, sides);
+    tsk_blade_sim_def def = big_tile_def();
+    CHECK(def.gravity[2] < -9.0f); /* gravity on */
+    tsk_blade_sim* sim = one_tile_sim(def, N, knots, widths, sides);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, start) == TSK_OK);
+    double worst = 0;
+    for (int s = 0; s < 1000; ++s) {
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
+        CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+        for (int i = 0; i < N * K16 * 3; ++i) worst = fmax(worst, fabs(out[i] - start[i]));
+    }
+    CHECK_MSG(worst < 1e-5, "drift %g m over 1000 steps", worst);
+    tsk_blade_sim_destroy(sim);
+}
+
+TEST(test_sim_without_preload_gravity_bends_blades_down) {
+    /* the preload is what holds the rest pose: without it the same blade sags */
+    enum { N = 4 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], out[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.0f, knots, widths, sides);
+    tsk_blade_sim_def def = big_tile_def();
+    def.gravity_preload = 0.0f;
+    tsk_blade_sim* sim = one_tile_sim(def, N, knots, widths, sides);
+    for (int s = 0; s < 120; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    for (int b = 1; b < N; ++b) { /* blade 0 stands straight up: gravity cannot bend it */
+        const int tip = (b * K16 + K16 - 1) * 3;
+        CHECK_MSG(out[tip + 2] < knots[tip + 2] - 1e-3, "blade %d tip z %g vs rest %g", b, out[tip + 2],
+                  knots[tip + 2]);
+    }
+    tsk_blade_sim_destroy(sim);
+}
+
+TEST(test_sim_free_blade_hangs_and_follows_wind) {
+    /* No shape constraints: a 2-knot blade is a pendulum. Gravity alone hangs it straight down
+       from the root; a strong horizontal wind with no gravity turns it along the wind. */
+    float knots[6] = {0.5f, 0.5f, 1.0f, 0.6f, 0.5f, 1.2f}, widths[2] = {0.01f, 0.01f};
+    const float L = sqrtf(0.01f + 0.04f);
+    tsk_blade_sim_def def = big_tile_def();
+    def.knot_count = 2;
+    def.global_stiffness_root = def.global_stiffness_tip = 0.0f;
+    def.local_stiffness = 0.0f;
+    def.gravity_preload = 0.0f;
+    tsk_blade_sim* sim = one_tile_sim(def, 1, knots, widths, NULL);
+    float out[6];
+    for (int s = 0; s < 600; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    CHECK_NEAR(out[3], 0.5f, 2e-3);
+    CHECK_NEAR(out[4], 0.5f, 2e-3);
+    CHECK_NEAR(out[5], 1.0f - L, 2e-3);
+    CHECK_NEAR(out[0], 0.5f, 0.0); /* the root is pinned */
+    tsk_blade_sim_destroy(sim);
+
+    def.gravity[2] = 0.0f;
+    sim = one_tile_sim(def, 1, knots, widths, NULL);
+    const float wind[3] = {0.0f, 8.0f, 0.0f};
+    for (int s = 0; s < 600; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    CHECK_NEAR(out[3], 0.5f, 2e-3);
+    CHECK_NEAR(out[4], 0.5f + L, 2e-3);
+    CHECK_NEAR(out[5], 1.0f, 2e-3);
+    tsk_blade_sim_destroy(sim);
+}
+
+TEST(test_sim_wind_bends_downwind_more_with_stronger_wind) {
+    enum { N = 8 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], out[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.0f, knots, widths, sides);
+    double push[2];
+    for (int w = 0; w < 2; ++w) {
+        tsk_blade_sim* sim = one_tile_sim(big_tile_def(), N, knots, widths, sides);
+        const float wind[3] = {0.0f, w == 0 ? 3.0f : 8.0f, 0.0f};
+        for (int s = 0; s < 240; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+        CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+        push[w] = 1e9;
+        for (int b = 0; b < N; ++b) {
+            const int tip = (b * K16 + K16 - 1) * 3;
+            push[w] = fmin(push[w], out[tip + 1] - knots[tip + 1]);
+        }
+        tsk_blade_sim_destroy(sim);
+    }
+    CHECK_MSG(push[0] > 0.005, "3 m/s moved tips by %g m", push[0]);
+    CHECK_MSG(push[1] > push[0] * 1.5, "8 m/s %g vs 3 m/s %g", push[1], push[0]);
+}
+
+/* Pushes a collider along +x through a row of blades: every step no knot inside, no knot below
+ * the ground, segment lengths within 1 %; then the blades recover within 1 % of blade length. */
+static void collider_pass(int capsule) {
+    enum { N = 32 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], out[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.04f, 0.5f, knots, widths, sides);
+    tsk_blade_sim_def def = big_tile_def();
+    tsk_blade_sim* sim = one_tile_sim(def, N, knots, widths, sides);
+    const float r = 0.12f, dt = 1.0f / 60.0f;
+    double worst_in = 0, worst_len = 0, lowest = 1e9;
+    int touched_knots = 0;
+    for (int s = 0; s < 150; ++s) {
+        tsk_blade_collider c;
+        memset(&c, 0, sizeof c);
+        c.radius = r;
+        const float x = -0.3f + 1.2f * dt * (float)s; /* 1.2 m/s */
+        if (capsule) {
+            c.kind = TSK_COLLIDER_CAPSULE;
+            c.a[0] = x, c.a[1] = 0.3f, c.a[2] = r + 0.01f;
+            c.b[0] = x, c.b[1] = 0.7f, c.b[2] = r + 0.01f;
+        } else {
+            c.kind = TSK_COLLIDER_SPHERE;
+            c.a[0] = x, c.a[1] = 0.5f, c.a[2] = r + 0.01f;
+            c.b[0] = c.b[1] = c.b[2] = 0.0f;
+        }
+        CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+        CHECK(tsk_blade_sim_step(sim, dt, NULL, TSK_WIND_NONE) == TSK_OK);
+        CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+        const float* b_end = capsule ? c.b : c.a;
+        for (int b = 0; b < N; ++b) {
+            for (int k = 0; k < K16; ++k) {
+                const float* p = out + (size_t)(b * K16 + k) * 3;
+                const double d = dist_segment(p, c.a, b_end);
+                if (k > 0) worst_in = fmax(worst_in, r - d);
+                if (d < r * 1.05) ++touched_knots;
+                lowest = fmin(lowest, p[2]);
+                if (k > 0) {
+                    const float L0 = seg_len(knots + (size_t)(b * K16 + k - 1) * 3, knots + (size_t)(b * K16 + k) * 3);
+                    const float L1 = seg_len(p - 3, p);
+                    worst_len = fmax(worst_len, fabs(L1 - L0) / L0);
+                }
+            }
+        }
+    }
+    CHECK_MSG(touched_knots > 1000, "the collider touched only %d knot-steps", touched_knots);
+    CHECK_MSG(worst_in <= 1e-6, "a knot was %g m inside the collider", worst_in);
+    CHECK_MSG(lowest >= 0.0, "a knot went below the ground to z = %g", lowest);
+    CHECK_MSG(worst_len <= 0.01, "segment length off by %.3g %% during contact", 100 * worst_len);
+    /* the collider is gone: the blades recover */
+    CHECK(tsk_blade_sim_set_colliders(sim, NULL, 0) == TSK_OK);
+    for (int s = 0; s < 300; ++s) CHECK(tsk_blade_sim_step(sim, dt, NULL, TSK_WIND_NONE) == TSK_OK);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    double worst_rel = 0;
+    for (int b = 0; b < N; ++b) {
+        const float Lb = blade_length(K16, knots + (size_t)b * K16 * 3);
+        for (int k = 0; k < K16; ++k) {
+            const float* p = out + (size_t)(b * K16 + k) * 3;
+            const float* q = knots + (size_t)(b * K16 + k) * 3;
+            worst_rel = fmax(worst_rel, seg_len(p, q) / Lb);
+        }
+    }
+    CHECK_MSG(worst_rel < 0.01, "after 5 s a knot is %.3g %% of its blade's length from rest",
+              100 * worst_rel);
+    tsk_blade_sim_destroy(sim);
+}
+
+TEST(test_sim_sphere_never_inside_and_blades_recover) { collider_pass(0); }
+TEST(test_sim_capsule_never_inside_and_blades_recover) { collider_pass(1); }
+
+TEST(test_sim_contact_holds_for_5_to_64_knots) {
+    /* a capsule sweeps back and forth through 37 blades (two blocks, one partly padded) of 5, 32
+       and 64 knots: every step no knot inside it or under the ground, lengths within 1 % */
+    static const int Ks[3] = {5, 32, 64};
+    enum { N = 37 };
+    static float knots[N * 64 * 3], widths[N * 64], out[N * 64 * 3];
+    for (int ki = 0; ki < 3; ++ki) {
+        const int K = Ks[ki];
+        for (int b = 0; b < N; ++b) {
+            float root[3] = {0.5f * tsk_rand01(4, (uint64_t)b, 0, 0), 0.5f * tsk_rand01(4, (uint64_t)b, 1, 0), 0.0f};
+            make_blade(K, root, 0.3f, 0.3f, 6.28f * tsk_rand01(4, (uint64_t)b, 2, 0), knots + (size_t)b * K * 3,
+                       widths + (size_t)b * K, NULL);
+        }
+        tsk_blade_sim_def def = big_tile_def();
+        def.knot_count = K;
+        tsk_blade_sim* sim = one_tile_sim(def, N, knots, widths, NULL);
+        double worst_in = 0, worst_len = 0, lowest = 1e9;
+        for (int s = 0; s < 120; ++s) {
+            const float x = 0.25f + 0.6f * sinf(0.05f * (float)s);
+            tsk_blade_collider c = {TSK_COLLIDER_CAPSULE, 0.1f, {x, -0.2f, 0.12f}, {x, 0.7f, 0.12f}};
+            CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+            CHECK(tsk_blade_sim_step(sim, 1.0f / 24.0f, NULL, TSK_WIND_NONE) == TSK_OK);
+            CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+            for (int b = 0; b < N; ++b)
+                for (int k = 1; k < K; ++k) {
+                    const float* p = out + (size_t)(b * K + k) * 3;
+                    worst_in = fmax(worst_in, 0.1 - dist_segment(p, c.a, c.b));
+                    lowest = fmin(lowest, p[2]);
+                    const float L0 = seg_len(knots + (size_t)(b * K + k - 1) * 3, knots + (size_t)(b * K + k) * 3);
+                    worst_len = fmax(worst_len, fabs(seg_len(p - 3, p) - L0) / L0);
+                }
+        }
+        CHECK_MSG(worst_in <= 1e-6, "K=%d: a knot was %g m inside", K, worst_in);
+        CHECK_MSG(lowest >= 0.0, "K=%d: a knot reached z = %g", K, lowest);
+        CHECK_MSG(worst_len <= 0.01, "K=%d: segment length off by %.3g %%", K, 100 * worst_len);
+        tsk_blade_sim_destroy(sim);
+    }
+}
+
+TEST(test_sim_local_shape_alone_restores_bend) {
+    /* global shape off: only local (parent-frame) constraints hold the shape, so recovering
+       the rest pose means the bending directions were kept relative to the blade's frames */
+    enum { N = 16 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], out[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.5f, knots, widths, sides);
+    tsk_blade_sim_def def = big_tile_def();
+    def.global_stiffness_root = def.global_stiffness_tip = 0.0f;
+    def.gravity[2] = 0.0f; /* soft local constraints alone do not hold a blade up against gravity */
+    tsk_blade_sim* sim = one_tile_sim(def, N, knots, widths, sides);
+    const float dt = 1.0f / 60.0f;
+    for (int s = 0; s < 60; ++s) {
+        tsk_blade_collider c = {TSK_COLLIDER_SPHERE, 0.1f, {-0.2f + 1.0f * dt * (float)s, 0.5f, 0.12f}, {0, 0, 0}};
+        CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+        CHECK(tsk_blade_sim_step(sim, dt, NULL, TSK_WIND_NONE) == TSK_OK);
+    }
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    double disturbed = 0;
+    for (int i = 0; i < N * K16 * 3; ++i) disturbed = fmax(disturbed, fabs(out[i] - knots[i]));
+    CHECK_MSG(disturbed > 0.02, "the sphere moved knots by only %g m", disturbed);
+    CHECK(tsk_blade_sim_set_colliders(sim, NULL, 0) == TSK_OK);
+    for (int s = 0; s < 600; ++s) CHECK(tsk_blade_sim_step(sim, dt, NULL, TSK_WIND_NONE) == TSK_OK);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    double worst_rel = 0;
+    for (int b = 0; b < N; ++b) {
+        const float Lb = blade_length(K16, knots + (size_t)b * K16 * 3);
+        for (int k = 0; k < K16; ++k)
+            worst_rel = fmax(worst_rel, seg_len(out + (size_t)(b * K16 + k) * 3, knots + (size_t)(b * K16 + k) * 3) / Lb);
+    }
+    CHECK_MSG(worst_rel < 0.01, "local shape alone left %.3g %% of blade length", 100 * worst_rel);
+    tsk_blade_sim_destroy(sim);
+}
+
+TEST(test_sim_ground_never_penetrated) {
+    /* a heavy downward wind and no preload press the blades flat: none goes below ground */
+    enum { N = 16 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], out[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.5f, knots, widths, sides);
+    tsk_blade_sim_def def = big_tile_def();
+    def.gravity_preload = 0.0f;
+    def.global_stiffness_root = 2.0f;
+    def.local_stiffness = 5.0f;
+    def.ground_height = 0.05f; /* roots sit below the ground plane's height: only knots >= 1 */
+    tsk_blade_sim* sim = one_tile_sim(def, N, knots, widths, sides);
+    const float wind[3] = {3.0f, 0.0f, -30.0f};
+    double lowest = 1e9;
+    for (int s = 0; s < 200; ++s) {
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+        CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+        for (int b = 0; b < N; ++b)
+            for (int k = 1; k < K16; ++k) lowest = fmin(lowest, out[(size_t)(b * K16 + k) * 3 + 2]);
+    }
+    CHECK_MSG(lowest >= 0.05, "a knot reached z = %.9g below the ground 0.05", lowest);
+    CHECK_MSG(lowest < 0.0501, "the blades never reached the ground (lowest %g)", lowest);
+    tsk_blade_sim_destroy(sim);
+}
+
+/* A 6 x 6 grid of tiles, all active, 40 blades each, three spheres and per-knot wind. */
+static void run_scene(int threads, float* out, size_t* out_count) {
+    CHECK(tsk_set_threads(threads) == TSK_OK);
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.tiles_x = def.tiles_y = 6;
+    def.rest_frames = 1000000;
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    enum { NB = 40 };
+    static float knots[NB * K16 * 3], widths[NB * K16], sides[NB * 3];
+    for (int t = 0; t < 36; ++t) {
+        for (int b = 0; b < NB; ++b) {
+            float root[3] = {0.5f * (float)(t % 6) + 0.5f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 0),
+                             0.5f * (float)(t / 6) + 0.5f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 1), 0.0f};
+            make_blade(K16, root, 0.25f + 0.1f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 2), 0.25f,
+                       6.28f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 3), knots + (size_t)b * K16 * 3,
+                       widths + (size_t)b * K16, sides + 3 * b);
+        }
+        CHECK(tsk_blade_sim_activate_tile(sim, t) == TSK_OK);
+        CHECK(tsk_blade_sim_provide_tile(sim, t, NB, knots, widths, sides) == TSK_OK);
+    }
+    const size_t nk = (size_t)36 * NB * K16;
+    float* wind = malloc(sizeof(float) * 3 * nk);
+    for (int s = 0; s < (SLOW ? 60 : 20); ++s) {
+        tsk_blade_collider c[3];
+        for (int i = 0; i < 3; ++i) {
+            c[i].kind = i == 2 ? TSK_COLLIDER_CAPSULE : TSK_COLLIDER_SPHERE;
+            c[i].radius = 0.15f;
+            c[i].a[0] = 0.3f + 0.9f * (float)i + 0.03f * (float)s, c[i].a[1] = 1.5f, c[i].a[2] = 0.12f;
+            c[i].b[0] = c[i].a[0], c[i].b[1] = 2.2f, c[i].b[2] = 0.12f;
+        }
+        CHECK(tsk_blade_sim_set_colliders(sim, c, 3) == TSK_OK);
+        CHECK(tsk_blade_sim_get_knots(sim, out) == TSK_OK);
+        for (size_t i = 0; i < nk; ++i) { /* a wind field sampled at the knots */
+            wind[3 * i] = 2.0f * sinf(out[3 * i] * 3.0f + 0.1f * (float)s);
+            wind[3 * i + 1] = 1.0f + cosf(out[3 * i + 1] * 2.0f);
+            wind[3 * i + 2] = 0.0f;
+        }
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, wind, TSK_WIND_PER_KNOT) == TSK_OK);
+    }
+    CHECK(tsk_blade_sim_get_knots(sim, out) == TSK_OK);
+    *out_count = nk * 3;
+    free(wind);
+    tsk_blade_sim_destroy(sim);
+    CHECK(tsk_set_threads(0) == TSK_OK);
+}
+
+TEST(test_sim_identical_bytes_with_1_and_2_threads) {
+    const size_t n = (size_t)36 * 40 * K16 * 3;
+    float* a = malloc(sizeof(float) * n);
+    float* b = malloc(sizeof(float) * n);
+    size_t na = 0, nb = 0;
+    run_scene(1, a, &na);
+    run_scene(2, b, &nb);
+    CHECK(na == n && nb == n);
+    CHECK(memcmp(a, b, sizeof(float) * n) == 0);
+    /* and something moved */
+    run_scene(1, b, &nb);
+    CHECK(memcmp(a, b, sizeof(float) * n) == 0);
+    free(a);
+    free(b);
+}
+
+/* Rest blades of tile t in a grid with the given def: n blades inside the tile square. */
+static void tile_blades(const tsk_blade_sim_def* def, int t, int n, float* knots, float* widths,
+                        float* sides) {
+    const int i = t % def->tiles_x, j = t / def->tiles_x;
+    for (int b = 0; b < n; ++b) {
+        float root[3] = {def->origin[0] + def->tile_size * ((float)i + tsk_rand01(3, (uint64_t)t, (uint64_t)b, 0)),
+                         def->origin[1] + def->tile_size * ((float)j + tsk_rand01(3, (uint64_t)t, (uint64_t)b, 1)),
+                         def->ground_height};
+        make_blade(def->knot_count, root, 0.3f, 0.2f, 6.28f * tsk_rand01(3, (uint64_t)t, (uint64_t)b, 2),
+                   knots + (size_t)b * def->knot_count * 3, widths + (size_t)b * def->knot_count,
+                   sides + 3 * b);
+    }
+}
+
+TEST(test_sim_tile_activates_then_releases_and_frees_memory) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.tiles_x = def.tiles_y = 8;
+    def.rest_frames = 20;
+    def.blend_frames = 5;
+    const size_t before = tsk_allocated_bytes();
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    const size_t baseline = tsk_allocated_bytes();
+    tsk_blade_sim_info info;
+    CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
+    CHECK(info.active_tiles == 0 && info.state_bytes == 0 && info.pending_tiles == 0);
+    /* a sphere in the middle of tile (3, 3): it and, through the margin, no other tile */
+    tsk_blade_collider c = {TSK_COLLIDER_SPHERE, 0.1f, {1.75f, 1.75f, 0.2f}, {0, 0, 0}};
+    CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+    CHECK(tsk_blade_sim_pending_count(sim) == 1);
+    int32_t pend[16];
+    CHECK(tsk_blade_sim_get_pending(sim, pend) == TSK_OK);
+    CHECK(pend[0] == 3 * 8 + 3);
+    CHECK(tsk_blade_sim_tile_state(sim, 27) == 2);
+    CHECK(tsk_blade_sim_tile_state(sim, 26) == 0);
+    /* moving to the corner of four tiles touches all four */
+    c.a[0] = 2.0f, c.a[1] = 2.0f;
+    CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+    CHECK(tsk_blade_sim_pending_count(sim) == 4);
+    CHECK(tsk_blade_sim_get_pending(sim, pend) == TSK_OK);
+    CHECK(pend[0] == 27 && pend[1] == 28 && pend[2] == 35 && pend[3] == 36);
+    enum { NB = 64 };
+    static float knots[NB * K16 * 3], widths[NB * K16], sides[NB * 3];
+    for (int i = 0; i < 4; ++i) {
+        tile_blades(&def, pend[i], NB, knots, widths, sides);
+        CHECK(tsk_blade_sim_provide_tile(sim, pend[i], NB, knots, widths, sides) == TSK_OK);
+    }
+    CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
+    CHECK(info.active_tiles == 4 && info.active_blades == 4 * NB && info.pending_tiles == 0);
+    CHECK(info.state_bytes > (size_t)4 * NB * K16 * 3 * sizeof(float));
+    CHECK(tsk_allocated_bytes() >= baseline + info.state_bytes);
+    /* the sphere presses for a while, then leaves */
+    for (int s = 0; s < 30; ++s) {
+        c.a[2] = 0.2f - 0.003f * (float)s;
+        CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
+    }
+    CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
+    CHECK(info.active_tiles == 4 && info.blending_tiles == 0);
+    CHECK(tsk_blade_sim_set_colliders(sim, NULL, 0) == TSK_OK);
+    int released_at = -1, saw_blend = 0;
+    float* last = malloc(sizeof(float) * NB * K16 * 3);
+    for (int s = 0; s < 3000 && released_at < 0; ++s) {
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
+        CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
+        saw_blend |= info.blending_tiles > 0;
+        if (tsk_blade_sim_tile_state(sim, 27) == 1) CHECK(tsk_blade_sim_get_tile_knots(sim, 27, last) == TSK_OK);
+        if (info.active_tiles == 0) released_at = s;
+    }
+    CHECK_MSG(released_at > def.rest_frames, "released after %d steps", released_at);
+    CHECK(saw_blend);
+    /* the last state before release was blended to within a tiny distance of the rest pose */
+    tile_blades(&def, 27, NB, knots, widths, sides);
+    double worst = 0;
+    for (int i = 0; i < NB * K16 * 3; ++i) worst = fmax(worst, fabs(last[i] - knots[i]));
+    CHECK_MSG(worst < 1e-3, "released %g m away from rest", worst);
+    CHECK(tsk_allocated_bytes() == baseline);
+    CHECK(info.state_bytes == 0);
+    free(last);
+    tsk_blade_sim_destroy(sim);
+    CHECK(tsk_allocated_bytes() == before);
+}
+
+TEST(test_sim_touched_tile_never_releases) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.tiles_x = def.tiles_y = 2;
+    def.rest_frames = 3;
+    def.blend_frames = 2;
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    tsk_blade_collider c = {TSK_COLLIDER_SPHERE, 0.05f, {0.25f, 0.25f, 0.9f}, {0, 0, 0}};
+    CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+    CHECK(tsk_blade_sim_pending_count(sim) == 1);
+    CHECK(tsk_blade_sim_provide_tile(sim, 0, 0, NULL, NULL, NULL) == TSK_OK); /* an empty tile */
+    for (int s = 0; s < 50; ++s) CHECK(tsk_blade_sim_step(sim, 0.02f, NULL, TSK_WIND_NONE) == TSK_OK);
+    CHECK(tsk_blade_sim_tile_state(sim, 0) == 1);
+    c.a[2] = 5.0f; /* above max_blade_height: touches nothing */
+    CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+    CHECK(tsk_blade_sim_pending_count(sim) == 0);
+    for (int s = 0; s < 5; ++s) CHECK(tsk_blade_sim_step(sim, 0.02f, NULL, TSK_WIND_NONE) == TSK_OK);
+    CHECK(tsk_blade_sim_tile_state(sim, 0) == 0);
+    tsk_blade_sim_destroy(sim);
+}
+
+TEST(test_sim_bad_input_names_the_argument) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    tsk_blade_sim* sim = NULL;
+    def.knot_count = 65;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_LIMIT, "knot_count");
+    def.knot_count = 1;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "knot_count");
+    def = tsk_default_blade_sim_def();
+    def.tile_size = 0.0f;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "tile_size");
+    def = tsk_default_blade_sim_def();
+    def.damping = NAN;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "damping");
+    def = tsk_default_blade_sim_def();
+    def.tiles_x = 1 << 13, def.tiles_y = 1 << 13;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_LIMIT, "tiles_x");
+    def = tsk_default_blade_sim_def();
+    def.iterations = 0;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "iterations");
+    CHECK(sim == NULL);
+    CHECK_STATUS(tsk_blade_sim_create(NULL, &sim), TSK_ERR_ARGUMENT, "def");
+
+    def = tsk_default_blade_sim_def();
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    CHECK_STATUS(tsk_blade_sim_step(sim, -0.01f, NULL, TSK_WIND_NONE), TSK_ERR_ARGUMENT, "dt");
+    CHECK_STATUS(tsk_blade_sim_step(sim, NAN, NULL, TSK_WIND_NONE), TSK_ERR_ARGUMENT, "dt");
+    CHECK_STATUS(tsk_blade_sim_step(sim, 0.01f, NULL, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT, "wind");
+    const float bad_wind[3] = {0, NAN, 0};
+    CHECK_STATUS(tsk_blade_sim_step(sim, 0.01f, bad_wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT, "wind");
+    CHECK_STATUS(tsk_blade_sim_step(sim, 0.01f, NULL, (tsk_wind_layout)9), TSK_ERR_ARGUMENT, "layout");
+
+    static tsk_blade_collider many[TSK_BLADE_SIM_MAX_COLLIDERS + 1];
+    for (int i = 0; i <= TSK_BLADE_SIM_MAX_COLLIDERS; ++i)
+        many[i] = (tsk_blade_collider){TSK_COLLIDER_SPHERE, 0.1f, {0, 0, 0}, {0, 0, 0}};
+    CHECK_STATUS(tsk_blade_sim_set_colliders(sim, many, TSK_BLADE_SIM_MAX_COLLIDERS + 1), TSK_ERR_LIMIT, "count");
+    many[2].radius = -1.0f;
+    CHECK_STATUS(tsk_blade_sim_set_colliders(sim, many, 3), TSK_ERR_ARGUMENT, "colliders");
+    many[2].radius = 0.1f;
+    many[1].a[1] = INFINITY;
+    CHECK_STATUS(tsk_blade_sim_set_colliders(sim, many, 3), TSK_ERR_ARGUMENT, "colliders");
+    many[1].a[1] = 0.0f;
+    many[1].kind = 7;
+    CHECK_STATUS(tsk_blade_sim_set_colliders(sim, many, 3), TSK_ERR_ARGUMENT, "colliders");
+    CHECK_STATUS(tsk_blade_sim_set_colliders(sim, NULL, 2), TSK_ERR_ARGUMENT, "colliders");
+
+    float knots[K16 * 3], widths[K16], side[3];
+    const float root[3] = {0.1f, 0.1f, 0.0f};
+    make_blade(K16, root, 0.3f, 0.2f, 0.0f, knots, widths, side);
+    CHECK_STATUS(tsk_blade_sim_activate_tile(sim, 400), TSK_ERR_ARGUMENT, "tile");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, -1, 1, knots, widths, side), TSK_ERR_ARGUMENT, "tile");
+    knots[3 * 5 + 1] = NAN;
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT, "knots");
+    make_blade(K16, root, 0.3f, 0.2f, 0.0f, knots, widths, side);
+    knots[3 * 6] = knots[3 * 5], knots[3 * 6 + 1] = knots[3 * 5 + 1], knots[3 * 6 + 2] = knots[3 * 5 + 2];
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT, "zero length");
+    make_blade(K16, root, 0.3f, 0.2f, 0.0f, knots, widths, side);
+    widths[3] = -0.001f;
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT, "widths");
+    widths[3] = 0.001f;
+    side[0] = NAN;
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT, "sides");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, TSK_BLADE_SIM_MAX_BLADES_PER_TILE + 1, knots, widths, NULL),
+                 TSK_ERR_LIMIT, "blade_count");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, NULL, widths, NULL), TSK_ERR_ARGUMENT, "knots");
+    CHECK(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, NULL) == TSK_OK);
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, NULL), TSK_ERR_ARGUMENT, "already active");
+    CHECK_STATUS(tsk_blade_sim_get_tile_knots(sim, 1, knots), TSK_ERR_ARGUMENT, "not active");
+    tsk_blade_sim_destroy(sim);
+}
+
+TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
+          TEST_ENTRY(test_sim_blade_at_rest_stays_at_rest),
+          TEST_ENTRY(test_sim_without_preload_gravity_bends_blades_down),
+          TEST_ENTRY(test_sim_free_blade_hangs_and_follows_wind),
+          TEST_ENTRY(test_sim_wind_bends_downwind_more_with_stronger_wind),
+          TEST_ENTRY(test_sim_sphere_never_inside_and_blades_recover),
+          TEST_ENTRY(test_sim_capsule_never_inside_and_blades_recover),
+          TEST_ENTRY(test_sim_contact_holds_for_5_to_64_knots),
+          TEST_ENTRY(test_sim_local_shape_alone_restores_bend),
+          TEST_ENTRY(test_sim_ground_never_penetrated),
+          TEST_ENTRY(test_sim_identical_bytes_with_1_and_2_threads),
+          TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
+          TEST_ENTRY(test_sim_touched_tile_never_releases),
+          TEST_ENTRY(test_sim_bad_input_names_the_argument))

@@ -1,0 +1,95 @@
+"""Benchmarks of simulated blades in background Blender (run by ./build.sh bench):
+`blade_playback` — frame time with about 20,000 simulated blades under a rolling capsule
+plus a million instanced ones (target >= 24 fps); and the peer, Blender's own particle hair
+dynamics with the same segments, in ns per strand-step. Prints JSON lines (DESIGN.md)."""
+
+import json
+import statistics
+import sys
+import time
+
+import bpy
+
+ARGS = [a for a in (sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])
+        if not a.startswith("-")]
+
+
+def wanted(name):
+    return not ARGS or any(name.startswith(a) for a in ARGS)
+
+
+def emit(name, value, unit, params, peer=None):
+    line = {"name": name, "value": value, "unit": unit, "params": params}
+    if peer:
+        line["peer"] = peer
+    print(json.dumps(line), flush=True)
+
+
+def reset():
+    import addon_utils
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    addon_utils.enable("tussock", default_set=True)
+
+
+def playback():
+    reset()
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=32.0)
+    bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=64, density="UNIFORM",
+                               display=0.1)
+    meadow = bpy.context.active_object
+    # a log (capsule) 5 m long rolling across the meadow, keyframed
+    bpy.ops.mesh.primitive_cylinder_add(radius=0.25, depth=5.0, location=(-12.0, 0.0, 0.25),
+                                        rotation=(1.5708, 0.0, 0.0))
+    log = bpy.context.active_object
+    log.keyframe_insert("location", frame=1)
+    log.location.x = 12.0
+    log.keyframe_insert("location", frame=240)
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    coll.objects.link(log)
+    meadow.tussock_meadow.colliders = coll
+    meadow.tussock_meadow.use_simulation = True
+    times = []
+    for f in range(1, 49):
+        t = time.perf_counter()
+        scene.frame_set(f)
+        times.append(time.perf_counter() - t)
+    steady = times[12:]
+    med = statistics.median(steady)
+    emit("blade_playback", round(1.0 / med, 2), "fps",
+         {"frame_ms_median": round(med * 1e3, 1), "active_blades": meadow["tussock_active_blades"],
+          "active_tiles": meadow["tussock_active_tiles"], "instanced_blades": meadow["tussock_blades"],
+          "target_fps": 24})
+
+
+def hair_peer(strands=2000, segments=15, frames=24):
+    reset()
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=4.0)
+    plane = bpy.context.active_object
+    mod = plane.modifiers.new("hair", "PARTICLE_SYSTEM")
+    ps = mod.particle_system.settings
+    ps.type = "HAIR"
+    ps.count = strands
+    ps.hair_length = 0.3
+    ps.hair_step = segments
+    mod.particle_system.use_hair_dynamics = True
+    times = []
+    for f in range(1, frames + 1):
+        t = time.perf_counter()
+        scene.frame_set(f)
+        times.append(time.perf_counter() - t)
+    med = statistics.median(times[2:])
+    substeps = mod.particle_system.cloth.settings.quality
+    ns = med / (strands * substeps) * 1e9
+    emit("blade_sim_1M", round(ns, 1), "ns per blade-step",
+         {"strands": strands, "segments": segments, "substeps_per_frame": substeps,
+          "frame_ms_median": round(med * 1e3, 1), "what": "Blender particle hair dynamics"},
+         peer="blender_hair")
+
+
+if wanted("blade_playback"):
+    playback()
+if wanted("blade_sim_1M") or wanted("blade_hair"):
+    hair_peer()
