@@ -400,8 +400,45 @@ def farm():
     save_rgba("farm_with_without", np.concatenate(tiles[:-1], axis=1))
 
 
+def reliability():
+    """The sample depth frame corrupted on purpose — heavy noise, 10 % dropout and bursts of
+    missing pixels — and what the capture still makes of it."""
+    import numpy as np
+    from tussock import native
+    from tussock.capture import pipeline, preview
+    reset()
+    lib = native.require()
+    src = lib.depth_open_files(SAMPLE)
+    info = lib.depth_info(src)
+    w, h = info["width"], info["height"]
+    depth = np.empty(w * h, np.float32)
+    lib.depth_read(src, depth)
+    lib.depth_close(src)
+    rng = np.random.default_rng(11)
+    d = depth.reshape(h, w).copy()
+    valid = d > 0
+    d[valid] += rng.normal(0.0, 4e-3, valid.sum()).astype(np.float32)  # 2.7x the sensor noise
+    d[rng.random(d.shape) < 0.10] = 0.0                                # 10 % dropout
+    for _ in range(40):                                                # bursts of lost pixels
+        y, x = rng.integers(0, h - 6), rng.integers(0, w - 6)
+        d[y:y + 5, x:x + 5] = 0.0
+    r = pipeline.process(np.ascontiguousarray(d.ravel()), w, h, 0.0, 0.0, info["fx"], info["fy"],
+                         info["cx"], info["cy"], 150)
+    im = r["images"]
+    rows, cols = np.nonzero(im["MASK"])
+    crop = (max(rows.min() - 12, 0), rows.max() + 12, max(cols.min() - 12, 0), cols.max() + 12)
+    blank = np.zeros_like(im["DEPTH"])
+    raw = preview.compose(im["DEPTH"], blank, blank, blank)
+    found = preview.compose(im["DEPTH"], im["MASK"], im["LABELS"], im["OVERLAY"])
+    t, b, l, rr = crop
+    gap = np.ones((b - t, 6, 4), np.float32)
+    save_rgba("reliability_capture", np.concatenate([raw[t:b, l:rr], gap, found[t:b, l:rr]], axis=1),
+              zoom=2)
+    print(f"[pictures] corrupted frame: {r['summary']['message']}", flush=True)
+
+
 FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees,
-            "wind": wind, "simulation": simulation, "farm": farm,
+            "wind": wind, "simulation": simulation, "farm": farm, "reliability": reliability,
             "picture": picture}
 
 os.makedirs(OUT, exist_ok=True)
