@@ -30,4 +30,20 @@ int tsk_py_buffer(PyObject* obj, const char* name, tsk_py_dtype dtype, Py_ssize_
 /// Number of elements in a buffer obtained by tsk_py_buffer.
 Py_ssize_t tsk_py_count(const Py_buffer* view);
 
+/// Buffers acquired together (tsk_py_views_get) and released together (tsk_py_views_release).
+enum { TSK_PY_MAX_VIEWS = 12 };
+typedef struct tsk_py_views {
+    Py_buffer view[TSK_PY_MAX_VIEWS];
+    int n;
+} tsk_py_views;
+
+/// Acquires `obj` as tsk_py_buffer does and stores its data pointer in *ptr; when `optional`
+/// and obj is None, *ptr = NULL and nothing is held. Returns 0 with tussock.Error raised on a
+/// bad buffer; the caller then releases the set.
+int tsk_py_views_get(tsk_py_views* v, PyObject* obj, const char* name, tsk_py_dtype dtype,
+                     Py_ssize_t count, int writable, int optional, void** ptr);
+
+/// Releases every buffer of the set (safe to call twice).
+void tsk_py_views_release(tsk_py_views* v);
+
 #endif

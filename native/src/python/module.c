@@ -86,6 +86,25 @@ Py_ssize_t tsk_py_count(const Py_buffer* view) {
     return view->itemsize > 0 ? view->len / view->itemsize : 0;
 }
 
+void tsk_py_views_release(tsk_py_views* v) {
+    for (int i = 0; i < v->n; ++i) PyBuffer_Release(&v->view[i]);
+    v->n = 0;
+}
+
+int tsk_py_views_get(tsk_py_views* v, PyObject* obj, const char* name, tsk_py_dtype dtype,
+                     Py_ssize_t count, int writable, int optional, void** ptr) {
+    *ptr = NULL;
+    if (obj == Py_None && optional) return 1;
+    if (v->n >= TSK_PY_MAX_VIEWS) {
+        PyErr_SetString(PyExc_SystemError, "too many buffers");
+        return 0;
+    }
+    if (!tsk_py_buffer(obj, name, dtype, count, writable, &v->view[v->n])) return 0;
+    *ptr = v->view[v->n].buf;
+    v->n++;
+    return 1;
+}
+
 /* Every part's method table, declared and listed from py_parts.h. */
 #define TSK_PY_PART(part) extern PyMethodDef tsk_py_##part##_methods[];
 #include "py_parts.h"

@@ -33,37 +33,6 @@ static tsk_meadow* get_meadow(PyObject* obj) {
     return PyCapsule_GetPointer(obj, MEADOW_CAPSULE);
 }
 
-/* A set of buffers acquired together and released together; None gives a NULL pointer. */
-enum { MAX_VIEWS = 8 };
-typedef struct views {
-    Py_buffer view[MAX_VIEWS];
-    int held[MAX_VIEWS];
-    int n;
-} views;
-
-static void views_release(views* v) {
-    for (int i = 0; i < v->n; ++i)
-        if (v->held[i]) PyBuffer_Release(&v->view[i]);
-    v->n = 0;
-}
-
-/* Acquires `obj` (or NULL when obj is None and `optional`); returns 0 on error (raised). */
-static int views_get(views* v, PyObject* obj, const char* name, tsk_py_dtype dtype,
-                     Py_ssize_t count, int writable, int optional, void** ptr) {
-    *ptr = NULL;
-    if (obj == Py_None && optional) return 1;
-    if (v->n >= MAX_VIEWS) {
-        PyErr_SetString(PyExc_SystemError, "too many buffers");
-        return 0;
-    }
-    const int i = v->n;
-    if (!tsk_py_buffer(obj, name, dtype, count, writable, &v->view[i])) return 0;
-    v->held[i] = 1;
-    v->n++;
-    *ptr = v->view[i].buf;
-    return 1;
-}
-
 /* ---- blade models ------------------------------------------------------------------------ */
 
 static PyObject* py_blade_model_default(PyObject* self, PyObject* args) {
@@ -75,16 +44,16 @@ static PyObject* py_blade_model_default(PyObject* self, PyObject* args) {
     tsk_blade_model m;
     tsk_status s = tsk_blade_model_default(&m, knots);
     if (s != TSK_OK) return tsk_py_raise(s);
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     float *xyz, *width;
-    if (!views_get(&v, xyz_obj, "xyz", TSK_PY_F32, 3 * knots, 1, 0, (void**)&xyz) ||
-        !views_get(&v, width_obj, "width", TSK_PY_F32, knots, 1, 0, (void**)&width)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, xyz_obj, "xyz", TSK_PY_F32, 3 * knots, 1, 0, (void**)&xyz) ||
+        !tsk_py_views_get(&v, width_obj, "width", TSK_PY_F32, knots, 1, 0, (void**)&width)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     memcpy(xyz, m.xyz, 3 * (size_t)knots * sizeof(float));
     memcpy(width, m.width, (size_t)knots * sizeof(float));
-    views_release(&v);
+    tsk_py_views_release(&v);
     Py_RETURN_NONE;
 }
 
@@ -104,31 +73,31 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
                                      &widths_obj, &counts_obj, &weights_obj, &blade_count, &smin,
                                      &smax, &seed, &knot_count))
         return NULL;
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     const int32_t* counts = NULL;
     Py_ssize_t model_count = 0;
     if (counts_obj != Py_None) {
-        if (!views_get(&v, counts_obj, "knot_counts", TSK_PY_I32, -1, 0, 0, (void**)&counts))
+        if (!tsk_py_views_get(&v, counts_obj, "knot_counts", TSK_PY_I32, -1, 0, 0, (void**)&counts))
             return NULL;
         model_count = tsk_py_count(&v.view[0]);
     }
     if (model_count > TSK_PATCH_MAX_MODELS) {
-        views_release(&v);
+        tsk_py_views_release(&v);
         return tsk_py_raise_arg("knot_counts", "%zd models exceed the limit of %d", model_count,
                                 TSK_PATCH_MAX_MODELS);
     }
     const float *knots = NULL, *widths = NULL, *weights = NULL;
     Py_ssize_t total = 0;
     if (model_count > 0) {
-        if (!views_get(&v, widths_obj, "widths", TSK_PY_F32, -1, 0, 0, (void**)&widths)) {
-            views_release(&v);
+        if (!tsk_py_views_get(&v, widths_obj, "widths", TSK_PY_F32, -1, 0, 0, (void**)&widths)) {
+            tsk_py_views_release(&v);
             return NULL;
         }
         total = tsk_py_count(&v.view[v.n - 1]);
-        if (!views_get(&v, knots_obj, "knots", TSK_PY_F32, 3 * total, 0, 0, (void**)&knots) ||
-            !views_get(&v, weights_obj, "weights", TSK_PY_F32, model_count, 0, 1,
+        if (!tsk_py_views_get(&v, knots_obj, "knots", TSK_PY_F32, 3 * total, 0, 0, (void**)&knots) ||
+            !tsk_py_views_get(&v, weights_obj, "weights", TSK_PY_F32, model_count, 0, 1,
                        (void**)&weights)) {
-            views_release(&v);
+            tsk_py_views_release(&v);
             return NULL;
         }
     }
@@ -136,7 +105,7 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
     if (model_count > 0) {
         models = PyMem_Malloc((size_t)model_count * sizeof(tsk_blade_model));
         if (models == NULL) {
-            views_release(&v);
+            tsk_py_views_release(&v);
             return PyErr_NoMemory();
         }
     }
@@ -155,7 +124,7 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
     if (s == TSK_OK) s = tsk_patch_create(&d, &patch);
     Py_END_ALLOW_THREADS
     PyMem_Free(models);
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     PyObject* cap = PyCapsule_New(patch, PATCH_CAPSULE, patch_capsule_free);
     if (cap == NULL) tsk_patch_destroy(patch);
@@ -184,21 +153,21 @@ static PyObject* py_patch_blades(PyObject* self, PyObject* args) {
     tsk_patch* p = get_patch(obj);
     if (p == NULL) return NULL;
     const Py_ssize_t n = tsk_patch_blade_count(p);
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     float *xy, *turn, *scale;
     int32_t* model;
-    if (!views_get(&v, xy_o, "xy", TSK_PY_F32, 2 * n, 1, 1, (void**)&xy) ||
-        !views_get(&v, turn_o, "turn", TSK_PY_F32, n, 1, 1, (void**)&turn) ||
-        !views_get(&v, scale_o, "scale", TSK_PY_F32, n, 1, 1, (void**)&scale) ||
-        !views_get(&v, model_o, "model", TSK_PY_I32, n, 1, 1, (void**)&model)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, xy_o, "xy", TSK_PY_F32, 2 * n, 1, 1, (void**)&xy) ||
+        !tsk_py_views_get(&v, turn_o, "turn", TSK_PY_F32, n, 1, 1, (void**)&turn) ||
+        !tsk_py_views_get(&v, scale_o, "scale", TSK_PY_F32, n, 1, 1, (void**)&scale) ||
+        !tsk_py_views_get(&v, model_o, "model", TSK_PY_I32, n, 1, 1, (void**)&model)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_patch_get_blades(p, xy, turn, scale, model);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -213,16 +182,16 @@ static PyObject* py_patch_model(PyObject* self, PyObject* args) {
     tsk_blade_model m;
     tsk_status s = tsk_patch_get_model(p, index, &m);
     if (s != TSK_OK) return tsk_py_raise(s);
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     float *xyz, *width;
-    if (!views_get(&v, xyz_o, "xyz", TSK_PY_F32, 3 * m.knot_count, 1, 0, (void**)&xyz) ||
-        !views_get(&v, width_o, "width", TSK_PY_F32, m.knot_count, 1, 0, (void**)&width)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, xyz_o, "xyz", TSK_PY_F32, 3 * m.knot_count, 1, 0, (void**)&xyz) ||
+        !tsk_py_views_get(&v, width_o, "width", TSK_PY_F32, m.knot_count, 1, 0, (void**)&width)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     memcpy(xyz, m.xyz, 3 * (size_t)m.knot_count * sizeof(float));
     memcpy(width, m.width, (size_t)m.knot_count * sizeof(float));
-    views_release(&v);
+    tsk_py_views_release(&v);
     Py_RETURN_NONE;
 }
 
@@ -237,22 +206,22 @@ static PyObject* py_patch_expand(PyObject* self, PyObject* args) {
     if (p == NULL) return NULL;
     size_t nv = 0, nt = 0;
     tsk_patch_mesh_counts(p, &nv, &nt);
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     float *pos, *nrm, *uv;
     int32_t *tris, *bid;
-    if (!views_get(&v, pos_o, "positions", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1, (void**)&pos) ||
-        !views_get(&v, nrm_o, "normals", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1, (void**)&nrm) ||
-        !views_get(&v, uv_o, "uvs", TSK_PY_F32, 2 * (Py_ssize_t)nv, 1, 1, (void**)&uv) ||
-        !views_get(&v, tri_o, "tris", TSK_PY_I32, 3 * (Py_ssize_t)nt, 1, 1, (void**)&tris) ||
-        !views_get(&v, bid_o, "blade_index", TSK_PY_I32, (Py_ssize_t)nv, 1, 1, (void**)&bid)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, pos_o, "positions", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1, (void**)&pos) ||
+        !tsk_py_views_get(&v, nrm_o, "normals", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1, (void**)&nrm) ||
+        !tsk_py_views_get(&v, uv_o, "uvs", TSK_PY_F32, 2 * (Py_ssize_t)nv, 1, 1, (void**)&uv) ||
+        !tsk_py_views_get(&v, tri_o, "tris", TSK_PY_I32, 3 * (Py_ssize_t)nt, 1, 1, (void**)&tris) ||
+        !tsk_py_views_get(&v, bid_o, "blade_index", TSK_PY_I32, (Py_ssize_t)nv, 1, 1, (void**)&bid)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_patch_expand(p, tile_size, pos, nrm, uv, tris, bid);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -267,28 +236,28 @@ static PyObject* py_blades_expand(PyObject* self, PyObject* args) {
     if (knot_count < 2 || knot_count > TSK_BLADE_MAX_KNOTS)
         return tsk_py_raise_arg("knot_count", "must be 2..%d, got %d", TSK_BLADE_MAX_KNOTS,
                                 knot_count);
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     float *sides, *knots, *widths, *pos, *nrm, *uv;
-    if (!views_get(&v, sides_o, "sides", TSK_PY_F32, -1, 0, 0, (void**)&sides)) return NULL;
+    if (!tsk_py_views_get(&v, sides_o, "sides", TSK_PY_F32, -1, 0, 0, (void**)&sides)) return NULL;
     const Py_ssize_t n3 = tsk_py_count(&v.view[0]);
     if (n3 % 3 != 0) {
-        views_release(&v);
+        tsk_py_views_release(&v);
         return tsk_py_raise_arg("sides", "length %zd is not a multiple of 3", n3);
     }
     const Py_ssize_t n = n3 / 3, K = knot_count;
-    if (!views_get(&v, knots_o, "knots", TSK_PY_F32, 3 * K * n, 0, 0, (void**)&knots) ||
-        !views_get(&v, widths_o, "widths", TSK_PY_F32, K * n, 0, 0, (void**)&widths) ||
-        !views_get(&v, pos_o, "positions", TSK_PY_F32, 6 * K * n, 1, 1, (void**)&pos) ||
-        !views_get(&v, nrm_o, "normals", TSK_PY_F32, 6 * K * n, 1, 1, (void**)&nrm) ||
-        !views_get(&v, uv_o, "uvs", TSK_PY_F32, 4 * K * n, 1, 1, (void**)&uv)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, knots_o, "knots", TSK_PY_F32, 3 * K * n, 0, 0, (void**)&knots) ||
+        !tsk_py_views_get(&v, widths_o, "widths", TSK_PY_F32, K * n, 0, 0, (void**)&widths) ||
+        !tsk_py_views_get(&v, pos_o, "positions", TSK_PY_F32, 6 * K * n, 1, 1, (void**)&pos) ||
+        !tsk_py_views_get(&v, nrm_o, "normals", TSK_PY_F32, 6 * K * n, 1, 1, (void**)&nrm) ||
+        !tsk_py_views_get(&v, uv_o, "uvs", TSK_PY_F32, 4 * K * n, 1, 1, (void**)&uv)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_blades_expand(knots, widths, sides, (size_t)n, knot_count, pos, nrm, uv);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -303,16 +272,16 @@ static PyObject* py_blade_indices(PyObject* self, PyObject* args) {
         return tsk_py_raise_arg("knot_count", "must be 2..%d, got %d", TSK_BLADE_MAX_KNOTS,
                                 knot_count);
     if (blade_count < 0) return tsk_py_raise_arg("blade_count", "must be >= 0, got %d", blade_count);
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     int32_t* tris;
     const Py_ssize_t per = 3 * (Py_ssize_t)tsk_blade_triangle_count(knot_count);
-    if (!views_get(&v, tri_o, "tris", TSK_PY_I32, per * blade_count, 1, 0, (void**)&tris))
+    if (!tsk_py_views_get(&v, tri_o, "tris", TSK_PY_I32, per * blade_count, 1, 0, (void**)&tris))
         return NULL;
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_blades_indices(knot_count, (size_t)blade_count, tris);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -381,13 +350,13 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
     d.noise_persistence = np;
     d.noise_threshold = nt;
     d.noise_contrast = nc;
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     if (d.density == TSK_DENSITY_IMAGE) {
         if (iw < 1 || ih < 1 || iw > TSK_MEADOW_MAX_IMAGE_SIDE || ih > TSK_MEADOW_MAX_IMAGE_SIDE)
             return tsk_py_raise_arg("image", "size must be 1..%d pixels a side, got %d x %d",
                                     TSK_MEADOW_MAX_IMAGE_SIDE, iw, ih);
         float* img;
-        if (!views_get(&v, image_o, "image", TSK_PY_F32, (Py_ssize_t)iw * ih, 0, 0, (void**)&img))
+        if (!tsk_py_views_get(&v, image_o, "image", TSK_PY_F32, (Py_ssize_t)iw * ih, 0, 0, (void**)&img))
             return NULL;
         d.image = img;
         d.image_width = iw;
@@ -398,7 +367,7 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_create(&d, &m);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     PyObject* cap = PyCapsule_New(m, MEADOW_CAPSULE, meadow_capsule_free);
     if (cap == NULL) tsk_meadow_destroy(m);
@@ -433,20 +402,20 @@ static PyObject* py_meadow_tiles(PyObject* self, PyObject* args) {
     tsk_meadow_info i;
     tsk_meadow_get_info(m, &i);
     const Py_ssize_t T = (Py_ssize_t)i.tile_count;
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     int32_t *counts, *offsets;
     float* dens;
-    if (!views_get(&v, c_o, "counts", TSK_PY_I32, T, 1, 1, (void**)&counts) ||
-        !views_get(&v, o_o, "offsets", TSK_PY_I32, T, 1, 1, (void**)&offsets) ||
-        !views_get(&v, d_o, "density", TSK_PY_F32, T, 1, 1, (void**)&dens)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, c_o, "counts", TSK_PY_I32, T, 1, 1, (void**)&counts) ||
+        !tsk_py_views_get(&v, o_o, "offsets", TSK_PY_I32, T, 1, 1, (void**)&offsets) ||
+        !tsk_py_views_get(&v, d_o, "density", TSK_PY_F32, T, 1, 1, (void**)&dens)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_get_tiles(m, counts, offsets, dens);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -461,20 +430,20 @@ static PyObject* py_meadow_instances(PyObject* self, PyObject* args) {
     tsk_meadow_info i;
     tsk_meadow_get_info(m, &i);
     const Py_ssize_t T = (Py_ssize_t)i.tile_count;
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     float* org;
     int32_t *off, *cnt;
-    if (!views_get(&v, org_o, "origins", TSK_PY_F32, 3 * T, 1, 1, (void**)&org) ||
-        !views_get(&v, off_o, "offsets", TSK_PY_I32, T, 1, 1, (void**)&off) ||
-        !views_get(&v, cnt_o, "counts", TSK_PY_I32, T, 1, 1, (void**)&cnt)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, org_o, "origins", TSK_PY_F32, 3 * T, 1, 1, (void**)&org) ||
+        !tsk_py_views_get(&v, off_o, "offsets", TSK_PY_I32, T, 1, 1, (void**)&off) ||
+        !tsk_py_views_get(&v, cnt_o, "counts", TSK_PY_I32, T, 1, 1, (void**)&cnt)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_instances(m, org, off, cnt);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -489,20 +458,20 @@ static PyObject* py_meadow_chunk_instances(PyObject* self, PyObject* args) {
     tsk_meadow_info i;
     tsk_meadow_get_info(m, &i);
     const Py_ssize_t N = (Py_ssize_t)i.chunk_instances;
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     float* org;
     int32_t *chunk, *tile;
-    if (!views_get(&v, org_o, "origins", TSK_PY_F32, 3 * N, 1, 1, (void**)&org) ||
-        !views_get(&v, chunk_o, "chunk", TSK_PY_I32, N, 1, 1, (void**)&chunk) ||
-        !views_get(&v, tile_o, "tile", TSK_PY_I32, N, 1, 1, (void**)&tile)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, org_o, "origins", TSK_PY_F32, 3 * N, 1, 1, (void**)&org) ||
+        !tsk_py_views_get(&v, chunk_o, "chunk", TSK_PY_I32, N, 1, 1, (void**)&chunk) ||
+        !tsk_py_views_get(&v, tile_o, "tile", TSK_PY_I32, N, 1, 1, (void**)&tile)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_chunk_instances(m, org, chunk, tile);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -534,20 +503,20 @@ static PyObject* py_meadow_realise(PyObject* self, PyObject* args) {
     int64_t n = 0;
     tsk_status s = tsk_meadow_blade_count(m, b, e, &n);
     if (s != TSK_OK) return tsk_py_raise(s);
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     float *xyz, *turn, *scale;
     int32_t* idx;
-    if (!views_get(&v, xyz_o, "xyz", TSK_PY_F32, 3 * (Py_ssize_t)n, 1, 1, (void**)&xyz) ||
-        !views_get(&v, turn_o, "turn", TSK_PY_F32, (Py_ssize_t)n, 1, 1, (void**)&turn) ||
-        !views_get(&v, scale_o, "scale", TSK_PY_F32, (Py_ssize_t)n, 1, 1, (void**)&scale) ||
-        !views_get(&v, idx_o, "patch_index", TSK_PY_I32, (Py_ssize_t)n, 1, 1, (void**)&idx)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, xyz_o, "xyz", TSK_PY_F32, 3 * (Py_ssize_t)n, 1, 1, (void**)&xyz) ||
+        !tsk_py_views_get(&v, turn_o, "turn", TSK_PY_F32, (Py_ssize_t)n, 1, 1, (void**)&turn) ||
+        !tsk_py_views_get(&v, scale_o, "scale", TSK_PY_F32, (Py_ssize_t)n, 1, 1, (void**)&scale) ||
+        !tsk_py_views_get(&v, idx_o, "patch_index", TSK_PY_I32, (Py_ssize_t)n, 1, 1, (void**)&idx)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_realise(m, p, b, e, xyz, turn, scale, idx);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -567,18 +536,18 @@ static PyObject* py_meadow_realise_knots(PyObject* self, PyObject* args) {
     tsk_status s = tsk_meadow_blade_count(m, b, e, &n);
     if (s != TSK_OK) return tsk_py_raise(s);
     const Py_ssize_t K = tsk_patch_knot_count(p);
-    views v = {0};
+    tsk_py_views v = {.n = 0};
     float *knots, *widths, *sides;
-    if (!views_get(&v, k_o, "knots", TSK_PY_F32, 3 * K * (Py_ssize_t)n, 1, 1, (void**)&knots) ||
-        !views_get(&v, w_o, "widths", TSK_PY_F32, K * (Py_ssize_t)n, 1, 1, (void**)&widths) ||
-        !views_get(&v, s_o, "sides", TSK_PY_F32, 3 * (Py_ssize_t)n, 1, 1, (void**)&sides)) {
-        views_release(&v);
+    if (!tsk_py_views_get(&v, k_o, "knots", TSK_PY_F32, 3 * K * (Py_ssize_t)n, 1, 1, (void**)&knots) ||
+        !tsk_py_views_get(&v, w_o, "widths", TSK_PY_F32, K * (Py_ssize_t)n, 1, 1, (void**)&widths) ||
+        !tsk_py_views_get(&v, s_o, "sides", TSK_PY_F32, 3 * (Py_ssize_t)n, 1, 1, (void**)&sides)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_realise_knots(m, p, b, e, knots, widths, sides);
     Py_END_ALLOW_THREADS
-    views_release(&v);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }

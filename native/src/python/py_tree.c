@@ -208,26 +208,6 @@ static tsk_subdiv* get_subdiv(PyObject* cap) {
     return s;
 }
 
-/* Optional buffer: None -> no view (*ok stays 1, returns NULL pointer). */
-typedef struct optbuf {
-    Py_buffer view;
-    int have;
-} optbuf;
-
-static int opt_buffer(PyObject* obj, const char* name, tsk_py_dtype dt, Py_ssize_t count,
-                      optbuf* b) {
-    b->have = 0;
-    if (obj == Py_None) return 1;
-    if (!tsk_py_buffer(obj, name, dt, count, 1, &b->view)) return 0;
-    b->have = 1;
-    return 1;
-}
-static void* opt_ptr(optbuf* b) { return b->have ? b->view.buf : NULL; }
-static void opt_release(optbuf* b) {
-    if (b->have) PyBuffer_Release(&b->view);
-    b->have = 0;
-}
-
 /* ---- functions ----------------------------------------------------------------------------- */
 
 static PyObject* py_tree_default_def(PyObject* self, PyObject* args) {
@@ -310,21 +290,20 @@ static PyObject* py_tree_branches(PyObject* self, PyObject* args, PyObject* kw) 
     const tsk_py_dtype types[9] = {TSK_PY_I32, TSK_PY_I32, TSK_PY_F32, TSK_PY_F32, TSK_PY_F32,
                                    TSK_PY_F32, TSK_PY_F32, TSK_PY_F32, TSK_PY_I32};
     const Py_ssize_t per[9] = {1, 1, 12, 12, 3, 2, 1, 3, 1};
-    optbuf b[9];
+    tsk_py_views v = {.n = 0};
+    void* p[9];
     int ok = 1;
-    for (int i = 0; i < 9; ++i) b[i].have = 0;
-    for (int i = 0; i < 9 && ok; ++i) ok = opt_buffer(o[i], names[i], types[i], per[i] * n, &b[i]);
+    for (int i = 0; i < 9 && ok; ++i)
+        ok = tsk_py_views_get(&v, o[i], names[i], types[i], per[i] * n, 1, 1, &p[i]);
     if (ok) {
-        tsk_tree_branches out = {opt_ptr(&b[0]), opt_ptr(&b[1]), opt_ptr(&b[8]), opt_ptr(&b[2]),
-                                 opt_ptr(&b[3]), opt_ptr(&b[4]), opt_ptr(&b[5]), opt_ptr(&b[6]),
-                                 opt_ptr(&b[7])};
+        tsk_tree_branches out = {p[0], p[1], p[8], p[2], p[3], p[4], p[5], p[6], p[7]};
         tsk_status s;
         Py_BEGIN_ALLOW_THREADS
         s = tsk_tree_get_branches(t, &out);
         Py_END_ALLOW_THREADS
         if (s != TSK_OK) ok = 0, tsk_py_raise(s);
     }
-    for (int i = 0; i < 9; ++i) opt_release(&b[i]);
+    tsk_py_views_release(&v);
     if (!ok) return NULL;
     Py_RETURN_NONE;
 }
@@ -342,19 +321,19 @@ static PyObject* py_tree_leaves(PyObject* self, PyObject* args, PyObject* kw) {
     static const char* names[5] = {"position", "direction", "normal", "size", "parent"};
     const tsk_py_dtype types[5] = {TSK_PY_F32, TSK_PY_F32, TSK_PY_F32, TSK_PY_F32, TSK_PY_I32};
     const Py_ssize_t per[5] = {3, 3, 3, 2, 1};
-    optbuf b[5];
+    tsk_py_views v = {.n = 0};
+    void* p[5];
     int ok = 1;
-    for (int i = 0; i < 5; ++i) b[i].have = 0;
-    for (int i = 0; i < 5 && ok; ++i) ok = opt_buffer(o[i], names[i], types[i], per[i] * m, &b[i]);
+    for (int i = 0; i < 5 && ok; ++i)
+        ok = tsk_py_views_get(&v, o[i], names[i], types[i], per[i] * m, 1, 1, &p[i]);
     if (ok) {
         tsk_status s;
         Py_BEGIN_ALLOW_THREADS
-        s = tsk_tree_get_leaves(t, opt_ptr(&b[0]), opt_ptr(&b[1]), opt_ptr(&b[2]), opt_ptr(&b[3]),
-                                opt_ptr(&b[4]));
+        s = tsk_tree_get_leaves(t, p[0], p[1], p[2], p[3], p[4]);
         Py_END_ALLOW_THREADS
         if (s != TSK_OK) ok = 0, tsk_py_raise(s);
     }
-    for (int i = 0; i < 5; ++i) opt_release(&b[i]);
+    tsk_py_views_release(&v);
     if (!ok) return NULL;
     Py_RETURN_NONE;
 }
@@ -488,18 +467,17 @@ static PyObject* py_tree_mesh_topology(PyObject* self, PyObject* args, PyObject*
     size_t nv = 0, nf = 0;
     tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
     if (s != TSK_OK) return tsk_py_raise(s);
-    Py_buffer faces;
-    optbuf uv;
-    if (!tsk_py_buffer(faces_obj, "faces", TSK_PY_I32, 4 * (Py_ssize_t)nf, 1, &faces)) return NULL;
-    if (!opt_buffer(uv_obj, "uvs", TSK_PY_F32, 8 * (Py_ssize_t)nf, &uv)) {
-        PyBuffer_Release(&faces);
+    tsk_py_views v = {.n = 0};
+    void *faces, *uv;
+    if (!tsk_py_views_get(&v, faces_obj, "faces", TSK_PY_I32, 4 * (Py_ssize_t)nf, 1, 0, &faces) ||
+        !tsk_py_views_get(&v, uv_obj, "uvs", TSK_PY_F32, 8 * (Py_ssize_t)nf, 1, 1, &uv)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_tree_mesh_topology(t, &m, faces.buf, opt_ptr(&uv));
+    s = tsk_tree_mesh_topology(t, &m, faces, uv);
     Py_END_ALLOW_THREADS
-    PyBuffer_Release(&faces);
-    opt_release(&uv);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -518,18 +496,17 @@ static PyObject* py_tree_mesh_deform(PyObject* self, PyObject* args, PyObject* k
     size_t nv = 0, nf = 0;
     tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
     if (s != TSK_OK) return tsk_py_raise(s);
-    Py_buffer pos;
-    optbuf nrm;
-    if (!tsk_py_buffer(pos_obj, "positions", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, &pos)) return NULL;
-    if (!opt_buffer(nrm_obj, "normals", TSK_PY_F32, 3 * (Py_ssize_t)nv, &nrm)) {
-        PyBuffer_Release(&pos);
+    tsk_py_views v = {.n = 0};
+    void *pos, *nrm;
+    if (!tsk_py_views_get(&v, pos_obj, "positions", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 0, &pos) ||
+        !tsk_py_views_get(&v, nrm_obj, "normals", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1, &nrm)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_tree_mesh_deform(t, &m, pos.buf, opt_ptr(&nrm));
+    s = tsk_tree_mesh_deform(t, &m, pos, nrm);
     Py_END_ALLOW_THREADS
-    PyBuffer_Release(&pos);
-    opt_release(&nrm);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
