@@ -23,6 +23,23 @@ except Exception as exc:  # ImportError, OSError from a missing shared library, 
 
 Error = lib.Error if lib is not None else RuntimeError
 
+# OpenNI2 recordings are read by a helper program beside the library (a damaged recording
+# can crash OpenNI2's player; in its own process that crash is only an error message).
+# Blender unpacks add-on zips without file modes, so give the program back its execute bit.
+ONI_READER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "tussock_oni_reader")
+
+
+def _ensure_reader_executable():
+    try:
+        if os.path.isfile(ONI_READER) and not os.access(ONI_READER, os.X_OK):
+            os.chmod(ONI_READER, os.stat(ONI_READER).st_mode | 0o111)
+    except OSError:
+        pass  # a read-only install: opening a recording then reports the reader missing
+
+
+if lib is not None:
+    _ensure_reader_executable()
+
 
 class NativeMissing(RuntimeError):
     """Raised by require() when the native library could not be loaded."""

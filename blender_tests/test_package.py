@@ -39,12 +39,23 @@ def test_legacy_zip_installs_and_enables():
     bpy.ops.preferences.addon_install(filepath=zip_path("legacy"), overwrite=True)
     installed = os.path.join(bpy.utils.script_path_user(), "addons", "tussock")
     assert os.path.isfile(os.path.join(installed, "_tussock.abi3.so"))
+    reader = os.path.join(installed, "tussock_oni_reader")
+    assert os.path.isfile(reader)
     mod = harness.enable_addon("tussock")
     assert os.path.realpath(mod.__file__).startswith(os.path.realpath(installed))
     from tussock import native
     assert native.available(), native.error
     assert native.version() == manifest()["version"]
     assert hasattr(bpy.types, "TUSSOCK_PT_main")
+    # the installed recording reader runs: it is executable again after Blender's unzip, and
+    # a recording that crashes OpenNI2's player comes back as an error, not a crash
+    assert os.access(reader, os.X_OK)
+    crash = os.path.join(harness.REPO, "native", "fuzz", "crashes", "oni-segv-libOniFile.oni")
+    try:
+        native.lib.depth_open_oni(crash)
+        raise AssertionError("a recording that crashes OpenNI2 opened")
+    except native.Error as exc:
+        assert "recording reader crashed" in str(exc), exc
     harness.disable_addon("tussock")
 
 
@@ -53,7 +64,9 @@ def test_extension_zip_has_valid_manifest():
     m = manifest()
     with zipfile.ZipFile(zip_path("extension")) as z:
         names = set(z.namelist())
-        assert {"blender_manifest.toml", "__init__.py", "_tussock.abi3.so"} <= names, names
+        assert {"blender_manifest.toml", "__init__.py", "_tussock.abi3.so",
+                "tussock_oni_reader"} <= names, names
+        assert (z.getinfo("tussock_oni_reader").external_attr >> 16) & 0o111
         assert not any(n.endswith(".pyc") for n in names)
         bm = tomllib.loads(z.read("blender_manifest.toml").decode())
     for key in ("schema_version", "id", "version", "name", "tagline", "maintainer", "type",

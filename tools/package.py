@@ -56,7 +56,10 @@ def write_zip(path, entries):
         for arcname, src, data in entries:
             info = zipfile.ZipInfo(arcname, date_time=(2020, 1, 1, 0, 0, 0))
             info.compress_type = zipfile.ZIP_DEFLATED
-            info.external_attr = 0o644 << 16
+            # programs keep their execute bit for unzip tools that honour it
+            # (Blender's installer does not; addon/native.py restores it)
+            mode = 0o755 if src is not None and os.access(src, os.X_OK) else 0o644
+            info.external_attr = mode << 16
             if src is not None:
                 with open(src, "rb") as f:
                     data = f.read()
@@ -68,8 +71,9 @@ def main(repo, dist):
     with open(os.path.join(repo, "manifest.toml"), "rb") as f:
         meta = tomllib.load(f)
     addon_dir = os.path.join(repo, "addon")
-    if not os.path.isfile(os.path.join(addon_dir, "_tussock.abi3.so")):
-        sys.exit("package.py: addon/_tussock.abi3.so is missing; run ./build.sh build")
+    for built in ("_tussock.abi3.so", "tussock_oni_reader"):
+        if not os.path.isfile(os.path.join(addon_dir, built)):
+            sys.exit(f"package.py: addon/{built} is missing; run ./build.sh build")
     os.makedirs(dist, exist_ok=True)
     files = list(addon_files(addon_dir))
     base = f'{meta["id"]}-{meta["version"]}'

@@ -2,8 +2,12 @@
  * blades (count, centreline, width, 3-D points; clean and with sensor-like noise), depth
  * files (PNG16, EXR, sequences) written by the test, the OpenNI2 Dummy device, .oni
  * recordings made by the test, and every bad input with its status and message. */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE
+#include <errno.h>
+#include <signal.h>
 #include <stdint.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
 #include <dirent.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -11,6 +15,7 @@
 
 #include "bridge/opencv_capture_bridge.h"
 #include "capture/depth_internal.h"
+#include "capture/oni_reader_protocol.h"
 #include "capture_scene.h"
 #include "oni_writer.h"
 
@@ -831,6 +836,230 @@ TEST(test_oni_recording_made_by_the_test_plays_frame_by_frame) {
 }
 
 
+static double oni_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The reader's crash as reported: a signal, or in sanitizer builds (whose handler catches
+ * the signal and exits) an exit code. */
+static int reader_crashed(const char* msg) {
+    return strstr(msg, "crashed (signal 11") != NULL || strstr(msg, "stopped with exit code") != NULL;
+}
+
+/* no reader process is left behind (all were reaped) */
+static int children_left(void) {
+    return waitpid(-1, NULL, WNOHANG) != -1 || errno != ECHILD;
+}
+
+TEST(test_oni_damaged_recordings_cannot_crash_the_caller) {
+    /* a recording that crashes OpenNI2's player (found by fuzz_oni): the reader process
+     * crashes, this process gets a status that says so */
+    tsk_depth_source* src = NULL;
+    double t0 = oni_now();
+    CHECK_STATUS(tsk_depth_open_oni(TSK_SOURCE_DIR "/fuzz/crashes/oni-segv-libOniFile.oni", &src),
+                 TSK_ERR_FORMAT, "recording reader");
+    CHECK(reader_crashed(tsk_last_error()));
+    CHECK(src == NULL);
+    CHECK(oni_now() - t0 < 10.0);
+    CHECK(!children_left());
+    /* 40 damaged copies of a good recording (bytes overwritten at spread positions, or cut
+     * short): each opens and plays, or fails with a message; never longer than the limits */
+    const char* good = tmp_path("good.oni");
+    oni_writer ow;
+    CHECK(oniw_open(&ow, good, 160, 120, 1.0, 0.8) == 0);
+    static uint16_t mm[160 * 120];
+    for (int f = 0; f < 3; ++f) {
+        for (int i = 0; i < 160 * 120; ++i) mm[i] = (uint16_t)(600 + 100 * f + (i % 160));
+        CHECK(oniw_frame(&ow, mm) == 0);
+    }
+    CHECK(oniw_close(&ow) == 0);
+    FILE* fp = fopen(good, "rb");
+    CHECK(fp != NULL);
+    if (fp == NULL) return;
+    static unsigned char bytes[1 << 20], bad[1 << 20];
+    const size_t n = fread(bytes, 1, sizeof bytes, fp);
+    fclose(fp);
+    CHECK(n > 1000 && n < sizeof bytes);
+    int opened = 0, refused = 0, played = 0;
+    static float d[160 * 120];
+    for (int v = 0; v < 40; ++v) {
+        memcpy(bad, bytes, n);
+        size_t len = n;
+        if (v % 4 == 3) {
+            len = (size_t)(tsk_rand01(7, (uint64_t)v, 0, 0) * (double)n);
+        } else {
+            for (int k = 0; k < 1 + v % 8; ++k) {
+                /* most of the file is frame data: aim at the first 4 KiB (headers, stream
+                 * and property records) half of the time */
+                const double u = tsk_rand01(7, (uint64_t)v, (uint64_t)k, 1);
+                const size_t at = (size_t)(u * (double)(k % 2 ? n : 4096));
+                bad[at] = (unsigned char)(tsk_hash4(7, (uint32_t)v, (uint32_t)k, 2) & 0xff);
+            }
+        }
+        const char* path = tmp_path("bad.oni");
+        write_bytes(path, bad, len);
+        t0 = oni_now();
+        tsk_status s = tsk_depth_open_oni(path, &src);
+        if (s != TSK_OK) {
+            ++refused;
+            CHECK_MSG(tsk_last_error()[0] != '\0', "variant %d: no message", v);
+            CHECK(src == NULL);
+            continue;
+        }
+        ++opened;
+        tsk_depth_info info;
+        CHECK(tsk_depth_get_info(src, &info) == TSK_OK);
+        CHECK(info.width == 160 && info.height == 120);
+        tsk_depth_frame fr;
+        int frames = 0;
+        for (int i = 0; i < info.frame_count + 1; ++i) {
+            if (tsk_depth_read(src, d, 160 * 120, &fr) != TSK_OK) {
+                CHECK(tsk_last_error()[0] != '\0');
+                break;
+            }
+            if (!fr.is_new) break;
+            ++frames;
+            int finite = 1;
+            for (int k = 0; k < 160 * 120; ++k) finite &= d[k] >= 0.0f && isfinite(d[k]);
+            CHECK(finite);
+        }
+        played += frames == 3;
+        tsk_depth_close(src);
+        CHECK_MSG(oni_now() - t0 < 30.0, "variant %d took %.1f s", v, oni_now() - t0);
+    }
+    printf("    damaged recordings: %d opened (%d played all 3 frames), %d refused\n", opened,
+           played, refused);
+    CHECK(opened + refused == 40);
+    CHECK(refused > 0); /* truncations at least */
+    CHECK(!children_left());
+}
+
+TEST(test_oni_reader_that_dies_mid_read_or_is_missing_gives_clear_errors) {
+    const char* path = tmp_path("three.oni");
+    oni_writer ow;
+    CHECK(oniw_open(&ow, path, 64, 48, 1.0, 0.8) == 0);
+    static uint16_t mm[64 * 48];
+    for (int f = 0; f < 3; ++f) {
+        for (int i = 0; i < 64 * 48; ++i) mm[i] = (uint16_t)(1000 + f);
+        CHECK(oniw_frame(&ow, mm) == 0);
+    }
+    CHECK(oniw_close(&ow) == 0);
+    tsk_depth_source* src = NULL;
+    CHECK_STATUS(tsk_depth_open_oni(path, &src), TSK_OK, "");
+    if (src == NULL) return;
+    static float d[64 * 48];
+    tsk_depth_frame fr;
+    CHECK_STATUS(tsk_depth_read(src, d, 64 * 48, &fr), TSK_OK, "");
+    CHECK(fr.is_new && fr.index == 0);
+    CHECK_NEAR(d[100], 1.000, 1e-6);
+    const int pid = tsk_oni_proxy_pid(src);
+    CHECK(pid > 0);
+    kill(pid, SIGSEGV); /* as if OpenNI2 crashed on the next frame */
+    CHECK_STATUS(tsk_depth_read(src, d, 64 * 48, &fr), TSK_ERR_FORMAT, "while reading");
+    CHECK(reader_crashed(tsk_last_error()));
+    /* the source stays broken, with the same message */
+    CHECK_STATUS(tsk_depth_seek(src, 0), TSK_ERR_FORMAT, "while reading");
+    tsk_depth_close(src);
+    CHECK(!children_left());
+    /* no reader installed */
+    setenv("TSK_ONI_READER", "/nonexistent/tussock_oni_reader", 1);
+    CHECK_STATUS(tsk_depth_open_oni(path, &src), TSK_ERR_INTERNAL, "missing or not executable");
+    unsetenv("TSK_ONI_READER");
+    CHECK(src == NULL);
+    /* a reader that is not one: /bin/true ends at once without a word */
+    setenv("TSK_ONI_READER", "/bin/true", 1);
+    CHECK_STATUS(tsk_depth_open_oni(path, &src), TSK_ERR_FORMAT, "while opening");
+    unsetenv("TSK_ONI_READER");
+    CHECK(!children_left());
+}
+
+/* A reader's side of the conversation written by the test: its answers, then the end of
+ * its stream; its end stays open to take requests until the next call. */
+static int fake_reader(const void* bytes, size_t n, tsk_depth_source** out) {
+    static int peer = -1;
+    if (peer >= 0) close(peer);
+    int sv[2];
+    if (socketpair(AF_UNIX, SOCK_STREAM, 0, sv) != 0) return -1;
+    if (write(sv[1], bytes, n) != (ssize_t)n) return -1;
+    shutdown(sv[1], SHUT_WR);
+    peer = sv[1];
+    return (int)tsk_depth_attach_oni_reader(sv[0], "fake.oni", out);
+}
+
+typedef struct fake_talk {
+    tsk_oni_hello h;
+    tsk_oni_reply r;
+    float px[4];
+} fake_talk;
+
+TEST(test_oni_reader_answers_are_checked) {
+    fake_talk m;
+    memset(&m, 0, sizeof m);
+    memcpy(m.h.magic, TSK_ONI_MAGIC, 8);
+    m.h.width = 2;
+    m.h.height = 2;
+    m.h.frame_count = 1;
+    m.h.fx = m.h.fy = 2.0;
+    m.h.cx = m.h.cy = 0.5;
+    m.r.is_new = 1;
+    m.r.end = 1;
+    m.px[0] = 0.5f;
+    m.px[3] = 2.0f;
+    tsk_depth_source* src = NULL;
+    /* a well-formed conversation plays */
+    int sv[2];
+    CHECK(socketpair(AF_UNIX, SOCK_STREAM, 0, sv) == 0);
+    CHECK(write(sv[1], &m, sizeof m) == (ssize_t)sizeof m);
+    CHECK_STATUS(tsk_depth_attach_oni_reader(sv[0], "fake.oni", &src), TSK_OK, "");
+    float d[4];
+    tsk_depth_frame fr;
+    CHECK_STATUS(tsk_depth_read(src, d, 4, &fr), TSK_OK, "");
+    CHECK(fr.is_new == 1 && fr.end == 1 && d[0] == 0.5f && d[3] == 2.0f);
+    tsk_depth_close(src);
+    close(sv[1]);
+    /* each damaged answer is refused with a message */
+    fake_talk b = m;
+    memcpy(b.h.magic, "NOTONI!!", 8);
+    CHECK_STATUS(fake_reader(&b, sizeof b, &src), TSK_ERR_FORMAT, "another format");
+    b = m;
+    b.h.width = 0;
+    CHECK_STATUS(fake_reader(&b, sizeof b, &src), TSK_ERR_FORMAT, "inconsistent");
+    b = m;
+    b.h.height = 1 << 20;
+    CHECK_STATUS(fake_reader(&b, sizeof b, &src), TSK_ERR_FORMAT, "inconsistent");
+    b = m;
+    b.h.fx = NAN;
+    CHECK_STATUS(fake_reader(&b, sizeof b, &src), TSK_ERR_FORMAT, "inconsistent");
+    b = m;
+    b.h.status = 99;
+    CHECK_STATUS(fake_reader(&b, sizeof b, &src), TSK_ERR_FORMAT, "another format");
+    b = m;
+    b.h.status = TSK_ERR_LIMIT;
+    snprintf(b.h.message, sizeof b.h.message, "too big, says the reader");
+    CHECK_STATUS(fake_reader(&b, sizeof b, &src), TSK_ERR_LIMIT, "too big, says the reader");
+    CHECK_STATUS(fake_reader(&m, sizeof m.h - 1, &src), TSK_ERR_FORMAT, "while opening");
+    /* bad frames: NaN depth, a frame index past the end, a short frame */
+    struct {
+        const char* want;
+        int field;
+    } cases[] = {{"invalid depth", 0}, {"past the end", 1}, {"sending a frame", 2},
+                 {"inconsistent reply", 3}};
+    for (int c = 0; c < 4; ++c) {
+        b = m;
+        size_t n = sizeof b;
+        if (cases[c].field == 0) b.px[1] = NAN;
+        if (cases[c].field == 1) b.r.index = 1;
+        if (cases[c].field == 2) n -= 3;
+        if (cases[c].field == 3) b.r.is_new = 7;
+        CHECK_STATUS(fake_reader(&b, n, &src), TSK_OK, "");
+        if (src == NULL) continue;
+        CHECK_STATUS(tsk_depth_read(src, d, 4, &fr), TSK_ERR_FORMAT, cases[c].want);
+        tsk_depth_close(src);
+    }
+}
+
 TEST(test_capture_random_depth_is_handled_without_harm) {
     /* random depths (half of them in one band, some holes): many odd blobs; the pipeline
      * must return a status, keep its limits, and give only finite knots */
@@ -1015,4 +1244,7 @@ TEST_MAIN(TEST_ENTRY(test_capture_tiny_smoothing_sigma_is_identity_not_nan),
           TEST_ENTRY(test_device_dummy_reads_latest_frame_without_blocking),
           TEST_ENTRY(test_device_missing_gives_device_error),
           TEST_ENTRY(test_oni_recording_made_by_the_test_plays_frame_by_frame),
+          TEST_ENTRY(test_oni_damaged_recordings_cannot_crash_the_caller),
+          TEST_ENTRY(test_oni_reader_that_dies_mid_read_or_is_missing_gives_clear_errors),
+          TEST_ENTRY(test_oni_reader_answers_are_checked),
           TEST_ENTRY(test_capture_random_depth_is_handled_without_harm))

@@ -5,6 +5,7 @@
 #include "tussock/capture.h"
 
 typedef struct tsk_oni_state tsk_oni_state;
+typedef struct tsk_oni_proxy tsk_oni_proxy;
 
 struct tsk_depth_source {
     tsk_depth_kind kind;
@@ -18,8 +19,10 @@ struct tsk_depth_source {
     /* files */
     char* pattern;     /* path with the '#' run (or a plain path) */
     int hash_pos, hash_len; /* position and length of the '#' run; len 0 = single file */
-    /* OpenNI2 */
+    /* OpenNI2, in this process (devices; recordings inside the recording reader) */
     tsk_oni_state* oni;
+    /* OpenNI2 recordings, through the recording reader process (depth_oni_proxy.c) */
+    tsk_oni_proxy* proxy;
 };
 
 /* files back end */
@@ -37,6 +40,25 @@ tsk_status tsk_oni_seek(tsk_depth_source* src, int index);
 tsk_status tsk_oni_read(tsk_depth_source* src, float* depth_m, size_t count,
                         tsk_depth_frame* frame);
 void tsk_oni_close(tsk_depth_source* src);
+/* Opens a recording in this process, with OpenNI2's own player. Only the recording reader
+ * (native/helpers/oni_reader.c) calls it: a damaged file can crash that player. */
+tsk_status tsk_depth_open_oni_local(const char* path, tsk_depth_source** out);
+
+/* .oni recordings through the recording reader process */
+tsk_status tsk_oni_proxy_open(tsk_depth_source* src, const char* path);
+/* Takes over `fd`, a socket to a reader (process `pid`, or -1 for none: tests and fuzzing
+ * feed the bytes themselves), and receives and checks its hello. */
+tsk_status tsk_oni_proxy_attach(tsk_depth_source* src, int fd, int pid, const char* path);
+/* A recording source over `fd` with no reader process behind it: tests and fuzz_oni write
+ * the reader's side of the conversation themselves. */
+tsk_status tsk_depth_attach_oni_reader(int fd, const char* name, tsk_depth_source** out);
+/* Test hook: the process id of a recording's reader (-1 if none). */
+int tsk_oni_proxy_pid(const tsk_depth_source* src);
+tsk_status tsk_oni_proxy_read(tsk_depth_source* src, float* depth_m, size_t count,
+                              tsk_depth_frame* frame);
+tsk_status tsk_oni_proxy_seek(tsk_depth_source* src, int index);
+void tsk_oni_proxy_close(tsk_depth_source* src);
+
 /* Test hook: makes a device source behave as if the device had been unplugged. */
 void tsk_oni_simulate_loss(tsk_depth_source* src);
 

@@ -85,7 +85,8 @@ tsk_status tsk_depth_open_files(const char* path, tsk_depth_source** out) {
     return TSK_OK;
 }
 
-tsk_status tsk_depth_open_oni(const char* path, tsk_depth_source** out) {
+static tsk_status open_recording(const char* path, tsk_depth_source** out,
+                                 int in_process) {
     if (out == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out", "is NULL");
     *out = NULL;
     if (path == NULL || path[0] == '\0')
@@ -101,7 +102,31 @@ tsk_status tsk_depth_open_oni(const char* path, tsk_depth_source** out) {
                              sizeof src->description - 1);
     }
     snprintf(src->description, sizeof src->description, "%s", path);
-    tsk_status s = tsk_oni_open(src, path, 1);
+    tsk_status s = in_process ? tsk_oni_open(src, path, 1) : tsk_oni_proxy_open(src, path);
+    if (s != TSK_OK) {
+        tsk_depth_close(src);
+        return s;
+    }
+    *out = src;
+    return TSK_OK;
+}
+
+/* Recordings are read by the recording reader process: OpenNI2's player can crash on a
+ * damaged file (oni_reader_protocol.h). */
+tsk_status tsk_depth_open_oni(const char* path, tsk_depth_source** out) {
+    return open_recording(path, out, 0);
+}
+
+tsk_status tsk_depth_open_oni_local(const char* path, tsk_depth_source** out) {
+    return open_recording(path, out, 1);
+}
+
+tsk_status tsk_depth_attach_oni_reader(int fd, const char* name, tsk_depth_source** out) {
+    *out = NULL;
+    tsk_depth_source* src = new_source(TSK_DEPTH_ONI);
+    if (src == NULL) return TSK_ERR_MEMORY;
+    snprintf(src->description, sizeof src->description, "%s", name);
+    tsk_status s = tsk_oni_proxy_attach(src, fd, -1, src->description);
     if (s != TSK_OK) {
         tsk_depth_close(src);
         return s;
@@ -137,6 +162,7 @@ tsk_status tsk_depth_stop(tsk_depth_source* src) {
 void tsk_depth_close(tsk_depth_source* src) {
     if (src == NULL) return;
     if (src->oni) tsk_oni_close(src);
+    if (src->proxy) tsk_oni_proxy_close(src);
     tsk_free(src->pattern);
     tsk_free(src);
 }
@@ -163,7 +189,8 @@ tsk_status tsk_depth_seek(tsk_depth_source* src, int index) {
     if (index < 0 || index >= src->frame_count)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "index", "%d is not in 0..%d", index,
                              src->frame_count - 1);
-    if (src->kind == TSK_DEPTH_ONI) return tsk_oni_seek(src, index);
+    if (src->kind == TSK_DEPTH_ONI)
+        return src->proxy ? tsk_oni_proxy_seek(src, index) : tsk_oni_seek(src, index);
     src->cursor = index;
     return TSK_OK;
 }
@@ -179,6 +206,7 @@ tsk_status tsk_depth_read(tsk_depth_source* src, float* depth_m, size_t count,
     if (count != npix)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "count", "must be width*height = %zu, got %zu",
                              npix, count);
+    if (src->proxy) return tsk_oni_proxy_read(src, depth_m, count, frame);
     if (src->kind != TSK_DEPTH_FILES) return tsk_oni_read(src, depth_m, count, frame);
     frame->index = src->cursor;
     frame->timestamp = src->cursor / 30.0;

@@ -1,0 +1,110 @@
+/* tussock_oni_reader: reads one OpenNI2 recording for Tussock, in a process of its own, so
+ * that a damaged file that crashes OpenNI2's player (libOniFile) cannot crash Blender.
+ * Usage: tussock_oni_reader RECORDING.oni, with a socket to Tussock on descriptor
+ * TSK_ONI_READER_FD. It opens the recording with the ordinary in-process code
+ * (tsk_depth_open_oni_local), sends tsk_oni_hello, then answers requests until QUIT or
+ * until Tussock closes the socket (src/capture/oni_reader_protocol.h). */
+#include <errno.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "capture/depth_internal.h"
+#include "capture/oni_reader_protocol.h"
+
+static int send_all(int fd, const void* buf, size_t n) {
+    const unsigned char* b = buf;
+    while (n > 0) {
+        const ssize_t r = send(fd, b, n, MSG_NOSIGNAL);
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) return -1;
+        b += r;
+        n -= (size_t)r;
+    }
+    return 0;
+}
+
+static int recv_all(int fd, void* buf, size_t n) {
+    unsigned char* b = buf;
+    while (n > 0) {
+        const ssize_t r = recv(fd, b, n, 0);
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) return -1;
+        b += r;
+        n -= (size_t)r;
+    }
+    return 0;
+}
+
+static void set_message(char* dst, tsk_status s) {
+    const char* m = tsk_last_error();
+    snprintf(dst, TSK_ONI_MESSAGE, "%s", (s != TSK_OK && m && m[0]) ? m : "");
+}
+
+int main(int argc, char** argv) {
+    const int fd = TSK_ONI_READER_FD;
+    signal(SIGPIPE, SIG_IGN);
+    if (argc != 2) {
+        fprintf(stderr, "usage: %s RECORDING.oni (started by Tussock)\n", argv[0]);
+        return 2;
+    }
+    tsk_oni_hello h;
+    memset(&h, 0, sizeof h);
+    memcpy(h.magic, TSK_ONI_MAGIC, sizeof h.magic);
+    tsk_depth_source* src = NULL;
+    tsk_status s = tsk_depth_open_oni_local(argv[1], &src);
+    tsk_depth_info info;
+    memset(&info, 0, sizeof info);
+    if (s == TSK_OK) s = tsk_depth_get_info(src, &info);
+    h.status = (int32_t)s;
+    set_message(h.message, s);
+    if (s == TSK_OK) {
+        h.width = info.width;
+        h.height = info.height;
+        h.frame_count = info.frame_count;
+        h.has_K = info.has_device_intrinsics;
+        h.fx = info.intrinsics.fx;
+        h.fy = info.intrinsics.fy;
+        h.cx = info.intrinsics.cx;
+        h.cy = info.intrinsics.cy;
+    }
+    if (send_all(fd, &h, sizeof h) != 0 || s != TSK_OK) {
+        tsk_depth_close(src);
+        return s == TSK_OK ? 1 : 0;
+    }
+    const size_t n = (size_t)info.width * (size_t)info.height;
+    float* depth = malloc(n * sizeof *depth);
+    int rc = depth == NULL ? 1 : 0;
+    tsk_oni_request q;
+    while (depth != NULL && recv_all(fd, &q, sizeof q) == 0 && q.op != TSK_ONI_OP_QUIT) {
+        tsk_oni_reply r;
+        memset(&r, 0, sizeof r);
+        tsk_depth_frame fr;
+        memset(&fr, 0, sizeof fr);
+        if (q.op == TSK_ONI_OP_READ) {
+            s = tsk_depth_read(src, depth, n, &fr);
+        } else if (q.op == TSK_ONI_OP_SEEK) {
+            s = tsk_depth_seek(src, q.index);
+            fr.index = q.index;
+        } else {
+            s = tsk_error(TSK_ERR_INTERNAL, "recording reader: unknown request %d", (int)q.op);
+        }
+        r.status = (int32_t)s;
+        set_message(r.message, s);
+        r.is_new = s == TSK_OK && q.op == TSK_ONI_OP_READ ? fr.is_new : 0;
+        r.index = fr.index < 0 ? 0 : fr.index;
+        r.end = fr.end ? 1 : 0;
+        r.timestamp = fr.timestamp;
+        if (send_all(fd, &r, sizeof r) != 0 ||
+            (r.is_new && send_all(fd, depth, n * sizeof *depth) != 0)) {
+            rc = 1;
+            break;
+        }
+    }
+    free(depth);
+    tsk_depth_close(src);
+    return rc;
+}
