@@ -162,6 +162,11 @@ def uv_path(scene, i, frame):
     return os.path.join(bake.cache_root(), stem, picture_bake.uv_file(stem, frame))
 
 
+def uv_path_in(folder, scene, i, frame):
+    stem = picture_bake.uv_name(scene, i)
+    return os.path.join(TMP, folder, "tussock_cache", stem, picture_bake.uv_file(stem, frame))
+
+
 def node_image(scene, name):
     return scene.node_tree.nodes[name].image
 
@@ -196,9 +201,230 @@ def test_baked_files_hold_the_live_passes_and_render_the_live_frames():
     assert node_image(scene, "Tussock Background").filepath.endswith("background.exr")
     assert uv != s.images[0].uv_image
     baked = render(scene, 6, "baked")
+    assert node_image(scene, "Tussock UV 1") == uv  # rendered from the files
     assert np.array_equal(baked, live_render)
     err = float(np.max(np.abs(baked - frames.native_composite(scene, 6))))
     assert err < TOL, err
+
+
+
+@test
+def test_split_bake_equals_single_bake_and_renders_without_tussock():
+    one = make_scene(os.path.join(TMP, "one"))
+    expected = frames.native_composite(bpy.context.scene, 6)
+    still = frames.native_composite(bpy.context.scene, 1)
+    assert np.abs(expected - still).max() > 0.05  # frame 6 has moved
+    two_dir = os.path.join(TMP, "two")
+    os.makedirs(two_dir, exist_ok=True)
+    for name in ("scene.blend", "picture.png", "grass.png", "crown.png"):
+        shutil.copyfile(os.path.join(TMP, "one", name), os.path.join(two_dir, name))
+    two = os.path.join(two_dir, "scene.blend")
+    blender(one, "bpy.ops.tussock.bake(save=True)")
+    blender(two, "bpy.ops.tussock.bake(frame_start=1, frame_end=3, save=True)")
+    blender(two, "bpy.ops.tussock.bake(frame_start=4, frame_end=8, save=True)")
+    a, b = cache_files(os.path.dirname(one)), cache_files(two_dir)
+    assert a == b and sum(x.endswith(".exr") for x in a) == 3 + 2 * FRAMES, (a, b)
+    for rel in a:
+        assert filecmp.cmp(os.path.join(os.path.dirname(one), "tussock_cache", rel),
+                           os.path.join(two_dir, "tussock_cache", rel), shallow=False), rel
+    # frame 6 rendered from the baked .blend with Tussock, without it, and from the split
+    # bake without it; the pictures and masks are gone for the Blenders without Tussock
+    with_tussock = render_in(one, 6, os.path.join(TMP, "one", "with.exr"), True)
+    for folder in (os.path.dirname(one), two_dir):
+        for name in ("picture.png", "grass.png", "crown.png"):
+            os.remove(os.path.join(folder, name))
+    without = render_in(one, 6, os.path.join(TMP, "one", "without.exr"), False)
+    split = render_in(two, 6, os.path.join(two_dir, "without.exr"), False)
+    assert np.array_equal(with_tussock, without) and np.array_equal(without, split)
+    err = float(np.max(np.abs(without - expected)))
+    assert err < TOL, err
+    # frame 1 without Tussock is the picture at rest: the sequence plays by frame number
+    first = render_in(one, 1, os.path.join(TMP, "one", "first.exr"), False)
+    assert float(np.max(np.abs(first - still))) < TOL
+
+
+def count_sidecars(folder):
+    return sum(f.endswith(".tski") for _, _, fs in os.walk(folder) for f in fs)
+
+
+@test
+def test_killed_bake_resumes_to_the_same_files():
+    n = 40
+    ref = make_scene(os.path.join(TMP, "ref"), frames_=n, size=(480, 360), loop=12)
+    killed_dir = os.path.join(TMP, "killed")
+    os.makedirs(killed_dir, exist_ok=True)
+    for name in ("scene.blend", "picture.png", "grass.png", "crown.png"):
+        shutil.copyfile(os.path.join(TMP, "ref", name), os.path.join(killed_dir, name))
+    killed = os.path.join(killed_dir, "scene.blend")
+    start = time.time()
+    blender(ref, "bpy.ops.tussock.bake()")
+    print(f"    {n} frames of 480x360 with 2 layers baked in {time.time() - start:.1f} s "
+          "(Blender start included)")
+    # the loop's frames (made from wind frames out of order) are the live ones
+    scene = bpy.context.scene
+    w, h = 480, 360
+    for f in (1, 7, 13, n):
+        live = frames.layer_frames(scene, f)
+        for i in (1, 2):
+            got = read_exr(os.path.join(TMP, "ref", "tussock_cache",
+                                        picture_bake.uv_name(scene, i),
+                                        picture_bake.uv_file(picture_bake.uv_name(scene, i), f)))
+            assert np.array_equal(got, live[i - 1][0].reshape(h, w, 4)[::-1]), (f, i)
+    assert np.array_equal(read_exr(uv_path_in("ref", scene, 1, 1)),
+                          read_exr(uv_path_in("ref", scene, 1, 13)))  # the loop closes
+    folder = os.path.join(killed_dir, "tussock_cache")
+    total = 3 + 2 * n
+    with blender_env.BlenderUser() as user:
+        script = os.path.join(user.tmp, "run.py")
+        with open(script, "w") as f:
+            f.write("import bpy, addon_utils\naddon_utils.enable('tussock')\n"
+                    "bpy.ops.tussock.bake()\n")
+        proc = subprocess.Popen(blender_env.command(script, blend=killed), env=user.env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.time() + 120
+        while time.time() < deadline and count_sidecars(folder) < 3 + 2 * 5:
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    done = count_sidecars(folder)
+    print(f"    killed after {done} of {total} files")
+    assert 3 + 2 * 5 <= done < total, done  # killed part-way
+    blender(killed, "bpy.ops.tussock.bake()")  # resumes
+    a, b = cache_files(os.path.dirname(ref)), cache_files(killed_dir)
+    assert a == b and count_sidecars(folder) == total, (len(a), len(b))
+    for rel in a:
+        assert filecmp.cmp(os.path.join(os.path.dirname(ref), "tussock_cache", rel),
+                           os.path.join(folder, rel), shallow=False), rel
+
+
+
+def shows_live(scene):
+    return node_image(scene, "Tussock UV 1") == scene.tussock_picture.images[0].uv_image
+
+
+@test
+def test_version_missing_frame_and_range_change_are_reported_and_shown_live():
+    make_scene(os.path.join(TMP, "errors"))
+    scene = bpy.context.scene
+    expected = {f: frames.native_composite(scene, f) for f in (3, 5, FRAMES + 2)}
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    # a frame from another format version: never shown, and a bake refuses to build on it
+    f3 = uv_path(scene, 2, 3)
+    with open(f3 + ".tski", "r+b") as f:
+        f.seek(8)
+        f.write(bytes([9, 0, 0, 0]))
+    why = picture_bake.frame_problem(scene, 3)
+    assert why and "another Tussock" in why and os.path.basename(f3) in why, why
+    assert float(np.max(np.abs(render(scene, 3, "version") - expected[3]))) < TOL
+    assert shows_live(scene)
+    expect_cancel(bpy.ops.tussock.bake, "another Tussock")
+    # a missing frame: reported with its file, the live frame is rendered, a bake rewrites it
+    os.remove(f3)
+    os.remove(f3 + ".tski")
+    f5 = uv_path(scene, 1, 5)
+    os.remove(f5)
+    why = picture_bake.frame_problem(scene, 5)
+    assert why and "frame 5" in why and os.path.basename(f5) in why, why
+    assert float(np.max(np.abs(render(scene, 5, "missing") - expected[5]))) < TOL
+    assert shows_live(scene)
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    assert os.path.exists(f5) and os.path.exists(f3)
+    scene.frame_set(5)
+    assert not shows_live(scene) and picture_bake.frame_problem(scene, 5) is None
+    # the frame range grows after baking: frames beyond it are live, never a held frame
+    scene.frame_end = FRAMES + 4
+    why = picture_bake.frame_problem(scene, FRAMES + 2)
+    assert why and f"outside the baked frames 1-{FRAMES}" in why, why
+    got = render(scene, FRAMES + 2, "beyond")
+    assert shows_live(scene) and float(np.max(np.abs(got - expected[FRAMES + 2]))) < TOL
+    scene.frame_set(2)
+    assert not shows_live(scene)
+    # the first frame moves: the wind starts elsewhere, every baked frame is out of date
+    scene.frame_start = 2
+    scene.frame_set(3)
+    why = picture_bake.frame_problem(scene, 3)
+    assert shows_live(scene) and why and "out of date" in why, why
+    scene.frame_start, scene.frame_end = 1, FRAMES
+    scene.frame_set(3)
+    assert not shows_live(scene)
+    # a motion setting changes: out of date too
+    scene.tussock_picture.layers[0].lambda_x *= 2
+    assert "out of date" in picture_bake.frame_problem(scene, 3)
+    scene.tussock_picture.layers[0].lambda_x /= 2
+    assert picture_bake.frame_problem(scene, 3) is None
+    # a keyframed wind source changes: the check at every frame does not see it (it is
+    # documented), but a new bake does and writes the frames again
+    before = open(uv_path(scene, 1, FRAMES), "rb").read()
+    src = [o for o in scene.objects if o.tussock_wind_source.is_source][0]
+    src.tussock_wind_source.strength = 0.2
+    src.keyframe_insert("tussock_wind_source.strength", frame=4)
+    src.tussock_wind_source.strength = 1.0
+    src.keyframe_insert("tussock_wind_source.strength", frame=5)
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    after = open(uv_path(scene, 1, FRAMES), "rb").read()
+    assert after != before
+    live = frames.layer_frames(scene, FRAMES)[0][0].reshape(120, 160, 4)[::-1]
+    assert np.array_equal(read_exr(uv_path(scene, 1, FRAMES)), live)
+    # Free Bake: files and baked images gone, the live images wired again
+    names = list(scene[picture_bake.RECORD]["images"])
+    assert bpy.ops.tussock.free_bake() == {"FINISHED"}
+    assert shows_live(scene) and picture_bake.RECORD not in scene
+    assert not any(bpy.data.images.get(n) for n in names)
+    assert cache_files(os.path.join(TMP, "errors")) == []
+    assert float(np.max(np.abs(render(scene, 3, "freed") -
+                               frames.native_composite(scene, 3)))) < TOL
+
+
+def mount_tmpfs(where, options):
+    os.makedirs(where, exist_ok=True)
+    return subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", where],
+                          stderr=subprocess.DEVNULL).returncode == 0
+
+
+@test
+def test_read_only_folder_and_full_disk_are_reported_with_the_scene_unchanged():
+    make_scene(os.path.join(TMP, "disk"), size=(320, 240))
+    scene = bpy.context.scene
+    ro, full = os.path.join(TMP, "pic_ro"), os.path.join(TMP, "pic_full")
+    if os.geteuid() == 0 and mount_tmpfs(ro, "ro,size=64k"):
+        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
+        try:
+            expect_cancel(bpy.ops.tussock.bake, "Read-only file system")
+        finally:
+            bake.CACHE_DIR_OVERRIDE = None
+            subprocess.run(["umount", ro])
+        # the cache's folders exist but the disk became read-only: the frame writer says so
+        assert mount_tmpfs(ro, "size=64k")
+        for sub in (picture_bake.base_name(scene), picture_bake.uv_name(scene, 1),
+                    picture_bake.uv_name(scene, 2)):
+            os.makedirs(os.path.join(ro, "tussock_cache", sub))
+        subprocess.run(["mount", "-o", "remount,ro", ro], check=True)
+        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
+        try:
+            expect_cancel(bpy.ops.tussock.bake, "background.exr': Read-only file system")
+        finally:
+            bake.CACHE_DIR_OVERRIDE = None
+            subprocess.run(["umount", ro])
+        # a disk that fills during the bake: one 320x240 float frame is ~1 MB
+        assert mount_tmpfs(full, "size=2m")
+        os.makedirs(os.path.join(full, "tussock_cache"))
+        bake.CACHE_DIR_OVERRIDE = os.path.join(full, "tussock_cache")
+        try:
+            expect_cancel(bpy.ops.tussock.bake, "No space left on device")
+            left = [f for _, _, fs in os.walk(full) for f in fs if ".tmp" in f]
+            assert left == [], left  # no temporary file left behind
+        finally:
+            bake.CACHE_DIR_OVERRIDE = None
+            subprocess.run(["umount", full])
+    else:  # not root: a folder without write permission
+        os.makedirs(ro, exist_ok=True)
+        os.chmod(ro, 0o555)
+        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
+        try:
+            expect_cancel(bpy.ops.tussock.bake, "Permission denied")
+        finally:
+            bake.CACHE_DIR_OVERRIDE = None
+    assert shows_live(scene) and picture_bake.RECORD not in scene
 
 
 harness.main()

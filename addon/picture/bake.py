@@ -390,9 +390,10 @@ def _rewire(scene, baked):
     if bg is None or any(x is None for p in pairs for x in p):
         return
     rng = scene[RECORD]["range"] if baked else None
-    picture_compositor.set_images(tree, bg, pairs,
-                                  sequence=(int(rng[0]), int(rng[1]) - int(rng[0]) + 1)
-                                  if baked else None)
+    changed = picture_compositor.set_images(
+        tree, bg, pairs, sequence=(int(rng[0]), int(rng[1]) - int(rng[0]) + 1) if baked else None)
+    if changed and not baked:  # the live images were not kept up while the bake showed
+        frames._written.pop(scene.name, None)
 
 
 def serves(scene, frame):

@@ -97,9 +97,20 @@ static tsk_status write_exr_synced(const char* path, const char* tmp, const floa
     close(fd);
     tsk_status s = tsk_cvp_write_exr(tmp, rgba, width, height);
     if (s != TSK_OK) {
+        /* the folder, not the file: OpenCV removes a file it failed to write */
+        char dir[4096] = ".";
+        const char* slash = strrchr(tmp, '/');
+        if (slash == tmp) {
+            dir[0] = '/';
+        } else if (slash != NULL) {
+            size_t len = (size_t)(slash - tmp);
+            if (len >= sizeof dir) len = sizeof dir - 1;
+            memcpy(dir, tmp, len);
+            dir[len] = '\0';
+        }
         struct statvfs vfs;
         const uint64_t need = (uint64_t)width * (uint64_t)height * 16u + 65536u;
-        if (statvfs(tmp, &vfs) == 0 && (uint64_t)vfs.f_bavail * vfs.f_frsize < need)
+        if (statvfs(dir, &vfs) == 0 && (uint64_t)vfs.f_bavail * vfs.f_frsize < need)
             return tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path,
                                  strerror(ENOSPC));
         return tsk_error_arg(TSK_ERR_IO, "path",
