@@ -13,6 +13,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -200,6 +201,24 @@ def test_baked_files_hold_the_live_passes_and_render_the_live_frames():
     assert uv.source == "SEQUENCE" and uv.filepath.startswith("//tussock_cache/")
     assert node_image(scene, "Tussock Background").filepath.endswith("background.exr")
     assert uv != s.images[0].uv_image
+    # the worker part runs off the main thread (as in an interactive bake) and writes
+    # the same bytes
+    job = picture_bake.jobs_for(scene, bake.cache_root())[0]
+    old = {f: open(uv_path(scene, 1, f), "rb").read() for f in (1, 6)}
+    for f in (1, 6):
+        os.remove(uv_path(scene, 1, f))
+    done, errors = [], []
+
+    def work():
+        try:
+            job.bake_frames(job.frames((1, FRAMES)), lambda: done.append(1), lambda: False)
+        except Exception as exc:  # noqa: BLE001 - reported below
+            errors.append(exc)
+    worker = threading.Thread(target=work)
+    worker.start()
+    worker.join()
+    assert not errors and len(done) == FRAMES, (errors, len(done))
+    assert all(open(uv_path(scene, 1, f), "rb").read() == old[f] for f in (1, 6))
     baked = render(scene, 6, "baked")
     assert node_image(scene, "Tussock UV 1") == uv  # rendered from the files
     assert np.array_equal(baked, live_render)

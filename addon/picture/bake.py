@@ -209,6 +209,10 @@ class PictureJob:
         needs = {f: self._needs(f) for f in todo}
         order = sorted(todo, key=lambda f: max(g for g, _ in needs[f]))
         wanted = sorted({g for f in todo for g, _ in needs[f]})
+        last_use = {}  # wind frame -> index in `order` of the last frame that needs it
+        for k, f in enumerate(order):
+            for g, _ in needs[f]:
+                last_use[g] = k
         fields, k = {}, 0
         vx, vy = np.empty(fw * fh, np.float32), np.empty(fw * fh, np.float32)
         uv = np.empty(w * h * 4, np.float32)
@@ -242,9 +246,9 @@ class PictureJob:
                         raise native.Error(f"layer {i + 1}: {exc}") from None
                     lib.bake_write_image(self.uv_path(i, f), f, self.frames_key, uv, w, h)
                 progress()
-                still = {x for q in order[k:] for x, _ in needs[q]}
-                for old in [x for x in fields if x not in still]:
-                    del fields[old]
+                for x, _ in needs[f]:
+                    if last_use[x] == k - 1:
+                        fields.pop(x, None)
 
     def assemble_if_complete(self):
         """Nothing to assemble (Blender reads the sequence); True when every frame of the
@@ -288,6 +292,7 @@ class PictureJob:
                                       sequence=(self.range[0], self.range[1] - self.range[0] + 1))
         _verified.clear()
         _notes.pop(scene.name, None)
+        serves(scene, scene.frame_current)  # live again if this frame is not baked yet
 
 
 def jobs_for(scene, root):
