@@ -10,6 +10,8 @@ once all exist. So:
     processes; whichever finishes the last frame assembles the same bytes as one process;
   - a cache from another Tussock version, a corrupt or missing frame is reported, never
     used.
+Animated pictures are baked by picture/bake.py (PictureJob, the same interface as
+TreeJob): OpenEXR image sequences that the compositor's stock Image nodes read.
 Interactive bakes run off Blender's main thread: everything the worker needs is read from
 Blender first; the worker does native work only and a modal timer shows progress (Esc
 cancels). Scripts and background runs bake in the calling thread."""
@@ -193,7 +195,7 @@ def baked_frame(obj, scene, frame):
 
 
 class TUSSOCK_OT_bake(bpy.types.Operator):
-    """Bake Tussock's animation (trees) into caches that Blender reads without Tussock"""
+    """Bake Tussock's trees and animated pictures into caches that Blender reads without it"""
     bl_idname = "tussock.bake"
     bl_label = "Bake"
     bl_options = {"REGISTER"}

@@ -16,10 +16,12 @@ With Tussock installed, each frame is verified before it is shown; a frame that 
 covered (out of date, outside the baked range, missing or corrupt) is computed live
 instead and the reason printed. The worker part (PictureJob.bake_frames) touches no bpy."""
 
+import collections
 import hashlib
 import json
 import os
 import types
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -27,6 +29,7 @@ from .. import native
 from ..wind import runtime as wind_runtime
 from . import frames, layers
 
+WRITERS = max(1, min(4, os.cpu_count() or 1))  # threads writing EXR files in a bake
 RECORD = "tussock_picture_bake"  # scene custom property: what was baked, for checking
 _verified = {}  # path -> (stat signature, info dict or error text)
 _notes = {}     # scene name -> last reason printed
@@ -202,53 +205,54 @@ class PictureJob:
                 kw["scale_map"] = b.scale_maps[i]
             kwargs.append(kw)
         zero = np.zeros(fw * fh, np.float32)
+        vx, vy = np.empty(fw * fh, np.float32), np.empty(fw * fh, np.float32)
         wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
                                     lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)))
         # the wind only steps forward: visit the wind frames in order, keep a field only
         # until the last frame that needs it is written
         needs = {f: self._needs(f) for f in todo}
         order = sorted(todo, key=lambda f: max(g for g, _ in needs[f]))
-        wanted = sorted({g for f in todo for g, _ in needs[f]})
         last_use = {}  # wind frame -> index in `order` of the last frame that needs it
         for k, f in enumerate(order):
             for g, _ in needs[f]:
                 last_use[g] = k
         fields, k = {}, 0
-        vx, vy = np.empty(fw * fh, np.float32), np.empty(fw * fh, np.float32)
-        uv = np.empty(w * h * 4, np.float32)
-        for g in wanted:
-            if cancel():
-                return
-            if g <= self.range[0]:  # the continuum is at rest until the first step
-                fields[g] = (zero, zero)
-            else:
-                t = wind.advance(g)
-                sx, sy = np.empty(fw * fh, np.float32), np.empty(fw * fh, np.float32)
-                lib.wind_sample(wind.handle, t, xs, ys, vx, vy, sx, sy)
-                fields[g] = (sx, sy)
-            while k < len(order) and max(x for x, _ in needs[order[k]]) == g:
-                f = order[k]
-                k += 1
+        with _Writers(progress) as writers:
+            for g in sorted(last_use):
                 if cancel():
                     return
-                if self.loop <= 0:
-                    fx, fy = fields[f]
+                if g <= self.range[0]:  # the continuum is at rest until the first step
+                    fields[g] = (zero, zero)
                 else:
-                    (g1, _), (g0, a) = needs[f]
-                    fx, fy = frames.loop_mix(fields[g1][0], fields[g1][1], fields[g0][0],
-                                             fields[g0][1], a)
-                for i in range(self.count):
-                    try:
-                        lib.picture_layer_frame(b.handle, i, fx, fy, fw, fh, uv=uv,
-                                                field_y_up=True, uv_bottom_up=False,
-                                                **kwargs[i])
-                    except native.Error as exc:
-                        raise native.Error(f"layer {i + 1}: {exc}") from None
-                    lib.bake_write_image(self.uv_path(i, f), f, self.frames_key, uv, w, h)
-                progress()
-                for x, _ in needs[f]:
-                    if last_use[x] == k - 1:
-                        fields.pop(x, None)
+                    t = wind.advance(g)
+                    sx, sy = np.empty(fw * fh, np.float32), np.empty(fw * fh, np.float32)
+                    lib.wind_sample(wind.handle, t, xs, ys, vx, vy, sx, sy)
+                    fields[g] = (sx, sy)
+                while k < len(order) and max(x for x, _ in needs[order[k]]) == g:
+                    f = order[k]
+                    if cancel():
+                        return
+                    if self.loop <= 0:
+                        fx, fy = fields[f]
+                    else:
+                        (g1, _), (g0, a) = needs[f]
+                        fx, fy = frames.loop_mix(fields[g1][0], fields[g1][1], fields[g0][0],
+                                                 fields[g0][1], a)
+                    for i in range(self.count):
+                        uv = np.empty(w * h * 4, np.float32)  # owned by its write until done
+                        try:
+                            lib.picture_layer_frame(b.handle, i, fx, fy, fw, fh, uv=uv,
+                                                    field_y_up=True, uv_bottom_up=False,
+                                                    **kwargs[i])
+                        except native.Error as exc:
+                            raise native.Error(f"layer {i + 1}: {exc}") from None
+                        writers.write(lib.bake_write_image, (self.uv_path(i, f), f,
+                                                             self.frames_key, uv, w, h),
+                                      last=i == self.count - 1)
+                    for x, _ in needs[f]:
+                        if last_use[x] == k:
+                            del fields[x]
+                    k += 1
 
     def assemble_if_complete(self):
         """Nothing to assemble (Blender reads the sequence); True when every frame of the
@@ -293,6 +297,42 @@ class PictureJob:
         _verified.clear()
         _notes.pop(scene.name, None)
         serves(scene, scene.frame_current)  # live again if this frame is not baked yet
+
+
+class _Writers:
+    """Writes files on a few threads: compressing an EXR (zlib) costs far more than
+    computing its UV pass, and the native writer releases the GIL. At most WRITERS writes
+    wait at a time (each holds its frame's buffer); progress() is called in order, once
+    per frame, when its last file is written; the first error is raised."""
+
+    def __init__(self, progress):
+        self.progress = progress
+        self.pending = collections.deque()
+
+    def __enter__(self):
+        self.pool = ThreadPoolExecutor(max_workers=WRITERS)
+        return self
+
+    def write(self, fn, args, last):
+        self.drain(WRITERS)
+        self.pending.append((self.pool.submit(fn, *args), last))
+
+    def drain(self, limit=0):
+        while len(self.pending) > limit:
+            fut, last = self.pending.popleft()
+            fut.result()
+            if last:
+                self.progress()
+
+    def __exit__(self, kind, *_):
+        try:
+            if kind is None:
+                self.drain()
+            else:  # already failing or cancelled: let the started writes end, keep the error
+                for fut, _last in self.pending:
+                    fut.exception()
+        finally:
+            self.pool.shutdown(wait=True)
 
 
 def jobs_for(scene, root):
