@@ -394,6 +394,34 @@ def test_version_missing_frame_and_range_change_are_reported_and_shown_live():
                                frames.native_composite(scene, 3)))) < TOL
 
 
+@test
+def test_bad_input_cancels_with_the_scene_unchanged():
+    folder = os.path.join(TMP, "bad")
+    make_scene(folder)
+    scene = bpy.context.scene
+    # the picture file is gone and this Blender has not built it yet (a file just opened)
+    frames.forget()
+    os.rename(os.path.join(folder, "picture.png"), os.path.join(folder, "moved.png"))
+    expect_cancel(bpy.ops.tussock.bake, "picture.png")
+    os.rename(os.path.join(folder, "moved.png"), os.path.join(folder, "picture.png"))
+    # the compositor's Tussock nodes were deleted
+    tree = scene.node_tree
+    node = tree.nodes["Tussock UV 2"]
+    tree.nodes.remove(node)
+    expect_cancel(bpy.ops.tussock.bake, "Tussock UV 2")
+    assert cache_files(folder) == []
+    # an unsaved file has no place for caches
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    harness.enable_addon()
+    s = bpy.context.scene.tussock_picture
+    s.filepath = os.path.join(folder, "picture.png")
+    layer = s.layers.add()
+    layer.mask_path = os.path.join(folder, "grass.png")
+    assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
+    expect_cancel(bpy.ops.tussock.bake, "save the .blend first")
+    assert picture_bake.RECORD not in bpy.context.scene
+
+
 def mount_tmpfs(where, options):
     os.makedirs(where, exist_ok=True)
     return subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", where],

@@ -93,6 +93,8 @@ class PictureJob:
         if scene.frame_start < 0:
             raise ValueError(f"picture bakes number their files by frame: the first frame "
                              f"must be 0 or later, not {scene.frame_start}")
+        self.count = len(s.layers)
+        _tree_with_nodes(scene, self.count)  # refused before anything is written
         farm = _farm()
         self.name = scene.name
         self.scene_name = scene.name
@@ -124,7 +126,6 @@ class PictureJob:
         for f in sorted(self.sources):
             digest.update(self.sources[f].tobytes())
         self.frames_key = int.from_bytes(digest.digest()[:8], "little")  # in every sidecar
-        self.count = len(self.layer_values)
         base = base_name(scene)
         self.folder = os.path.join(root, base)
         self.rel_folder = farm.CACHE_DIR + "/" + base
