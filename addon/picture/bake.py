@@ -93,7 +93,10 @@ class PictureJob:
         if scene.frame_start < 0:
             raise ValueError(f"picture bakes number their files by frame: the first frame "
                              f"must be 0 or later, not {scene.frame_start}")
-        self.count = len(s.layers)
+        self.spec = json.loads(s.applied)
+        self.count = len(self.spec.get("layers", []))  # the layers Animate Picture built
+        if len(s.layers) < self.count:
+            raise ValueError("a layer was removed since Animate Picture: run it again")
         _tree_with_nodes(scene, self.count)  # refused before anything is written
         farm = _farm()
         self.name = scene.name
@@ -101,7 +104,7 @@ class PictureJob:
         self.range = (scene.frame_start, scene.frame_end)
         self.loop = s.loop_frames
         self.dt = scene.render.fps_base / scene.render.fps
-        self.layer_values = [_layer_values(x) for x in s.layers]
+        self.layer_values = [_layer_values(x) for x in s.layers[:self.count]]
         self.placement = frames.wind_placement(scene)
         self.wind_kwargs = wind_runtime.wind_kwargs(scene)
         self.fps = wind_runtime.fps_of(scene)
@@ -109,7 +112,6 @@ class PictureJob:
         # the built picture of this session if there is one; else the worker builds it
         entry = frames._pictures.get(scene.name)
         self.built = entry["built"] if entry and entry["key"] == s.applied else None
-        self.spec = json.loads(s.applied)
         paths = [self.spec.get("filepath", "")] + [
             x.get(k, "") for x in self.spec.get("layers", [])
             for k in ("mask_path", "strokes_path", "scale_map_path")]
@@ -168,11 +170,12 @@ class PictureJob:
                 if ".tmp" in name:
                     os.remove(os.path.join(folder, name))
         statics = [os.path.join(self.folder, n) for n in static_files(self.count)]
-        todo = [f for f in frame_list
-                if not all(self._good(lib, self.uv_path(i, f), f) for i in range(self.count))]
+        todo = []
         for f in frame_list:
-            if f not in todo:
+            if all(self._good(lib, self.uv_path(i, f), f) for i in range(self.count)):
                 progress()
+            else:
+                todo.append(f)
         missing = [p for p in statics if not self._good(lib, p, 0)]
         if not todo and not missing:
             return
