@@ -317,6 +317,26 @@ def test_killed_bake_resumes_to_the_same_files():
 
 
 
+class _Layout:
+    """Stands in for the Bake panel's layout and keeps the labels it shows."""
+
+    def __init__(self, labels):
+        self.labels = labels
+
+    def __getattr__(self, name):
+        return lambda *a, **k: _Layout(self.labels)
+
+    def label(self, text="", **kw):
+        self.labels.append(text)
+
+
+def panel_labels():
+    labels = []
+    me = type("P", (), {"layout": _Layout(labels)})()
+    bpy.types.TUSSOCK_PT_bake.draw(me, bpy.context)
+    return labels
+
+
 def shows_live(scene):
     return node_image(scene, "Tussock UV 1") == scene.tussock_picture.images[0].uv_image
 
@@ -327,6 +347,7 @@ def test_version_missing_frame_and_range_change_are_reported_and_shown_live():
     scene = bpy.context.scene
     expected = {f: frames.native_composite(scene, f) for f in (3, 5, FRAMES + 2)}
     assert bpy.ops.tussock.bake() == {"FINISHED"}
+    assert panel_labels() == [f"Picture: frames 1-{FRAMES}"]
     # a frame from another format version: never shown, and a bake refuses to build on it
     f3 = uv_path(scene, 2, 3)
     with open(f3 + ".tski", "r+b") as f:
@@ -363,6 +384,7 @@ def test_version_missing_frame_and_range_change_are_reported_and_shown_live():
     scene.frame_set(3)
     why = picture_bake.frame_problem(scene, 3)
     assert shows_live(scene) and why and "out of date" in why, why
+    assert panel_labels() == ["Picture: bake out of date, bake again"]
     scene.frame_start, scene.frame_end = 1, FRAMES
     scene.frame_set(3)
     assert not shows_live(scene)
