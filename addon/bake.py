@@ -10,6 +10,8 @@ once all exist. So:
     processes; whichever finishes the last frame assembles the same bytes as one process;
   - a cache from another Tussock version, a corrupt or missing frame is reported, never
     used.
+Animated pictures are baked by picture/bake.py (PictureJob, the same interface as
+TreeJob): OpenEXR image sequences that the compositor's stock Image nodes read.
 Interactive bakes run off Blender's main thread: everything the worker needs is read from
 Blender first; the worker does native work only and a modal timer shows progress (Esc
 cancels). Scripts and background runs bake in the calling thread."""
@@ -24,6 +26,7 @@ import bpy
 import numpy as np
 
 from . import compat, errors, native
+from .picture import bake as picture_bake
 from .trees import build as tree_build
 from .wind import runtime as wind_runtime
 from .ui import SubPanel
@@ -132,11 +135,14 @@ def inputs_key(obj, scene):
 def jobs_for(scene):
     root = cache_root()
     return [TreeJob(o, scene, root) for o in scene.objects
-            if compat.settings_of(o, "tussock_tree") is not None and o.tussock_tree.is_tree]
+            if compat.settings_of(o, "tussock_tree") is not None and o.tussock_tree.is_tree] \
+        + picture_bake.jobs_for(scene, root)
 
 
 def wire(scene, job):
     """Points the object's Mesh Cache modifier at the job's .pc2 (stock Blender)."""
+    if hasattr(job, "wire"):  # jobs that wire themselves (pictures)
+        return job.wire(scene)
     obj = scene.objects[job.name]
     mod = obj.modifiers.get(MODIFIER)
     if mod is None:
@@ -189,7 +195,7 @@ def baked_frame(obj, scene, frame):
 
 
 class TUSSOCK_OT_bake(bpy.types.Operator):
-    """Bake Tussock's animation (trees) into caches that Blender reads without Tussock"""
+    """Bake Tussock's trees and animated pictures into caches that Blender reads without it"""
     bl_idname = "tussock.bake"
     bl_label = "Bake"
     bl_options = {"REGISTER"}
@@ -211,7 +217,7 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
         native.require()
         jobs = jobs_for(scene)
         if not jobs:
-            raise ValueError("nothing to bake: add a Tussock tree first")
+            raise ValueError("nothing to bake: add a Tussock tree or animate a picture first")
         part = self._part(scene)
         if part[0] > part[1]:
             raise ValueError(f"frame_start: {part[0]} is after frame_end {part[1]}")
@@ -318,6 +324,7 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
             obj.modifiers.remove(mod)
             obj.pop("tussock_baked_range", None)
             removed += 1
+        removed += picture_bake.free(context.scene, root)
         self.report({"INFO"}, f"Freed the caches of {removed} objects")
         return {"FINISHED"}
 
@@ -336,6 +343,9 @@ class TUSSOCK_PT_bake(SubPanel, bpy.types.Panel):
                 self.layout.label(text=f"{obj.name}: " + (f"frames {rng[0]}–{rng[1]}" if rng
                                                          else "cache missing or out of date"),
                                   icon="CHECKMARK" if rng else "ERROR")
+        picture = picture_bake.status(context.scene)
+        if picture is not None:
+            self.layout.label(text=picture[0], icon="CHECKMARK" if picture[1] else "ERROR")
 
 
 classes = (TUSSOCK_OT_bake, TUSSOCK_OT_free_bake, TUSSOCK_PT_bake)

@@ -137,3 +137,17 @@ def alpha_over_inputs(node):
     """(background, foreground) image inputs of an Alpha Over node."""
     images = [s for s in node.inputs if s.type == "RGBA"]
     return images[0], images[1]
+
+
+def image_node_sequence(node, first, count):
+    """Makes a compositor Image node play its image sequence so that scene frame f reads
+    the file numbered f, for frames first .. first + count - 1 (Blender holds the end
+    frames outside them): the image user's start = first, offset = first - 1, duration =
+    count, not cyclic, refreshed every frame. Node properties in 3.x and 4.x; Blender 5.x
+    keeps the image user on the node too (written from its API notes, not exercised)."""
+    user = node if hasattr(node, "frame_duration") else getattr(node, "image_user", node)
+    values = {"frame_duration": count, "frame_start": first, "frame_offset": first - 1,
+              "use_cyclic": False, "use_auto_refresh": True}
+    for name, value in values.items():
+        if getattr(user, name) != value:
+            setattr(user, name, value)

@@ -1,6 +1,7 @@
 """Renders the pictures of docs/ with Tussock itself, in background Blender:
   blender_run.py tools/docs_pictures.py -- OUT_DIR [FEATURE...]
-Features: capture, refine, meadow, trees, picture. Each writes PNGs named <feature>_<view>.png
+Features: capture, refine, meadow, trees, picture, wind, simulation, farm, farm_picture,
+reliability. Each writes PNGs named <feature>_<view>.png
 into OUT_DIR."""
 
 import math
@@ -400,6 +401,88 @@ def farm():
     save_rgba("farm_with_without", np.concatenate(tiles[:-1], axis=1))
 
 
+def farm_picture():
+    """The sample picture animated, baked in two halves by two background Blenders, then
+    frame 48 rendered by a Blender without Tussock and by one with it (cropped around the
+    crown, enlarged twice), and the crown layer's baked UV pass read from its EXR file:
+    how far each pixel takes its colour from (red: sideways, green: up and down)."""
+    import shutil
+    import subprocess
+    import tempfile
+    import numpy as np
+    from tussock import native
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import blender_env
+    reset()
+    lib = native.require()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 60
+    tiles = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in ("meadow.png", "grass_mask.png", "crown_mask.png"):
+            shutil.copyfile(os.path.join(PICTURE, name), os.path.join(tmp, name))
+        blend = os.path.join(tmp, "picture.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=blend)
+        s = scene.tussock_picture
+        s.filepath = "//meadow.png"
+        grass = s.layers.add()
+        grass.name, grass.mask_path, grass.root = "Grass", "//grass_mask.png", "TOP"
+        crown = s.layers.add()
+        crown.name, crown.mask_path = "Crown", "//crown_mask.png"
+        crown.lambda_x, crown.lambda_y = 48.0, 12.0
+        bpy.ops.tussock.animate_picture()
+        w, h = scene.render.resolution_x, scene.render.resolution_y
+        st = scene.render.image_settings
+        st.file_format, st.color_mode, st.color_depth = "OPEN_EXR", "RGBA", "32"
+        bpy.ops.wm.save_mainfile()
+
+        def run(expr, addon=True):
+            with blender_env.BlenderUser() as user:
+                if not addon:
+                    os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
+                script = os.path.join(user.tmp, "run.py")
+                with open(script, "w") as f:
+                    f.write("import bpy, addon_utils\n")
+                    if addon:
+                        f.write("addon_utils.enable('tussock', default_set=True)\n")
+                    f.write(expr + "\n")
+                subprocess.run(blender_env.command(script, blend=blend), env=user.env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+
+        def read(path):
+            p = lib.picture_load(path)
+            out = np.empty((h, w, 4), np.float32)
+            lib.picture_read_rgba(p, out)
+            return out
+
+        t = time.time()
+        run("bpy.ops.tussock.bake(frame_start=1, frame_end=30, save=True)")
+        run("bpy.ops.tussock.bake(frame_start=31, frame_end=60, save=True)")
+        print(f"[pictures] 60 frames baked by two Blenders in {time.time() - t:.1f} s",
+              flush=True)
+        crop = (slice(0, 140), slice(215, 345))
+        renders = []
+        for addon in (False, True):
+            out = os.path.join(tmp, f"r{int(addon)}.exr")
+            run(f"bpy.context.scene.render.filepath = {out!r}\nbpy.context.scene.frame_set(48)\n"
+                "bpy.ops.render.render(write_still=True)", addon=addon)
+            renders.append(read(out))
+            tiles += [renders[-1][crop], np.ones((140, 4, 4), np.float32)]
+        print(f"[pictures] with and without Tussock identical: "
+              f"{np.array_equal(renders[0], renders[1])}", flush=True)
+        uv = read(os.path.join(tmp, "tussock_cache", "Scene_picture_uv2",
+                               "Scene_picture_uv2_0048.exr"))
+        rest_u = (np.arange(w, dtype=np.float32) + 0.5) / w
+        rest_v = (h - np.arange(h, dtype=np.float32) - 0.5) / h  # rows top-first
+        du, dv = (uv[..., 0] - rest_u[None, :]) * w, (uv[..., 1] - rest_v[:, None]) * h
+        scale = max(float(np.abs(du).max()), float(np.abs(dv).max()), 1e-6)
+        vis = np.ones((h, w, 4), np.float32)
+        vis[..., 0], vis[..., 1], vis[..., 2] = 0.5 + 0.5 * du / scale, 0.5 + 0.5 * dv / scale, 0.5
+        print(f"[pictures] crown UV pass at frame 48: up to {scale:.1f} px", flush=True)
+        tiles.append(vis[crop])
+    save_rgba("farm_picture", np.concatenate(tiles, axis=1), zoom=2)
+
+
 def reliability():
     """The sample depth frame corrupted on purpose — heavy noise, 10 % dropout and bursts of
     missing pixels — and what the capture still makes of it."""
@@ -438,7 +521,8 @@ def reliability():
 
 
 FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees,
-            "wind": wind, "simulation": simulation, "farm": farm, "reliability": reliability,
+            "wind": wind, "simulation": simulation, "farm": farm, "farm_picture": farm_picture,
+            "reliability": reliability,
             "picture": picture}
 
 os.makedirs(OUT, exist_ok=True)

@@ -55,3 +55,27 @@ def build(scene, background, layers):
     viewer.location = (x, -250)
     tree.links.new(behind, viewer.inputs["Image"])
     return tree
+
+
+def set_images(tree, background, layers, sequence=None):
+    """Points the Image nodes of a tree that build() made at other images: `background`
+    and per layer (layer image, UV image), back to front. With sequence = (first frame,
+    frame count), the UV images are image sequences whose file numbers are scene frames
+    (a baked picture, addon/picture/bake.py); sequence=None is Tussock's live images.
+    Sets only what differs, so calling it every frame costs nothing; returns True when an
+    image changed."""
+    changed = []
+
+    def put(node, image):
+        if node is not None and node.image != image:
+            node.image = image
+            changed.append(node)
+
+    put(tree.nodes.get("Tussock Background"), background)
+    for i, (layer_image, uv_image) in enumerate(layers, 1):
+        put(tree.nodes.get(f"Tussock Layer {i}"), layer_image)
+        uv = tree.nodes.get(f"Tussock UV {i}")
+        put(uv, uv_image)
+        if uv is not None and sequence is not None:
+            compat.image_node_sequence(uv, sequence[0], sequence[1])
+    return bool(changed)

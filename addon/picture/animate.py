@@ -2,11 +2,14 @@
 pass of that frame is computed in C and written into its UV image. Two handlers, because
 a picture's render is the compositor alone (no Render Layers node): Blender (3.4, measured)
 then evaluates no view layer and calls no frame_change handler between the frames of an
-animation render, only render_pre, with the scene already on the frame to render."""
+animation render, only render_pre, with the scene already on the frame to render.
+A baked picture (picture/bake.py) is read from its files instead, frame by frame as long
+as they verify."""
 
 import bpy
 
 from .. import compat, handlers, native
+from . import bake as picture_bake
 from . import frames
 
 
@@ -15,6 +18,8 @@ def _update(scene):
     if settings is None or not settings.applied or not native.available():
         return False
     try:
+        if picture_bake.serves(scene, scene.frame_current):
+            return True  # the compositor reads this frame from the bake's files
         frames.update(scene)
     except (native.Error, ValueError, OSError) as exc:
         # a handler cannot report; the panel shows why the picture stopped
@@ -46,6 +51,18 @@ def on_load(*_args):
         _update(scene)
 
 
+@bpy.app.handlers.persistent
+def on_save_pre(*_args):
+    for scene in bpy.data.scenes:  # a saved .blend renders from its bake without Tussock
+        picture_bake.wire_for_save(scene)
+
+
+@bpy.app.handlers.persistent
+def on_save_post(*_args):
+    for scene in bpy.data.scenes:  # back to what the current frame needs
+        _update(scene)
+
+
 classes = ()
 
 
@@ -53,6 +70,8 @@ def register_extra():
     handlers.add("frame_change_post", on_frame_change)
     handlers.add("render_pre", on_render_pre)
     handlers.add("load_post", on_load)
+    handlers.add("save_pre", on_save_pre)
+    handlers.add("save_post", on_save_post)
 
 
 def unregister_extra():

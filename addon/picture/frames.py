@@ -142,9 +142,26 @@ def field_shape(scene, width, height):
             max(1, min(4096, round(n * height / side))))
 
 
+def wind_placement(scene):
+    """(centre x, centre y, size, resolution) of the wind grid: all that places the
+    picture's field (plain values, for a bake worker)."""
+    w = scene.tussock_wind
+    return (w.fluid_center[0], w.fluid_center[1], w.fluid_size, w.fluid_resolution)
+
+
 def _points(scene, width, height):
-    x0, y0, px = picture_rect(scene, width, height)
-    fw, fh = field_shape(scene, width, height)
+    return sample_points(wind_placement(scene), width, height)
+
+
+def sample_points(placement, width, height):
+    """(xs, ys, columns, rows): where the field over a width x height picture samples the
+    wind, row 0 at the bottom; `placement` from wind_placement. Pure."""
+    cx, cy, size, n = placement
+    px = size / max(width, height)
+    x0, y0 = cx - 0.5 * width * px, cy - 0.5 * height * px
+    side = max(width, height)
+    fw = max(1, min(4096, round(n * width / side)))
+    fh = max(1, min(4096, round(n * height / side)))
     xs = x0 + (np.arange(fw, dtype=np.float64) + 0.5) * (width * px / fw)
     ys = y0 + (np.arange(fh, dtype=np.float64) + 0.5) * (height * px / fh)
     gx, gy = np.meshgrid(xs, ys)  # row 0 = bottom (field_y_up)
@@ -216,22 +233,39 @@ def loop_field(scene, frame, width, height):
     n = scene.tussock_picture.loop_frames
     if n <= 0:
         return field(scene, frame, width, height)
-    k = (int(frame) - scene.frame_start) % n
-    a = k / n
-    vx1, vy1, fw, fh = field(scene, scene.frame_start + k + 2 * n, width, height)
-    vx0, vy0, _, _ = field(scene, scene.frame_start + k + n, width, height)
-    vx = ((1.0 - a) * vx1 + a * vx0).astype(np.float32)
-    vy = ((1.0 - a) * vy1 + a * vy0).astype(np.float32)
+    (f1, _), (f0, a) = loop_frames_of(frame, scene.frame_start, n)
+    vx1, vy1, fw, fh = field(scene, f1, width, height)
+    vx0, vy0, _, _ = field(scene, f0, width, height)
+    vx, vy = loop_mix(vx1, vy1, vx0, vy0, a)
     return vx, vy, fw, fh
+
+
+def loop_frames_of(frame, first, n):
+    """The wind frames whose fields make `frame` of a loop of n frames from `first`:
+    ((first + k + 2n, 1 - a), (first + k + n, a)). Pure."""
+    k = (int(frame) - first) % n
+    a = k / n
+    return (first + k + 2 * n, 1.0 - a), (first + k + n, a)
+
+
+def loop_mix(vx1, vy1, vx0, vy0, a):
+    """(1 - a) Vp1 + a Vp0 as float32 (seed 004's motion cross-faded, see loop_field)."""
+    return (((1.0 - a) * vx1 + a * vx0).astype(np.float32),
+            ((1.0 - a) * vy1 + a * vy0).astype(np.float32))
 
 
 # ---- per-layer frames ---------------------------------------------------------------------
 
 def warp_kwargs(scene, layer, height):
     """Keyword arguments of picture_layer_frame for a layer's motion settings."""
+    return layer_kwargs(layer, scene.render.fps_base / scene.render.fps, height)
+
+
+def layer_kwargs(layer, dt, height):
+    """warp_kwargs from a layer's settings (any object with its attributes) and the frame
+    step dt (seconds). Pure."""
     kw = dict(cell_x=layer.cell_x, cell_y=layer.cell_y, lambda_x=layer.lambda_x,
-              lambda_y=layer.lambda_y, dt=scene.render.fps_base / scene.render.fps,
-              rigidity=layer.rigidity, root=ROOTS[layer.root])
+              lambda_y=layer.lambda_y, dt=dt, rigidity=layer.rigidity, root=ROOTS[layer.root])
     if not layer.root_auto and layer.root != "NONE":
         kw.update(root_y=height - layer.root_line, height=layer.root_height)
     return kw

@@ -248,3 +248,26 @@ extern "C" tsk_status tsk_cvp_encode(const char* path, const float* rgba, int wi
         return opencv_failed("imwrite", "unknown exception");
     }
 }
+
+extern "C" tsk_status tsk_cvp_write_exr(const char* path, const float* rgba, int width,
+                                        int height) {
+    try {
+        enable_exr_once();
+        cv::Mat src(height, width, CV_32FC4, const_cast<float*>(rgba));
+        cv::Mat bgra;
+        cv::cvtColor(src, bgra, cv::COLOR_RGBA2BGRA);
+        const std::vector<int> params = {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT,
+                                         cv::IMWRITE_EXR_COMPRESSION,
+                                         cv::IMWRITE_EXR_COMPRESSION_ZIP};
+        /* imwrite, not imencode: OpenCV encodes EXR to memory through a temporary file of
+         * its own in /tmp, which it leaves behind when the write fails */
+        if (!cv::imwrite(path, bgra, params))
+            return tsk_error_arg(TSK_ERR_IO, "path", "OpenCV could not write '%s'", path);
+        return TSK_OK;
+    } catch (const std::exception& e) {
+        return tsk_error_arg(TSK_ERR_IO, "path", "OpenCV could not write '%s': %s", path,
+                             e.what());
+    } catch (...) {
+        return opencv_failed("imwrite", "unknown exception");
+    }
+}

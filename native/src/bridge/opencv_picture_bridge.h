@@ -45,6 +45,11 @@ tsk_status tsk_cvp_remap(const float* src, int width, int height, const float* m
 tsk_status tsk_cvp_encode(const char* path, const float* rgba, int width, int height,
                           int channels, int bits);
 
+/// Writes straight float RGBA (top-first) to `path` as OpenEXR: 32-bit float R, G, B, A
+/// channels, lossless ZIP compression. Same pixels, same bytes. OpenCV reports no reason
+/// for a failed write: TSK_ERR_IO "OpenCV could not write" (the caller diagnoses).
+tsk_status tsk_cvp_write_exr(const char* path, const float* rgba, int width, int height);
+
 #ifdef __cplusplus
 }
 #endif
