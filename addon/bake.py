@@ -82,6 +82,7 @@ class TreeJob:
         for name in os.listdir(self.folder):  # temporary files of a killed bake
             if ".tmp" in name:
                 os.remove(os.path.join(self.folder, name))
+        self._claim_folder()
         todo = []
         for f in frames:
             try:
@@ -106,6 +107,39 @@ class TreeJob:
             lib.bake_write_frame(frame_path(self.folder, f), f,
                                  np.ascontiguousarray(verts, np.float32).ravel())
             progress()
+
+    def folder_key(self):
+        """The inputs key of the frame files: the tree's inputs_key and the wind sources at
+        every frame of the range (keyframes included)."""
+        h = hashlib.sha256(self.key.encode())
+        for f in sorted(self.sources):
+            h.update(np.ascontiguousarray(self.sources[f], np.float32).tobytes())
+        return h.hexdigest()
+
+    def _claim_folder(self):
+        """Frame files made from other inputs (the tree, its placement, the wind or its
+        sources changed since) must not be taken for finished frames: when the folder's
+        recorded key differs, its frames and the assembled .pc2 are removed first. Workers
+        of one split bake have the same key, so they keep each other's frames."""
+        key = self.folder_key()
+        key_path = os.path.join(self.folder, "inputs.key")
+        try:
+            with open(key_path) as f:
+                old = f.read().strip()
+        except OSError:
+            old = None
+        if old == key:
+            return
+        if old is not None:  # (no key yet: a fresh folder, or another worker's just begun)
+            for name in os.listdir(self.folder):
+                if name.endswith(".tskf"):
+                    os.remove(os.path.join(self.folder, name))
+            if os.path.exists(self.pc2):
+                os.remove(self.pc2)
+        tmp = f"{key_path}.{os.getpid()}.tmp"
+        with open(tmp, "w") as f:
+            f.write(key + "\n")
+        os.replace(tmp, key_path)
 
     def assemble_if_complete(self):
         """Assembles the .pc2 when every frame of the range exists; True if it did."""
@@ -314,7 +348,7 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
             folder = os.path.join(root, name)
             if os.path.isdir(folder):
                 for f in os.listdir(folder):
-                    if f.endswith(".tskf") or ".tmp" in f:
+                    if f.endswith(".tskf") or ".tmp" in f or f == "inputs.key":
                         os.remove(os.path.join(folder, f))
                 if not os.listdir(folder):
                     os.rmdir(folder)

@@ -222,6 +222,18 @@ def test_version_missing_frame_and_range_change_are_reported():
     # a changed setting (the tree's wind response) makes the cache out of date too
     obj.tussock_tree.wind_strength *= 2
     assert bake.cached_range(obj, scene) is None
+    # ... and baking again (without freeing) rewrites every frame from the new inputs: no
+    # frame file of the old setting is taken for a finished frame
+    scene.frame_set(4)
+    assert not mod.show_render
+    live4 = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", live4)
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    assert bake.cached_range(obj, scene) == (1, FRAMES)
+    pc2 = os.path.join(os.path.dirname(folder), bake.safe_name(obj.name) + ".pc2")
+    got = np.empty(lib.pc2_info(pc2)["points"] * 3, np.float32)
+    lib.pc2_read_sample(pc2, 3, got)
+    assert np.array_equal(got, live4)
     # free: caches gone, live animation back
     assert bpy.ops.tussock.free_bake() == {"FINISHED"}
     assert bake.MODIFIER not in obj.modifiers and not os.path.exists(folder)
