@@ -338,6 +338,10 @@ def test_moving_a_source_recomputes_the_frames():
     wind_runtime.clear()
     scene.frame_set(20)  # from scratch: the same as after the edit
     assert np.array_equal(uv_pixels(scene), after)
+    # an edit while staying on the frame: redrawing the same frame shows it at once
+    src.location.y -= 4.0
+    scene.frame_set(20)
+    assert np.array_equal(uv_pixels(scene), before)
 
 
 @test

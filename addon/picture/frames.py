@@ -272,10 +272,17 @@ def layer_kwargs(layer, dt, height):
 
 
 def _motion_key(scene, frame):
+    """What the UV passes of `frame` depend on: the picture, the layers' motion, the wind
+    settings and the wind sources at the wind frames used (so that editing a source while
+    staying on a frame redraws it)."""
     s = scene.tussock_picture
     motion = [tuple(warp_kwargs(scene, x, 0).items()) for x in s.layers]
+    wind_frames = [int(frame)] if s.loop_frames <= 0 else \
+        [f for f, _ in loop_frames_of(frame, scene.frame_start, s.loop_frames)]
+    winds = tuple(wind_runtime.sources(scene, f).tobytes() for f in wind_frames)
     return (s.applied, int(frame), s.loop_frames, repr(motion),
-            tuple(x.uv_image.name if x.uv_image else "" for x in s.images))
+            tuple(x.uv_image.name if x.uv_image else "" for x in s.images),
+            wind_runtime._key(scene), winds)
 
 
 def layer_frames(scene, frame, rgba=False, sampling="bilinear"):
