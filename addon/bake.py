@@ -1,7 +1,8 @@
 """Farm-safe caches (tussock.bake, tussock.free_bake).
 
-Trees are baked into Point Cache 2 files that Blender's own Mesh Cache modifier reads, so a
-.blend renders the same frames where Tussock is not installed. Every frame is first written
+Trees and simulated meadows (addon/meadow/baking.py) are baked into Point Cache 2 files that
+Blender's own Mesh Cache modifier reads, so a .blend renders the same frames where Tussock is
+not installed. Every frame is first written
 as its own verified file (`//tussock_cache/<object>/frame_NNNNNN.tskf`, atomic), then the
 frames of the scene's range are assembled into `//tussock_cache/<object>.pc2` (atomic)
 once all exist. So:
@@ -119,6 +120,9 @@ def inputs_key(obj, scene):
     placement and wind response, the scene's wind settings, first frame and frame rate
     (wind time counts from the first frame). A cache whose key differs is out of date.
     Keyframed wind sources are not part of it: bake again after changing them."""
+    if obj.get("tussock_simulated_blades"):  # a meadow's simulated blades
+        from .meadow import baking
+        return baking.blades_inputs_key(obj, scene)
     s = obj.tussock_tree
     kw = wind_runtime.wind_kwargs(scene)
     parts = [json.dumps(tree_build.definition(s), sort_keys=True), s.smooth_levels,
@@ -131,12 +135,16 @@ def inputs_key(obj, scene):
 
 def jobs_for(scene):
     root = cache_root()
+    from .meadow import baking
     return [TreeJob(o, scene, root) for o in scene.objects
-            if compat.settings_of(o, "tussock_tree") is not None and o.tussock_tree.is_tree]
+            if compat.settings_of(o, "tussock_tree") is not None and o.tussock_tree.is_tree] \
+        + baking.jobs(scene, root)
 
 
 def wire(scene, job):
     """Points the object's Mesh Cache modifier at the job's .pc2 (stock Blender)."""
+    if hasattr(job, "wire"):  # jobs with more to wire (meadows: layout, hidden instances)
+        return job.wire(scene)
     obj = scene.objects[job.name]
     mod = obj.modifiers.get(MODIFIER)
     if mod is None:
@@ -168,6 +176,8 @@ def cached_range(obj, scene):
     start, end = int(rng[0]), int(rng[1])
     if info["samples"] != end - start + 1 or int(info["start_frame"]) != start:
         return None
+    if obj.get("tussock_baked_points", info["points"]) != info["points"]:
+        return None
     return start, end
 
 
@@ -189,7 +199,7 @@ def baked_frame(obj, scene, frame):
 
 
 class TUSSOCK_OT_bake(bpy.types.Operator):
-    """Bake Tussock's animation (trees) into caches that Blender reads without Tussock"""
+    """Bake Tussock's animation (trees, simulated meadows) into caches that Blender reads without Tussock"""
     bl_idname = "tussock.bake"
     bl_label = "Bake"
     bl_options = {"REGISTER"}
@@ -211,7 +221,7 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
         native.require()
         jobs = jobs_for(scene)
         if not jobs:
-            raise ValueError("nothing to bake: add a Tussock tree first")
+            raise ValueError("nothing to bake: add a Tussock tree or a simulated meadow first")
         part = self._part(scene)
         if part[0] > part[1]:
             raise ValueError(f"frame_start: {part[0]} is after frame_end {part[1]}")
@@ -317,6 +327,9 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
                 os.remove(pc2)
             obj.modifiers.remove(mod)
             obj.pop("tussock_baked_range", None)
+            if obj.get("tussock_simulated_blades"):
+                from .meadow import baking
+                baking.free(context.scene, obj, root)
             removed += 1
         self.report({"INFO"}, f"Freed the caches of {removed} objects")
         return {"FINISHED"}
