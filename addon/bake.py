@@ -194,7 +194,7 @@ def baked_frame(obj, scene, frame):
         mod.show_render = mod.show_viewport = ok
         if not ok:
             print(f"Tussock: the bake of {obj.name} does not hold frame {frame} (cache "
-                  "missing, frame range or settings changed): using the live tree; bake again")
+                  "missing, frame range or settings changed): using the live animation; bake again")
     return ok
 
 
@@ -351,4 +351,27 @@ class TUSSOCK_PT_bake(SubPanel, bpy.types.Panel):
                                   icon="CHECKMARK" if rng else "ERROR")
 
 
+@bpy.app.handlers.persistent
+def _before_save(*_args):
+    """A farm renders the saved file at any frame, maybe without Tussock: every complete,
+    up-to-date cache is saved switched on (the frame handler switches one off only while
+    a frame outside it is shown), with a meadow's baked layout put back."""
+    if not native.available():
+        return
+    for scene in bpy.data.scenes:
+        for obj in scene.objects:  # one check per object with a cache
+            mod = obj.modifiers.get(MODIFIER)
+            if mod is None or cached_range(obj, scene) is None:
+                continue
+            if obj.get("tussock_simulated_blades"):
+                from .meadow import baking
+                baking.restore_layout(obj, scene)
+            mod.show_render = mod.show_viewport = True
+
+
 classes = (TUSSOCK_OT_bake, TUSSOCK_OT_free_bake, TUSSOCK_PT_bake)
+
+
+def register_extra():
+    from . import handlers
+    handlers.add("save_pre", _before_save)

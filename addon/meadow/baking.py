@@ -43,7 +43,7 @@ def inputs_key(meadow, scene):
 
 def meadow_of(child, scene):
     """The meadow object whose simulated blades `child` holds, or None."""
-    meadow = scene.objects.get(child.get("tussock_meadow", ""))
+    meadow = scene.objects.get(child.get("tussock_meadow_name", ""))
     s = compat.settings_of(meadow, "tussock_meadow")
     return meadow if s is not None and s.is_meadow else None
 
@@ -126,13 +126,21 @@ def show_baked(meadow, scene, frame):
         return False
     if not bake.baked_frame(child, scene, frame):
         return False
-    digest = child.get("tussock_bake_layout")
-    if child.data.get("tussock_layout") != "baked:" + str(digest):
-        tiles = np.array(child.get("tussock_baked_tiles", []), np.int32)
-        pb = simulate._playback(meadow, scene)
-        layout = rest_layout(pb.runner, tiles)
-        apply_layout(meadow, child, tiles, layout, pb.runner.K, pb.instance_tile, digest)
+    restore_layout(child, scene, meadow)
     return True
+
+
+def restore_layout(child, scene, meadow=None):
+    """Puts a bake's layout back into the blades object and the meadow's hidden instances
+    if live frames replaced them."""
+    meadow = meadow or meadow_of(child, scene)
+    digest = child.get("tussock_bake_layout")
+    if meadow is None or child.data.get("tussock_layout") == "baked:" + str(digest):
+        return
+    tiles = np.array(child.get("tussock_baked_tiles", []), np.int32)
+    pb = simulate._playback(meadow, scene)
+    layout = rest_layout(pb.runner, tiles)
+    apply_layout(meadow, child, tiles, layout, pb.runner.K, pb.instance_tile, digest)
 
 
 def _atomic_json(path, data):
@@ -176,6 +184,8 @@ class MeadowJob:
         self.instance_tile = np.empty(info["chunk_instances"], np.int32)
         lib.meadow_chunk_instances(meadow, None, None, self.instance_tile)
         self.runner_args = (patch, meadow, definition, blade_rand)
+        self.digest = None
+        self._check_manifest()  # the range at once, before the frames are played
         self.colliders = read_colliders(scene, s.colliders, frames)
         # the state at the first frame is the rest pose: its colliders are never used
         self.tiles = touched_tiles(definition, [self.colliders[f] for f in frames[1:]])
@@ -210,7 +220,7 @@ class MeadowJob:
             raise ValueError(f"'{self.name}' was baked for frames {old[1][0]}–{old[1][1]} but "
                              f"the scene now runs {self.range[0]}–{self.range[1]}: Free Bake, "
                              "then bake again")
-        if old[2] != self.digest:
+        if self.digest is not None and old[2] != self.digest:
             raise ValueError(f"'{self.name}' was baked with other settings or collider "
                              "paths: Free Bake, then bake again")
 
@@ -314,6 +324,8 @@ class MeadowJob:
         mod.play_mode = "SCENE"
         mod.frame_start = float(self.range[0])
         mod.frame_scale = 1.0
+        mod.show_render = mod.show_viewport = True  # reading the colliders may have
+        # played frames that the unfinished cache did not hold yet
         child["tussock_baked_range"] = self.range
         child["tussock_bake_key"] = self.key
         child["tussock_bake_layout"] = self.digest

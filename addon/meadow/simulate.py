@@ -353,7 +353,7 @@ def blades_object(obj):
         for coll in obj.users_collection:
             coll.objects.link(child)
         child["tussock_simulated_blades"] = True
-    child["tussock_meadow"] = obj.name
+    child["tussock_meadow_name"] = obj.name
     return child
 
 
@@ -370,7 +370,7 @@ def write(obj, pb):
     child = blades_object(obj)
     mesh = child.data
     capacity = mesh.get("tussock_capacity") or 0
-    if nb > capacity or nb < capacity // 2:  # grows at once, shrinks only below half
+    if not capacity or nb > capacity or nb < capacity // 2:  # grows at once, shrinks below half
         capacity = max(1, -(-nb // CAPACITY_BLOCK)) * CAPACITY_BLOCK
     layout = tiles.tobytes()
     fresh = (mesh.get("tussock_layout") != "live" or mesh.get("tussock_capacity") != capacity
