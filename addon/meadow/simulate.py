@@ -24,9 +24,10 @@ from . import build, material
 STEPS_PER_FRAME = 2
 SNAPSHOT_EVERY = 10  # frames between snapshots of the solver state (counted from frame_start)
 SNAPSHOT_BUDGET = 256 << 20  # bytes of snapshots kept per meadow
-CAPACITY_BLOCK = 1024  # the dynamic mesh grows in blocks of blades and shrinks only below
-                       # half full, so that its topology (rebuilding it takes Blender about
-                       # as long as ten frames) changes seldom while tiles come and go
+CAPACITY_BLOCK = 1024  # the dynamic mesh has room for a whole number of blocks of blades;
+                       # it grows by half at least and shrinks only below a quarter full, so
+                       # that its topology (rebuilding it costs Blender about as much as five
+                       # frames) changes seldom while tiles come and go
 NO_COLLIDERS = np.zeros((0, 8), np.float32)
 _cache = {}  # meadow object name -> Playback
 suspended = False  # True while the bake plays frames only to read collider positions
@@ -297,8 +298,11 @@ def simulate_to(obj, scene, frame, depsgraph=None):
 
 def ribbon_topology(mesh, blades, k):
     """(Re)builds `mesh` for `blades` ribbons of k knots: one quad per segment (the same
-    diagonal as the instanced blades' triangles when rendered), UVs (u across, v = knot /
-    (k - 1) along) and the per-vertex attribute tsk_blade_rand. Positions are set apart."""
+    diagonal as the instanced blades' triangles when rendered), the point attributes tsk_v
+    (knot / (k - 1): 0 at the root, 1 at the tip; the material reads it where instanced
+    blades have their UV map's v, since a UV map, one value per face corner, would cost
+    Blender about a tenth more work per frame) and tsk_blade_rand. Positions are set
+    apart."""
     lib = native.require()
     mesh.clear_geometry()
     tris = np.empty(blades * 6 * (k - 1), np.int32)
@@ -315,13 +319,11 @@ def ribbon_topology(mesh, blades, k):
     mesh.polygons.foreach_set("loop_total", np.full(nq, 4, np.int32))
     mesh.polygons.foreach_set("use_smooth", np.ones(nq, bool))
     v = np.repeat(np.arange(k, dtype=np.float32) / (k - 1), 2)
-    u = np.tile(np.array([0.0, 1.0], np.float32), k)
-    uv_vertex = np.tile(np.stack([u, v], axis=1), (blades, 1))
-    layer = mesh.uv_layers.new(name="UVMap")
-    layer.data.foreach_set("uv", np.ascontiguousarray(uv_vertex[quads]).ravel())
+    mesh.attributes.new("tsk_v", "FLOAT", "POINT").data.foreach_set("value", np.tile(v, blades))
     mesh.attributes.new("tsk_blade_rand", "FLOAT", "POINT")
+    grass = material.grass_material()  # (brought up to date if an older Tussock made it)
     if len(mesh.materials) == 0:
-        mesh.materials.append(material.grass_material())
+        mesh.materials.append(grass)
     mesh.update(calc_edges=True)
 
 
@@ -370,8 +372,9 @@ def write(obj, pb):
     child = blades_object(obj)
     mesh = child.data
     capacity = mesh.get("tussock_capacity") or 0
-    if not capacity or nb > capacity or nb < capacity // 2:  # grows at once, shrinks below half
-        capacity = max(1, -(-nb // CAPACITY_BLOCK)) * CAPACITY_BLOCK
+    if not capacity or nb > capacity or nb < capacity // 4:
+        capacity = max(1, -(-max(nb, capacity * 3 // 2 if nb > capacity else nb) // CAPACITY_BLOCK))
+        capacity *= CAPACITY_BLOCK
     layout = tiles.tobytes()
     fresh = (mesh.get("tussock_layout") != "live" or mesh.get("tussock_capacity") != capacity
              or len(mesh.vertices) != capacity * 2 * k)
