@@ -437,7 +437,12 @@ def test_meadow_range_change_is_reported_and_free_bake_restores_the_live_simulat
     assert child.data["tussock_layout"].startswith("baked:")
     hidden = np.empty(len(meadow.data.vertices), bool)
     meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
-    assert hidden.sum() > 0
+    baked_hidden = np.isin(simulate._cache[meadow.name].instance_tile, child["tussock_baked_tiles"])
+    assert hidden.sum() > 0 and np.array_equal(hidden, baked_hidden)
+    meadow.tussock_meadow.display = 0.5  # rebuilds the instances: tsk_hidden cleared ...
+    scene.frame_set(6)
+    meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
+    assert np.array_equal(hidden, baked_hidden)  # ... and hidden again on the next frame
     # the first frame moves: every cached frame is out of date, the live simulation shows
     scene.frame_start = 2
     scene.frame_set(5)

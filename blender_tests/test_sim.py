@@ -83,6 +83,15 @@ def test_rolling_ball_bends_blades_on_its_path():
     # back in time: resumed with the recorded ball positions, same bytes
     scene.frame_set(12)
     assert ribbons(meadow) == frames[12]
+    # rebuilding the meadow's instances (a viewport setting) clears tsk_hidden; the next
+    # frame hides the simulated tiles' instances again
+    meadow.tussock_meadow.display = 0.5
+    meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
+    assert hidden.sum() == 0
+    scene.frame_set(13)
+    meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
+    pb = simulate._cache[meadow.name]
+    assert hidden.sum() > 0 and np.array_equal(hidden, np.isin(pb.instance_tile, pb.runner.active()[0]))
 
 
 def rest_knots(meadow):

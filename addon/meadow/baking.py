@@ -134,13 +134,19 @@ def restore_layout(child, scene, meadow=None):
     """Puts a bake's layout back into the blades object and the meadow's hidden instances
     if live frames replaced them."""
     meadow = meadow or meadow_of(child, scene)
-    digest = child.get("tussock_bake_layout")
-    if meadow is None or child.data.get("tussock_layout") == "baked:" + str(digest):
+    if meadow is None:
         return
+    digest = child.get("tussock_bake_layout")
     tiles = np.array(child.get("tussock_baked_tiles", []), np.int32)
     pb = simulate._playback(meadow, scene)
-    layout = rest_layout(pb.runner, tiles)
-    apply_layout(meadow, child, tiles, layout, pb.runner.K, pb.instance_tile, digest)
+    if child.data.get("tussock_layout") != "baked:" + str(digest):
+        layout = rest_layout(pb.runner, tiles)
+        apply_layout(meadow, child, tiles, layout, pb.runner.K, pb.instance_tile, digest)
+        pb.written = None  # the live frames' layout is gone
+    # the hidden instances too (checked every frame: rebuilding the meadow clears them)
+    if pb.baked_hidden is None or pb.baked_hidden[0] != digest:
+        pb.baked_hidden = (digest, np.isin(pb.instance_tile, tiles))
+    simulate.set_hidden(meadow, pb.baked_hidden[1])
 
 
 def _atomic_json(path, data):

@@ -202,6 +202,8 @@ class Playback:
         self.written = None  # active tiles last written into the dynamic mesh (bytes)
         self.pos = None
         self.ribbon = None  # (widths, sides) of the written tiles
+        self.hidden = None  # per instance: is its tile simulated
+        self.baked_hidden = None  # (bake layout digest, per instance: is its tile baked)
 
     # -- snapshots ------------------------------------------------------------------------
     def snapshot_bytes(self):
@@ -384,10 +386,11 @@ def write(obj, pb):
         mesh["tussock_capacity"] = capacity
     if fresh or pb.written != layout:
         set_blade_rand(mesh, r.per_blade(tiles, 2), k)
-        set_hidden(obj, np.isin(pb.instance_tile, tiles))
         pb.written = layout
+        pb.hidden = np.isin(pb.instance_tile, tiles)
         pb.pos = np.zeros(capacity * 2 * k * 3, np.float32)
         pb.ribbon = (r.per_blade(tiles, 0), r.per_blade(tiles, 1))
+    set_hidden(obj, pb.hidden)  # (checked every frame: rebuilding the meadow clears it)
     if nb:
         lib.blades_expand(r.knots(), pb.ribbon[0], pb.ribbon[1], k, pb.pos[:nb * 2 * k * 3],
                           None, None)
