@@ -1,8 +1,8 @@
 """Farm-safe caches (tussock.bake, tussock.free_bake).
 
-Trees and simulated meadows (addon/meadow/baking.py) are baked into Point Cache 2 files that
-Blender's own Mesh Cache modifier reads, so a .blend renders the same frames where Tussock is
-not installed. Every frame is first written
+Trees and simulated meadows (addon/meadow/baking.py) are baked into Point Cache 2 files
+that Blender's own Mesh Cache modifier reads, so a .blend renders the same frames where
+Tussock is not installed. Every frame is first written
 as its own verified file (`//tussock_cache/<object>/frame_NNNNNN.tskf`, atomic), then the
 frames of the scene's range are assembled into `//tussock_cache/<object>.pc2` (atomic)
 once all exist. So:
@@ -199,7 +199,7 @@ def baked_frame(obj, scene, frame):
 
 
 class TUSSOCK_OT_bake(bpy.types.Operator):
-    """Bake Tussock's animation (trees, simulated meadows) into caches that Blender reads without Tussock"""
+    """Bake trees and simulated meadows into caches that Blender reads without Tussock"""
     bl_idname = "tussock.bake"
     bl_label = "Bake"
     bl_options = {"REGISTER"}
