@@ -375,8 +375,8 @@ def write(obj, pb):
     mesh = child.data
     capacity = mesh.get("tussock_capacity") or 0
     if not capacity or nb > capacity or nb < capacity // 4:
-        capacity = max(1, -(-max(nb, capacity * 3 // 2 if nb > capacity else nb) // CAPACITY_BLOCK))
-        capacity *= CAPACITY_BLOCK
+        want = max(nb, capacity * 3 // 2) if nb > capacity else nb  # grow by half at least
+        capacity = max(1, -(-want // CAPACITY_BLOCK)) * CAPACITY_BLOCK
     layout = tiles.tobytes()
     fresh = (mesh.get("tussock_layout") != "live" or mesh.get("tussock_capacity") != capacity
              or len(mesh.vertices) != capacity * 2 * k)
