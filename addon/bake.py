@@ -1,7 +1,8 @@
 """Farm-safe caches (tussock.bake, tussock.free_bake).
 
-Trees are baked into Point Cache 2 files that Blender's own Mesh Cache modifier reads, so a
-.blend renders the same frames where Tussock is not installed. Every frame is first written
+Trees and simulated meadows (addon/meadow/baking.py) are baked into Point Cache 2 files
+that Blender's own Mesh Cache modifier reads, so a .blend renders the same frames where
+Tussock is not installed. Every frame is first written
 as its own verified file (`//tussock_cache/<object>/frame_NNNNNN.tskf`, atomic), then the
 frames of the scene's range are assembled into `//tussock_cache/<object>.pc2` (atomic)
 once all exist. So:
@@ -156,6 +157,9 @@ def inputs_key(obj, scene):
     placement and wind response, the scene's wind settings, first frame and frame rate
     (wind time counts from the first frame). A cache whose key differs is out of date.
     Keyframed wind sources are not part of it: bake again after changing them."""
+    if obj.get("tussock_simulated_blades"):  # a meadow's simulated blades
+        from .meadow import baking
+        return baking.blades_inputs_key(obj, scene)
     s = obj.tussock_tree
     kw = wind_runtime.wind_kwargs(scene)
     parts = [json.dumps(tree_build.definition(s), sort_keys=True), s.smooth_levels,
@@ -168,14 +172,15 @@ def inputs_key(obj, scene):
 
 def jobs_for(scene):
     root = cache_root()
+    from .meadow import baking
     return [TreeJob(o, scene, root) for o in scene.objects
             if compat.settings_of(o, "tussock_tree") is not None and o.tussock_tree.is_tree] \
-        + picture_bake.jobs_for(scene, root)
+        + picture_bake.jobs_for(scene, root) + baking.jobs(scene, root)
 
 
 def wire(scene, job):
     """Points the object's Mesh Cache modifier at the job's .pc2 (stock Blender)."""
-    if hasattr(job, "wire"):  # jobs that wire themselves (pictures)
+    if hasattr(job, "wire"):  # jobs that wire themselves (pictures; meadows: layout, hiding)
         return job.wire(scene)
     obj = scene.objects[job.name]
     mod = obj.modifiers.get(MODIFIER)
@@ -208,6 +213,8 @@ def cached_range(obj, scene):
     start, end = int(rng[0]), int(rng[1])
     if info["samples"] != end - start + 1 or int(info["start_frame"]) != start:
         return None
+    if obj.get("tussock_baked_points", info["points"]) != info["points"]:
+        return None
     return start, end
 
 
@@ -224,12 +231,13 @@ def baked_frame(obj, scene, frame):
         mod.show_render = mod.show_viewport = ok
         if not ok:
             print(f"Tussock: the bake of {obj.name} does not hold frame {frame} (cache "
-                  "missing, frame range or settings changed): using the live tree; bake again")
+                  "missing, frame range or settings changed): using the live animation; bake again")
     return ok
 
 
 class TUSSOCK_OT_bake(bpy.types.Operator):
-    """Bake Tussock's trees and animated pictures into caches that Blender reads without it"""
+    """Bake trees, simulated meadows and animated pictures into caches that Blender reads
+    without Tussock"""
     bl_idname = "tussock.bake"
     bl_label = "Bake"
     bl_options = {"REGISTER"}
@@ -251,7 +259,8 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
         native.require()
         jobs = jobs_for(scene)
         if not jobs:
-            raise ValueError("nothing to bake: add a Tussock tree or animate a picture first")
+            raise ValueError("nothing to bake: add a Tussock tree or a simulated meadow, or "
+                             "animate a picture first")
         part = self._part(scene)
         if part[0] > part[1]:
             raise ValueError(f"frame_start: {part[0]} is after frame_end {part[1]}")
@@ -357,6 +366,9 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
                 os.remove(pc2)
             obj.modifiers.remove(mod)
             obj.pop("tussock_baked_range", None)
+            if obj.get("tussock_simulated_blades"):
+                from .meadow import baking
+                baking.free(context.scene, obj, root)
             removed += 1
         removed += picture_bake.free(context.scene, root)
         self.report({"INFO"}, f"Freed the caches of {removed} objects")
@@ -382,4 +394,27 @@ class TUSSOCK_PT_bake(SubPanel, bpy.types.Panel):
             self.layout.label(text=picture[0], icon="CHECKMARK" if picture[1] else "ERROR")
 
 
+@bpy.app.handlers.persistent
+def _before_save(*_args):
+    """A farm renders the saved file at any frame, maybe without Tussock: every complete,
+    up-to-date cache is saved switched on (the frame handler switches one off only while
+    a frame outside it is shown), with a meadow's baked layout put back."""
+    if not native.available():
+        return
+    for scene in bpy.data.scenes:
+        for obj in scene.objects:  # one check per object with a cache
+            mod = obj.modifiers.get(MODIFIER)
+            if mod is None or cached_range(obj, scene) is None:
+                continue
+            if obj.get("tussock_simulated_blades"):
+                from .meadow import baking
+                baking.restore_layout(obj, scene)
+            mod.show_render = mod.show_viewport = True
+
+
 classes = (TUSSOCK_OT_bake, TUSSOCK_OT_free_bake, TUSSOCK_PT_bake)
+
+
+def register_extra():
+    from . import handlers
+    handlers.add("save_pre", _before_save)

@@ -1,8 +1,9 @@
-"""Bakes for farms: the .pc2 holds exactly the live poses and Blender's Mesh Cache plays
-them; a bake split over two `blender -b` processes gives the same bytes as one; a .blend
-renders the same with Tussock disabled; a bake killed with SIGKILL resumes; a cache of
-another version, a missing frame, a changed frame range, a full disk and a read-only
-folder are reported, never silently rendered wrong."""
+"""Bakes for farms, of trees and of simulated meadows: the .pc2 holds exactly the live
+poses and Blender's Mesh Cache plays them; a bake split over two `blender -b` processes
+gives the same bytes as one; a .blend renders the same with Tussock disabled; a bake killed
+with SIGKILL resumes; a cache of another version, a missing frame, a changed frame range, a
+full disk and a read-only folder are reported, never silently rendered wrong; freeing a
+meadow's bake brings its live simulation back."""
 
 import filecmp
 import os
@@ -24,6 +25,8 @@ import blender_env  # noqa: E402
 
 harness.enable_addon()
 from tussock import bake, native  # noqa: E402
+from tussock.meadow import baking as meadow_baking  # noqa: E402
+from tussock.meadow import simulate  # noqa: E402
 from tussock.trees import build as tree_build  # noqa: E402
 from tussock.wind import runtime  # noqa: E402
 
@@ -237,6 +240,238 @@ def test_version_missing_frame_and_range_change_are_reported():
     # free: caches gone, live animation back
     assert bpy.ops.tussock.free_bake() == {"FINISHED"}
     assert bake.MODIFIER not in obj.modifiers and not os.path.exists(folder)
+
+
+# ---- simulated meadows ------------------------------------------------------------------------
+
+def make_meadow_scene(folder, frames=FRAMES):
+    """A saved .blend with a small simulated meadow that a keyframed ball crosses, in a
+    breeze, and a small Cycles camera looking at the ball's path; returns its path."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    harness.enable_addon()
+    runtime.clear()
+    simulate.forget()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, frames
+    scene.tussock_wind.base_speed = 3.0
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    assert bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=32, density="UNIFORM",
+                                      display=1.0) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.2, location=(-0.9, -0.1, 0.15))
+    ball = bpy.context.active_object
+    ball.keyframe_insert("location", frame=1)
+    ball.location = (0.7, 0.1, 0.15)
+    ball.keyframe_insert("location", frame=frames)
+    ball.hide_render = True  # the picture shows the blades it pushed
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    coll.objects.link(ball)
+    meadow.tussock_meadow.colliders = coll
+    meadow.tussock_meadow.use_simulation = True
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = (0.0, -1.6, 0.9), (1.05, 0.0, 0.0)
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.use_denoising = False
+    scene.cycles.seed = 0
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    scene.render.resolution_percentage = 100
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    scene.collection.objects.link(sun)
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, "scene.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    return path
+
+
+def ribbon_positions(obj):
+    co = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    return co
+
+
+@test
+def test_meadow_pc2_holds_the_live_ribbons_and_rest_elsewhere():
+    path = make_meadow_scene(os.path.join(TMP, "meadow_live"))
+    scene = bpy.context.scene
+    meadow = bpy.data.objects["Meadow"]
+    k = 16
+    live = {}
+    for f in range(1, FRAMES + 1):  # the live simulation, frame by frame
+        scene.frame_set(f)
+        pb = simulate._cache[meadow.name]
+        tiles, counts = pb.runner.active()
+        child = bpy.data.objects["Meadow blades"]
+        live[f] = (tiles.copy(), counts.copy(), ribbon_positions(child)[:counts.sum() * 2 * k * 3])
+    assert any(len(v[0]) for v in live.values())
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    child = bpy.data.objects["Meadow blades"]
+    baked_tiles = np.array(child["tussock_baked_tiles"], np.int32)
+    union = np.unique(np.concatenate([v[0] for v in live.values()]))
+    assert np.array_equal(baked_tiles, union), (baked_tiles, union)
+    pc2 = os.path.join(os.path.dirname(path), "tussock_cache", "Meadow_blades.pc2")
+    info = lib.pc2_info(pc2)
+    assert info["samples"] == FRAMES and info["points"] == len(child.data.vertices)
+    # per tile: its slot in the baked mesh, and its blades at rest
+    runner = simulate._cache[meadow.name].runner
+    rest = meadow_baking.rest_layout(runner, baked_tiles)
+    offset = np.concatenate([[0], np.cumsum(rest["counts"])]) * 2 * k * 3
+    out = np.empty(info["points"] * 3, np.float32)
+    for f in range(1, FRAMES + 1):
+        lib.pc2_read_sample(pc2, f - 1, out)
+        tiles, counts, ribbons = live[f]
+        start = np.concatenate([[0], np.cumsum(counts)]) * 2 * k * 3
+        for i, t in enumerate(baked_tiles):  # one comparison per tile of the bake
+            got = out[offset[i]:offset[i + 1]]
+            where = np.flatnonzero(tiles == t)
+            if len(where):  # simulated in this frame: the live ribbons, bit for bit
+                j = where[0]
+                assert np.array_equal(got, ribbons[start[j]:start[j + 1]]), (f, t)
+            else:  # asleep: exactly its rest ribbons
+                assert np.array_equal(got, rest["rest"][offset[i]:offset[i + 1]]), (f, t)
+    # the instances of every baked tile stay hidden, the others are shown
+    hidden = np.empty(len(meadow.data.vertices), bool)
+    meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
+    instance_tile = simulate._cache[meadow.name].instance_tile
+    assert np.array_equal(hidden, np.isin(instance_tile, baked_tiles))
+    # Blender's own Mesh Cache plays the frames
+    for f in (2, FRAMES):
+        scene.frame_set(f)
+        lib.pc2_read_sample(pc2, f - 1, out)
+        ev = child.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+        co = np.empty(len(ev.vertices) * 3, np.float32)
+        ev.vertices.foreach_get("co", co)
+        assert np.allclose(co, out, atol=1e-6), f
+        child.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh_clear()
+
+
+def render_png(blend, frame, addon, name):
+    out = os.path.join(os.path.dirname(blend), name)
+    blender(blend, f"bpy.context.scene.render.filepath = {out!r}\n"
+                   f"bpy.context.scene.frame_set({frame})\n"
+                   "bpy.ops.render.render(write_still=True)", addon=addon)
+    img = bpy.data.images.load(out + ".png")
+    px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px
+
+
+@test
+def test_meadow_split_bake_equals_single_bake_and_renders_without_tussock():
+    one = make_meadow_scene(os.path.join(TMP, "meadow_one"))
+    two = os.path.join(TMP, "meadow_two", "scene.blend")
+    os.makedirs(os.path.dirname(two), exist_ok=True)
+    shutil.copyfile(one, two)
+    blender(one, "bpy.ops.tussock.bake(save=True)")
+    blender(two, "bpy.ops.tussock.bake(frame_start=1, frame_end=3, save=True)")
+    blender(two, "bpy.ops.tussock.bake(frame_start=4, frame_end=8, save=True)")
+    a, b = cache_files(os.path.dirname(one)), cache_files(os.path.dirname(two))
+    assert a == b and "Meadow_blades.pc2" in a and "Meadow_blades.layout.json" in a, (a, b)
+    for rel in a:
+        assert filecmp.cmp(os.path.join(os.path.dirname(one), "tussock_cache", rel),
+                           os.path.join(os.path.dirname(two), "tussock_cache", rel),
+                           shallow=False), rel
+    renders = [render_png(one, 6, True, "with"), render_png(one, 6, False, "without"),
+               render_png(two, 6, False, "split_without")]
+    assert np.array_equal(renders[0], renders[1]) and np.array_equal(renders[1], renders[2])
+    rgb = renders[0].reshape(-1, 4)[:, :3]
+    assert (rgb.max(axis=1) > 0.01).mean() > 0.5  # the meadow fills the picture
+
+
+@test
+def test_meadow_killed_bake_resumes_to_the_same_cache():
+    ref = make_meadow_scene(os.path.join(TMP, "meadow_ref"), frames=24)
+    killed = os.path.join(TMP, "meadow_killed", "scene.blend")
+    os.makedirs(os.path.dirname(killed), exist_ok=True)
+    shutil.copyfile(ref, killed)
+    blender(ref, "bpy.ops.tussock.bake()")
+    folder = os.path.join(os.path.dirname(killed), "tussock_cache")
+    with blender_env.BlenderUser() as user:
+        script = os.path.join(user.tmp, "run.py")
+        with open(script, "w") as f:
+            f.write("import bpy, addon_utils\naddon_utils.enable('tussock')\nbpy.ops.tussock.bake()\n")
+        proc = subprocess.Popen(blender_env.command(script, blend=killed), env=user.env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.time() + 180
+        while time.time() < deadline:
+            done = [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
+            if len(done) >= 3:
+                break
+            time.sleep(0.02)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    done = [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
+    assert 3 <= len(done) < 24, len(done)  # killed part-way
+    assert not any(f.endswith(".pc2") for f in os.listdir(folder))
+    blender(killed, "bpy.ops.tussock.bake()")  # resumes
+    a, b = cache_files(os.path.dirname(ref)), cache_files(os.path.dirname(killed))
+    assert a == b
+    for rel in a:
+        assert filecmp.cmp(os.path.join(os.path.dirname(ref), "tussock_cache", rel),
+                           os.path.join(folder, rel), shallow=False), rel
+
+
+@test
+def test_meadow_range_change_is_reported_and_free_bake_restores_the_live_simulation():
+    path = make_meadow_scene(os.path.join(TMP, "meadow_range"))
+    scene = bpy.context.scene
+    meadow = bpy.data.objects["Meadow"]
+    scene.frame_set(1)
+    live = {}
+    for f in range(1, FRAMES + 1):  # ribbons of the simulated blades (the rest of the
+        scene.frame_set(f)           # dynamic mesh is spare room, all zero)
+        n = meadow["tussock_active_blades"] * 2 * 16 * 3
+        live[f] = ribbon_positions(bpy.data.objects["Meadow blades"])[:n]
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    child = bpy.data.objects["Meadow blades"]
+    mod = child.modifiers[bake.MODIFIER]
+    baked_count = len(child.data.vertices)
+    # the range grows: baking again is refused with what to do; the baked frames still
+    # play from the cache, the new ones live
+    scene.frame_end = FRAMES + 4
+    scene.frame_set(FRAMES)
+    expect_cancel(bpy.ops.tussock.bake, f"was baked for frames 1–{FRAMES}")
+    scene.frame_set(FRAMES + 2)
+    assert not mod.show_render and child.data.get("tussock_layout") == "live"
+    assert meadow.get("tussock_active_blades", 0) > 0
+    # saved while a live frame shows: the file is saved with the cache on and its layout,
+    # so that a farm without Tussock renders the baked frames
+    bpy.ops.wm.save_mainfile()
+    assert mod.show_render and len(child.data.vertices) == baked_count
+    scene.frame_set(FRAMES + 3)
+    assert not mod.show_render
+    scene.frame_set(5)
+    assert mod.show_render and len(child.data.vertices) == baked_count
+    assert child.data["tussock_layout"].startswith("baked:")
+    hidden = np.empty(len(meadow.data.vertices), bool)
+    meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
+    baked_hidden = np.isin(simulate._cache[meadow.name].instance_tile, child["tussock_baked_tiles"])
+    assert hidden.sum() > 0 and np.array_equal(hidden, baked_hidden)
+    meadow.tussock_meadow.display = 0.5  # rebuilds the instances: tsk_hidden cleared ...
+    scene.frame_set(6)
+    meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
+    assert np.array_equal(hidden, baked_hidden)  # ... and hidden again on the next frame
+    # the first frame moves: every cached frame is out of date, the live simulation shows
+    scene.frame_start = 2
+    scene.frame_set(5)
+    assert not mod.show_render and bake.cached_range(child, scene) is None
+    scene.frame_start, scene.frame_end = 1, FRAMES
+    scene.frame_set(5)
+    assert mod.show_render
+    # free: caches gone, and the live simulation is back with the live frames' bytes
+    assert bpy.ops.tussock.free_bake() == {"FINISHED"}
+    root = os.path.join(os.path.dirname(path), "tussock_cache")
+    assert bake.MODIFIER not in child.modifiers and not os.listdir(root), os.listdir(root)
+    for f in (1, 2, 3, 4, 5, 6):
+        scene.frame_set(f)
+        assert child.data.get("tussock_layout") == "live"
+        now = ribbon_positions(child)
+        assert np.array_equal(now[:len(live[f])], live[f]) and not now[len(live[f]):].any(), f
+    assert bpy.ops.tussock.bake() == {"FINISHED"}  # and it bakes again after the free
 
 
 def mount_tmpfs(where, options):

@@ -1,7 +1,9 @@
 """Touched blades in Blender: a rigid-body ball rolls through a meadow (Blender's Bullet
 world moves it), the blades under its path bend, none enters the ball, the instances of
-simulated tiles are hidden, going back in time gives the same frame again, and bad
-settings are reported without harm."""
+simulated tiles are hidden, going back in time or jumping ahead resumes from a snapshot
+and gives the same bytes as playing straight through, snapshots stay within their memory
+budget and are not used once the colliders they saw have changed, and bad settings are
+reported without harm."""
 
 import os
 import sys
@@ -43,12 +45,8 @@ def rolling_ball_scene():
 
 
 def blade_knots(meadow):
-    e = simulate._cache[meadow.name]
-    lib = simulate.native.lib
-    info = lib.blade_sim_info(e["sim"])
-    knots = np.empty(info["active_blades"] * e["K"] * 3, np.float32)
-    lib.blade_sim_get_knots(e["sim"], knots)
-    return knots.reshape(-1, e["K"], 3)
+    r = simulate._cache[meadow.name].runner
+    return r.knots().reshape(-1, r.K, 3)
 
 
 def instance_count(meadow):
@@ -75,40 +73,40 @@ def test_rolling_ball_bends_blades_on_its_path():
             d = np.linalg.norm(knots - centre[None, None, :], axis=2)
             assert d.min() > RADIUS - 1e-3, (f, d.min())
             bent = max(bent, float(np.abs(knots[:, -1, :2] - knots[:, 0, :2]).max()))
-        blades = bpy.data.objects[f"{meadow.name} blades"].data
-        co = np.empty(len(blades.vertices) * 3, np.float32)
-        blades.vertices.foreach_get("co", co)
-        frames[f] = co
+        frames[f] = ribbons(meadow)
     assert np.array(ball.matrix_world.translation)[0] > start_x + 0.8  # Bullet rolled it
     assert meadow["tussock_active_tiles"] > 0 and meadow["tussock_active_blades"] > 0
     assert bent > 0.05, bent  # tips pushed well away from above their roots
     hidden = np.empty(len(meadow.data.vertices), bool)
     meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
     assert hidden.sum() > 0 and instance_count(meadow) == total_instances - hidden.sum()
-    # back in time: restarted from rest with the recorded ball positions, same bytes
+    # back in time: resumed with the recorded ball positions, same bytes
     scene.frame_set(12)
-    blades = bpy.data.objects[f"{meadow.name} blades"].data
-    co = np.empty(len(blades.vertices) * 3, np.float32)
-    blades.vertices.foreach_get("co", co)
-    assert co.tobytes() == frames[12].tobytes()
+    assert ribbons(meadow) == frames[12]
+    # rebuilding the meadow's instances (a viewport setting) clears tsk_hidden; the next
+    # frame hides the simulated tiles' instances again
+    meadow.tussock_meadow.display = 0.5
+    meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
+    assert hidden.sum() == 0
+    scene.frame_set(13)
+    meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
+    pb = simulate._cache[meadow.name]
+    assert hidden.sum() > 0 and np.array_equal(hidden, np.isin(pb.instance_tile, pb.runner.active()[0]))
 
 
 def rest_knots(meadow):
     """Rest knots of the active blades, in the simulation's order, from the meadow."""
-    e = simulate._cache[meadow.name]
+    r = simulate._cache[meadow.name].runner
     lib = simulate.native.lib
-    info = lib.blade_sim_info(e["sim"])
-    tiles = np.empty(info["active_tiles"], np.int32)
-    counts = np.empty(info["active_tiles"], np.int32)
-    lib.blade_sim_get_active(e["sim"], tiles, counts)
+    tiles, _ = r.active()
     out = []
     for t in tiles:
         t = int(t)
-        n = lib.meadow_blade_count(e["meadow"], t, t + 1)
-        k = np.empty(n * e["K"] * 3, np.float32)
-        lib.meadow_realise_knots(e["meadow"], e["patch"], t, t + 1, k, None, None)
-        out.append(k.reshape(n, e["K"], 3))
-    return np.concatenate(out) if out else np.zeros((0, e["K"], 3), np.float32)
+        n = lib.meadow_blade_count(r.meadow, t, t + 1)
+        k = np.empty(n * r.K * 3, np.float32)
+        lib.meadow_realise_knots(r.meadow, r.patch, t, t + 1, k, None, None)
+        out.append(k.reshape(n, r.K, 3))
+    return np.concatenate(out) if out else np.zeros((0, r.K, 3), np.float32)
 
 
 @test
@@ -141,6 +139,105 @@ def test_blades_recover_after_the_ball_has_passed():
         hidden = np.empty(len(meadow.data.vertices), bool)
         meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
         assert hidden.sum() == 0
+
+
+def ribbons(meadow):
+    """Positions of the simulated blades' ribbons in the dynamic mesh, as bytes; the rest
+    of the mesh (room for more blades) must be all zero."""
+    blades = bpy.data.objects[f"{meadow.name} blades"].data
+    v = np.empty(len(blades.vertices) * 3, np.float32)
+    blades.vertices.foreach_get("co", v)
+    n = meadow["tussock_active_blades"] * 2 * simulate._cache[meadow.name].runner.K * 3
+    assert not v[n:].any()
+    return v[:n].tobytes()
+
+
+def play(scene, meadow, frames):
+    """Plays `frames` in order; knots and ribbon positions of each, as bytes."""
+    knots, co = {}, {}
+    for f in frames:
+        scene.frame_set(f)
+        knots[f] = blade_knots(meadow).tobytes()
+        co[f] = ribbons(meadow)
+    return knots, co
+
+
+def knots_and_co(scene, meadow, frame):
+    scene.frame_set(frame)
+    return blade_knots(meadow).tobytes(), ribbons(meadow)
+
+
+@test
+def test_jumps_resume_from_snapshots_with_the_bytes_of_a_straight_run():
+    scene, meadow, ball = rolling_ball_scene()
+    knots, co = play(scene, meadow, list(range(1, 31)))
+    pb = simulate._cache[meadow.name]
+    assert sorted(pb.snapshots) == [11, 21], sorted(pb.snapshots)  # every 10 from frame 1
+    assert len(knots[12]) > 0 and knots[12] != knots[11]
+    # back to 12: resumes from the snapshot of frame 11, not from rest
+    assert knots_and_co(scene, meadow, 12) == (knots[12], co[12])
+    assert pb.restored_from == 11, pb.restored_from
+    # forward from 12 to 27: resumes from the snapshot of frame 21
+    assert knots_and_co(scene, meadow, 27) == (knots[27], co[27])
+    assert pb.restored_from == 21, pb.restored_from
+    # before the first snapshot: from rest
+    assert knots_and_co(scene, meadow, 6) == (knots[6], co[6])
+    assert pb.restored_from == 1, pb.restored_from
+    # a bad handle is refused by the binding with a message
+    try:
+        simulate.native.lib.blade_sim_clone("not a simulation")
+    except simulate.native.Error as exc:
+        assert "sim" in str(exc)
+    else:
+        raise AssertionError("blade_sim_clone accepted a string")
+
+
+@test
+def test_snapshots_stay_within_their_budget_and_cover_the_timeline():
+    scene, meadow, ball = rolling_ball_scene()
+    knots, _ = play(scene, meadow, list(range(1, 61)))
+    pb = simulate._cache[meadow.name]
+    assert sorted(pb.snapshots) == [11, 21, 31, 41, 51]  # the default budget holds them all
+    largest = max(b for _, b in pb.snapshots.values())
+    budget = simulate.SNAPSHOT_BUDGET
+    simulate.SNAPSHOT_BUDGET = int(2.5 * largest)  # room for about two of them
+    try:
+        simulate.forget()
+        again, _ = play(scene, meadow, list(range(1, 61)))
+        pb = simulate._cache[meadow.name]
+        assert again == knots
+        assert 0 < pb.snapshot_bytes() <= simulate.SNAPSHOT_BUDGET, pb.snapshot_bytes()
+        assert pb.every > simulate.SNAPSHOT_EVERY  # thinned out ...
+        assert all((f - 1) % pb.every == 0 for f in pb.snapshots), (pb.every, list(pb.snapshots))
+        assert max(pb.snapshots) >= 60 - pb.every  # ... still reaching the recent frames
+        for f in (58, 33, 14):
+            assert knots_and_co(scene, meadow, f)[0] == knots[f], f
+            assert pb.restored_from == max([1] + [g for g in pb.snapshots if g <= f])
+    finally:
+        simulate.SNAPSHOT_BUDGET = budget
+
+
+@test
+def test_changed_collider_path_gives_a_fresh_run_not_a_stale_snapshot():
+    scene, meadow, ball = rolling_ball_scene()
+    ball.rigid_body.kinematic = True  # keyframed: its path can be edited
+    ball.location = (-0.8, 0.0, RADIUS)
+    ball.keyframe_insert("location", frame=1)
+    ball.location = (0.8, 0.0, RADIUS)
+    ball.keyframe_insert("location", frame=25)
+    play(scene, meadow, list(range(1, 26)))
+    pb = simulate._cache[meadow.name]
+    assert 11 in pb.snapshots and 21 in pb.snapshots
+    # the ball now runs another way from frame 1 on; played again in order ...
+    fc = [c for c in ball.animation_data.action.fcurves if c.data_path == "location"]
+    fc[1].keyframe_points[1].co.y = 0.6
+    fc[1].update()
+    edited, _ = play(scene, meadow, list(range(1, 26)))
+    # ... it must equal a simulation that never saw the old path
+    simulate.forget()
+    fresh, _ = play(scene, meadow, list(range(1, 26)))
+    assert edited == fresh
+    assert edited[25] != b"" and len(edited[25]) > 0
 
 
 @test

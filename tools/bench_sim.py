@@ -4,6 +4,8 @@ plus a million instanced ones (target >= 24 fps); and the peer, Blender's own pa
 dynamics with the same segments, in ns per strand-step. Prints JSON lines (DESIGN.md)."""
 
 import json
+import os
+import resource
 import statistics
 import sys
 import time
@@ -23,6 +25,12 @@ def emit(name, value, unit, params, peer=None):
     if peer:
         line["peer"] = peer
     print(json.dumps(line), flush=True)
+
+
+def cpu_seconds():
+    """CPU time of this process, all threads (steadier than wall time on a shared machine)."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
 
 
 def reset():
@@ -50,17 +58,20 @@ def playback():
     coll.objects.link(log)
     meadow.tussock_meadow.colliders = coll
     meadow.tussock_meadow.use_simulation = True
-    times = []
+    times, cpus = [], []
+    load = os.getloadavg()[0]
     for f in range(1, 49):
-        t = time.perf_counter()
+        c, t = cpu_seconds(), time.perf_counter()
         scene.frame_set(f)
         times.append(time.perf_counter() - t)
-    steady = times[12:]
-    med = statistics.median(steady)
+        cpus.append(cpu_seconds() - c)
+    med = statistics.median(times[12:])
     emit("blade_playback", round(1.0 / med, 2), "fps",
-         {"frame_ms_median": round(med * 1e3, 1), "active_blades": meadow["tussock_active_blades"],
+         {"frame_ms_median": round(med * 1e3, 1),
+          "frame_cpu_ms_median": round(statistics.median(cpus[12:]) * 1e3, 1),
+          "active_blades": meadow["tussock_active_blades"],
           "active_tiles": meadow["tussock_active_tiles"], "instanced_blades": meadow["tussock_blades"],
-          "target_fps": 24})
+          "load_average": round(load, 2), "target_fps": 24})
 
 
 def hair_peer(strands=2000, segments=15, frames=24):

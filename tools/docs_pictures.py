@@ -1,7 +1,7 @@
 """Renders the pictures of docs/ with Tussock itself, in background Blender:
   blender_run.py tools/docs_pictures.py -- OUT_DIR [FEATURE...]
-Features: capture, refine, meadow, trees, picture, wind, simulation, farm, farm_picture,
-reliability. Each writes PNGs named <feature>_<view>.png
+Features: capture, refine, meadow, trees, picture, wind, simulation, farm, farm_meadow,
+farm_picture, reliability. Each writes PNGs named <feature>_<view>.png
 into OUT_DIR."""
 
 import math
@@ -483,6 +483,76 @@ def farm_picture():
     save_rgba("farm_picture", np.concatenate(tiles, axis=1), zoom=2)
 
 
+def farm_meadow():
+    """A ball crossing a simulated meadow, baked in two halves by two background Blenders,
+    then frame 18 rendered by a Blender with Tussock and by one without it."""
+    import subprocess
+    import tempfile
+    import numpy as np
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import blender_env
+    reset()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 24
+    bpy.ops.mesh.primitive_plane_add(size=4.0)
+    soil(bpy.context.active_object)
+    bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=96, density="UNIFORM",
+                               display=1.0, scale_min=0.7, scale_max=1.1)
+    meadow = bpy.context.active_object
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.2, location=(-1.6, 0.1, 0.12))
+    ball = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    red = bpy.data.materials.new("Ball")
+    red.use_nodes = True
+    red.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.6, 0.05, 0.03, 1)
+    ball.data.materials.append(red)
+    ball.keyframe_insert("location", frame=1)
+    ball.location = (1.0, -0.1, 0.12)
+    ball.keyframe_insert("location", frame=24)
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    coll.objects.link(ball)
+    meadow.tussock_meadow.colliders = coll
+    meadow.tussock_meadow.use_simulation = True
+    sky_and_sun(sun_angle=(0.8, 0.2, -0.6))
+    camera((-0.6, -2.1, 1.7), (math.radians(52), 0, math.radians(-8)), lens=35.0)
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.use_denoising = 12, False
+    w, h = 320, 220
+    scene.render.resolution_x, scene.render.resolution_y = w, h
+    tiles = []
+    with tempfile.TemporaryDirectory() as tmp:
+        blend = os.path.join(tmp, "farm.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=blend)
+
+        def run(expr, addon=True):
+            with blender_env.BlenderUser() as user:
+                if not addon:
+                    os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
+                script = os.path.join(user.tmp, "run.py")
+                with open(script, "w") as f:
+                    f.write("import bpy, addon_utils\n")
+                    if addon:
+                        f.write("addon_utils.enable('tussock', default_set=True)\n")
+                    f.write(expr + "\n")
+                subprocess.run(blender_env.command(script, blend=blend), env=user.env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+
+        run("bpy.ops.tussock.bake(frame_start=1, frame_end=12, save=True)")
+        run("bpy.ops.tussock.bake(frame_start=13, frame_end=24, save=True)")
+        for addon in (True, False):
+            out = os.path.join(tmp, f"r{int(addon)}")
+            run(f"bpy.context.scene.render.filepath = {out!r}\nbpy.context.scene.frame_set(18)\n"
+                "bpy.ops.render.render(write_still=True)", addon=addon)
+            img = bpy.data.images.load(out + ".png")
+            px = np.empty(w * h * 4, np.float32)
+            img.pixels.foreach_get(px)
+            tiles += [px.reshape(h, w, 4)[::-1], np.ones((h, 8, 4), np.float32)]
+        same = np.array_equal(tiles[0], tiles[2])
+        print(f"[pictures] with and without Tussock identical: {same}", flush=True)
+    save_rgba("farm_meadow", np.concatenate(tiles[:-1], axis=1))
+
+
 def reliability():
     """The sample depth frame corrupted on purpose — heavy noise, 10 % dropout and bursts of
     missing pixels — and what the capture still makes of it."""
@@ -522,7 +592,7 @@ def reliability():
 
 FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees,
             "wind": wind, "simulation": simulation, "farm": farm, "farm_picture": farm_picture,
-            "reliability": reliability,
+            "farm_meadow": farm_meadow, "reliability": reliability,
             "picture": picture}
 
 os.makedirs(OUT, exist_ok=True)

@@ -1,12 +1,13 @@
-"""The grass material: translucent blades, darker at the root, with colour varying per
-blade (point attribute `tsk_blade_rand`) and per instance (Object Info > Random), so
+"""The grass material: translucent blades, darker at the root (UV v, or the point attribute
+`tsk_v` of simulated ribbons), with colour varying per blade (point attribute
+`tsk_blade_rand`) and per instance (Object Info > Random), so
 Cycles and EEVEE renders look like grass out of the box. Uses only node inputs that
 exist from Blender 3.4 to 5.x."""
 
 import bpy
 
 MATERIAL = "Tussock Grass"
-MATERIAL_VERSION = 1
+MATERIAL_VERSION = 2
 
 
 def _build(mat):
@@ -38,15 +39,25 @@ def _build(mat):
     mid = ramp.color_ramp.elements.new(0.7)
     mid.color = (0.11, 0.30, 0.035, 1.0)
     link(mix_rand.outputs[0], ramp.inputs["Fac"])
-    # darker toward the root: multiply by a ramp on the blade's v coordinate
+    # darker toward the root: multiply by a ramp on the blade's v coordinate (0 root, 1 tip),
+    # the UV map's v on instanced blades, the point attribute tsk_v on simulated ribbons
+    # (which carry no UV map: Blender copies one per face corner every frame); each is 0
+    # where the other is given
     uv = n.new("ShaderNodeUVMap")
     uv.location = (-900, -250)
     sep = n.new("ShaderNodeSeparateXYZ")
     link(uv.outputs["UV"], sep.inputs[0])
+    along = n.new("ShaderNodeAttribute")
+    along.attribute_name = "tsk_v"
+    along.location = (-900, -400)
+    v = n.new("ShaderNodeMath")
+    v.operation = "MAXIMUM"
+    link(sep.outputs["Y"], v.inputs[0])
+    link(along.outputs["Fac"], v.inputs[1])
     root = n.new("ShaderNodeMapRange")
     root.inputs["To Min"].default_value = 0.35
     root.inputs["To Max"].default_value = 1.0
-    link(sep.outputs["Y"], root.inputs["Value"])
+    link(v.outputs[0], root.inputs["Value"])
     shade = n.new("ShaderNodeMixRGB")
     shade.blend_type = "MULTIPLY"
     shade.inputs["Fac"].default_value = 1.0

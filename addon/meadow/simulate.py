@@ -3,8 +3,16 @@ the meadow's colliders — spheres or capsules fitted to the objects of its coll
 collection, rigid bodies included — activate the tiles they touch; those tiles' blades are
 simulated natively in the shared wind and written into one dynamic mesh per meadow, and the
 instances of those tiles are hidden. Tiles at rest are released and blend back into the
-instances. Going back in time restarts from rest, using the collider positions recorded
-when those frames were played."""
+instances.
+
+Going back in time (or jumping ahead) resumes from the nearest snapshot of the solver state
+at or before the frame, else from rest, and steps on with the collider positions recorded
+when those frames were played. Snapshots are taken every SNAPSHOT_EVERY frames while
+playing, within SNAPSHOT_BUDGET bytes per meadow: when that is full, every other snapshot
+is dropped and they are taken half as often, so they keep covering the whole timeline.
+
+The simulation itself (Runner) holds no Blender data, so the bake worker thread runs the
+very same steps and gets the same bytes."""
 
 import bpy
 import numpy as np
@@ -14,12 +22,27 @@ from ..wind import runtime as wind_runtime
 from . import build, material
 
 STEPS_PER_FRAME = 2
-_cache = {}  # meadow object name -> dict
+SNAPSHOT_EVERY = 10  # frames between snapshots of the solver state (counted from frame_start)
+SNAPSHOT_BUDGET = 256 << 20  # bytes of snapshots kept per meadow
+CAPACITY_BLOCK = 1024  # the dynamic mesh has room for a whole number of blocks of blades;
+                       # it grows by half at least and shrinks only below a quarter full, so
+                       # that its topology (rebuilding it costs Blender about as much as five
+                       # frames) changes seldom while tiles come and go
+NO_COLLIDERS = np.zeros((0, 8), np.float32)
+_cache = {}  # meadow object name -> Playback
+suspended = False  # True while the bake plays frames only to read collider positions
 
 
 def sim_settings(s):
     return dict(iterations=s.sim_iterations, damping=s.sim_damping,
                 global_stiffness_root=s.sim_stiffness, local_stiffness=s.sim_local_stiffness)
+
+
+def sim_definition(s, info, knot_count):
+    """The native solver definition of a meadow (settings `s`, meadow layout `info`)."""
+    return dict(origin=tuple(info["origin"]), tile_size=info["tile_size"],
+                tiles_x=info["tiles_x"], tiles_y=info["tiles_y"], knot_count=knot_count,
+                ground_height=info["origin"][2], **sim_settings(s))
 
 
 def colliders(scene, coll, depsgraph=None):
@@ -49,143 +72,280 @@ def colliders(scene, coll, depsgraph=None):
     return np.array(rows, np.float32).reshape(-1, 8)
 
 
-def _entry(obj, scene):
+class Runner:
+    """One meadow's simulation without any Blender data: the native patch and meadow layout
+    give the rest blades of tiles as they wake up, and the solver steps them with the
+    colliders and wind of each frame. Playback and the bake worker both use it, so a frame
+    has the same bytes either way. Wind is sampled once per blade, at its root (the wind
+    does not depend on height), and applied along the whole blade."""
+
+    def __init__(self, patch, meadow, definition, blade_rand):
+        self.lib = native.require()
+        self.patch, self.meadow, self.definition = patch, meadow, definition
+        self.K = definition["knot_count"]
+        self.blade_rand = blade_rand
+        self.tiles = {}  # tile -> (widths, sides, blade rand, roots) of its rest blades
+        self.sim = None
+        self.frame = None
+        self._roots = (None, None)  # (active tiles as bytes, their roots (n, 3))
+
+    def restart(self, frame):
+        """Every blade at rest at `frame`."""
+        self.sim = self.lib.blade_sim_create(**self.definition)
+        self.frame = frame
+
+    def resume(self, snapshot, frame):
+        """Continues from a snapshot (a clone of the solver) taken at `frame`; the snapshot
+        itself stays as it is."""
+        self.sim = self.lib.blade_sim_clone(snapshot)
+        self.frame = frame
+
+    def rest_blades(self, tile):
+        """(knots n*K*3, widths n*K, sides n*3, blade rand n) of a tile's rest blades, as
+        the meadow instances them."""
+        lib, t = self.lib, int(tile)
+        n = lib.meadow_blade_count(self.meadow, t, t + 1)
+        knots = np.empty(n * self.K * 3, np.float32)
+        widths = np.empty(n * self.K, np.float32)
+        sides = np.empty(n * 3, np.float32)
+        index = np.empty(n, np.int32)
+        lib.meadow_realise_knots(self.meadow, self.patch, t, t + 1, knots, widths, sides)
+        lib.meadow_realise(self.meadow, self.patch, t, t + 1, None, None, None, index)
+        return knots, widths, sides, self.blade_rand[index]
+
+    def _provide_pending(self):
+        lib, sim = self.lib, self.sim
+        n = lib.blade_sim_pending(sim)
+        if n == 0:
+            return
+        pending = np.empty(n, np.int32)
+        lib.blade_sim_pending(sim, pending)
+        for t in pending:  # one native call per tile that wakes up
+            t = int(t)
+            knots, widths, sides, rand = self.rest_blades(t)
+            lib.blade_sim_provide_tile(sim, t, knots, widths, sides)
+            roots = np.ascontiguousarray(knots.reshape(-1, self.K, 3)[:, 0, :])
+            self.tiles[t] = (widths, sides, rand, roots)
+
+    def active(self):
+        """(tiles, blade counts) of the active tiles, in the solver's order."""
+        info = self.lib.blade_sim_info(self.sim)
+        tiles = np.empty(info["active_tiles"], np.int32)
+        counts = np.empty(info["active_tiles"], np.int32)
+        if len(tiles):
+            self.lib.blade_sim_get_active(self.sim, tiles, counts)
+        return tiles, counts
+
+    def knots(self):
+        """Current knots of the active blades, float32 (n*K*3)."""
+        info = self.lib.blade_sim_info(self.sim)
+        out = np.empty(info["active_blades"] * self.K * 3, np.float32)
+        if len(out):
+            self.lib.blade_sim_get_knots(self.sim, out)
+        return out
+
+    def per_blade(self, tiles, what):
+        """Concatenation of one rest array (0 widths, 1 sides, 2 blade rand, 3 roots) over
+        `tiles`."""
+        parts = [self.tiles[int(t)][what] for t in tiles]
+        if parts:
+            return np.concatenate(parts)
+        return np.zeros((0, 3) if what == 3 else 0, np.float32)
+
+    def step(self, frame, rows, fps, wind_at):
+        """Steps from frame - 1 to `frame` with the collider rows of `frame` and the wind
+        wind_at(frame, xyz (n, 3)) -> (n, 3) m/s."""
+        lib, sim = self.lib, self.sim
+        lib.blade_sim_set_colliders(sim, np.ascontiguousarray(rows, np.float32).ravel())
+        self._provide_pending()
+        tiles, _ = self.active()
+        key = tiles.tobytes()
+        if self._roots[0] != key:
+            self._roots = (key, self.per_blade(tiles, 3))
+        roots = self._roots[1]
+        dt = 1.0 / fps / STEPS_PER_FRAME
+        wind, layout = None, 0
+        if len(roots):
+            wind = np.ascontiguousarray(wind_at(frame, roots), np.float32).ravel()
+            layout = 2  # one velocity per blade
+        for _ in range(STEPS_PER_FRAME):
+            lib.blade_sim_step(sim, dt, wind, layout)
+        self.frame = frame
+
+
+class Playback:
+    """The live simulation of one meadow object: its Runner, the collider rows recorded per
+    frame as frames are played, and snapshots of the solver state."""
+
+    def __init__(self, obj, scene, key):
+        s = obj.tussock_meadow
+        origin, size = build.area_of(obj, s)
+        lib = native.require()
+        patch = build.make_patch(s)
+        meadow = build.make_meadow(s, origin, size)
+        info = lib.meadow_info(meadow)
+        n = info["chunk_instances"]
+        self.instance_tile = np.empty(n, np.int32)
+        lib.meadow_chunk_instances(meadow, None, None, self.instance_tile)
+        blade_rand = np.empty(lib.patch_info(patch)["blade_count"], np.float32)
+        lib.rand_fill(s.seed, build.BLADE_RAND_STREAM, blade_rand)
+        k = lib.patch_info(patch)["knot_count"]
+        self.runner = Runner(patch, meadow, sim_definition(s, info, k), blade_rand)
+        self.key = key
+        self.frame_start = scene.frame_start
+        self.colliders = {}  # frame -> collider rows recorded when it was played
+        self.snapshots = {}  # frame -> (solver clone, bytes)
+        self.every = SNAPSHOT_EVERY
+        self.wind_key = None
+        self.stale = False  # the solver's state used colliders that have changed since
+        self.restored_from = None  # frame the last jump back resumed from (tests, panel)
+        self.written = None  # active tiles last written into the dynamic mesh (bytes)
+        self.pos = None
+        self.ribbon = None  # (widths, sides) of the written tiles
+        self.hidden = None  # per instance: is its tile simulated
+        self.baked_hidden = None  # (bake layout digest, per instance: is its tile baked)
+
+    # -- snapshots ------------------------------------------------------------------------
+    def snapshot_bytes(self):
+        return sum(b for _, b in self.snapshots.values())
+
+    def drop_snapshots(self, first=None):
+        """Forgets the snapshots at `first` and later (all when None)."""
+        for f in [f for f in self.snapshots if first is None or f >= first]:
+            del self.snapshots[f]
+
+    def _take_snapshot(self):
+        r = self.runner
+        if (r.frame - self.frame_start) % self.every or r.frame in self.snapshots:
+            return
+        lib = r.lib
+        clone = lib.blade_sim_clone(r.sim)
+        self.snapshots[r.frame] = (clone, lib.blade_sim_info(clone)["state_bytes"])
+        while self.snapshot_bytes() > SNAPSHOT_BUDGET:
+            if len(self.snapshots) <= 1:
+                self.snapshots.clear()
+                break
+            self.every *= 2  # thin out: keep every other one, take them half as often
+            for f in [f for f in self.snapshots if (f - self.frame_start) % self.every]:
+                del self.snapshots[f]
+
+    # -- stepping -------------------------------------------------------------------------
+    def record(self, frame, rows):
+        """Records the collider rows of `frame`; if they differ from those recorded before,
+        the snapshots and state that used the old ones are out of date."""
+        old = self.colliders.get(frame)
+        if old is not None and old.tobytes() == rows.tobytes():
+            return
+        had = old is not None or any(f > frame for f in self.snapshots)
+        self.colliders[frame] = rows
+        self.drop_snapshots(frame)
+        r = self.runner
+        if r.frame is not None and r.frame >= frame and (had or r.frame > frame):
+            self.stale = True
+
+    def go_to(self, frame, fps, wind_at):
+        r = self.runner
+        back = r.sim is None or r.frame > frame or self.stale
+        known = [f for f in self.snapshots if f <= frame]
+        snap = max(known) if known else None
+        if back or (snap is not None and snap > r.frame):
+            if snap is not None:
+                r.resume(self.snapshots[snap][0], snap)
+            else:
+                r.restart(self.frame_start)
+            self.restored_from = r.frame
+            self.stale = False
+        while r.frame < frame:
+            f = r.frame + 1
+            r.step(f, self.colliders.get(f, NO_COLLIDERS), fps, wind_at)
+            self._take_snapshot()
+
+
+def layout_key(obj, scene):
+    """What a meadow's simulated blades depend on besides colliders and wind: patch, area,
+    layout and density settings, solver settings and the first frame."""
     s = obj.tussock_meadow
     origin, size = build.area_of(obj, s)
-    key = repr((build.patch_key(s), origin, size, sorted(sim_settings(s).items()),
-                s.density, s.blades_per_tile, s.chunk_blades, scene.frame_start))
-    e = _cache.get(obj.name)
-    if e is not None and e["key"] == key:
-        return e
-    lib = native.require()
-    patch = build.make_patch(s)
-    meadow = build.make_meadow(s, origin, size)
-    info = lib.meadow_info(meadow)
-    k = lib.patch_info(patch)["knot_count"]
-    n = info["chunk_instances"]
-    origins = np.empty(n * 3, np.float32)
-    chunk = np.empty(n, np.int32)
-    tile = np.empty(n, np.int32)
-    lib.meadow_chunk_instances(meadow, origins, chunk, tile)
-    blade_rand = np.empty(lib.patch_info(patch)["blade_count"], np.float32)
-    lib.rand_fill(s.seed, build.BLADE_RAND_STREAM, blade_rand)
-    e = dict(key=key, patch=patch, meadow=meadow, info=info, K=k, instance_tile=tile,
-             blade_rand=blade_rand, colliders={}, sim=None, frame=None, tiles={})
-    _cache[obj.name] = e
-    return e
+    image = s.density_image.name if s.density_image is not None else None
+    return repr((build.patch_key(s), origin, size, sorted(sim_settings(s).items()),
+                 s.density, round(s.noise_scale, 6), s.noise_octaves,
+                 round(s.noise_threshold, 6), image, s.blades_per_tile, s.chunk_blades,
+                 scene.frame_start, STEPS_PER_FRAME))
 
 
-def _restart(e, obj, scene):
-    lib = native.require()
-    info = e["info"]
-    d = dict(origin=tuple(info["origin"]), tile_size=info["tile_size"], tiles_x=info["tiles_x"],
-             tiles_y=info["tiles_y"], knot_count=e["K"], ground_height=info["origin"][2],
-             **sim_settings(obj.tussock_meadow))
-    e["sim"] = lib.blade_sim_create(**d)
-    e["frame"] = scene.frame_start
-    e["tiles"] = {}
-
-
-def _provide_pending(e):
-    lib = native.require()
-    sim, k = e["sim"], e["K"]
-    n = lib.blade_sim_pending(sim)
-    if n == 0:
-        return
-    pending = np.empty(n, np.int32)
-    lib.blade_sim_pending(sim, pending)
-    for t in pending:  # one native call per tile that became active
-        t = int(t)
-        count = lib.meadow_blade_count(e["meadow"], t, t + 1)
-        knots = np.empty(count * k * 3, np.float32)
-        widths = np.empty(count * k, np.float32)
-        sides = np.empty(count * 3, np.float32)
-        index = np.empty(count, np.int32)
-        lib.meadow_realise_knots(e["meadow"], e["patch"], t, t + 1, knots, widths, sides)
-        lib.meadow_realise(e["meadow"], e["patch"], t, t + 1, None, None, None, index)
-        lib.blade_sim_provide_tile(sim, t, knots, widths, sides)
-        e["tiles"][t] = (widths, sides, e["blade_rand"][index])
-
-
-def _step_frame(e, scene, frame):
-    lib = native.require()
-    sim, k = e["sim"], e["K"]
-    lib.blade_sim_set_colliders(sim, e["colliders"].get(frame, np.zeros((0, 8), np.float32)).ravel())
-    _provide_pending(e)
-    info = lib.blade_sim_info(sim)
-    dt = 1.0 / wind_runtime.fps_of(scene) / STEPS_PER_FRAME
-    wind = None
-    layout = 0
-    if info["active_blades"]:
-        knots = np.empty(info["active_blades"] * k * 3, np.float32)
-        lib.blade_sim_get_knots(sim, knots)
-        wind = np.ascontiguousarray(wind_runtime.sample(scene, frame, knots.reshape(-1, 3)).ravel())
-        layout = 3
-    for _ in range(STEPS_PER_FRAME):
-        lib.blade_sim_step(sim, dt, wind, layout)
+def _playback(obj, scene):
+    key = layout_key(obj, scene)
+    pb = _cache.get(obj.name)
+    if pb is None or pb.key != key:
+        pb = Playback(obj, scene, key)
+        _cache[obj.name] = pb
+    return pb
 
 
 def simulate_to(obj, scene, frame, depsgraph=None):
-    """Advances the meadow's simulation to `frame` and returns its entry."""
-    e = _entry(obj, scene)
-    e["colliders"][frame] = colliders(scene, obj.tussock_meadow.colliders, depsgraph)
-    if e["sim"] is None or frame < e["frame"]:
-        _restart(e, obj, scene)
-    while e["frame"] < frame:
-        e["frame"] += 1
-        _step_frame(e, scene, e["frame"])
-    return e
+    """Advances (or takes back) the meadow's simulation to `frame`; returns its Playback."""
+    pb = _playback(obj, scene)
+    pb.record(frame, colliders(scene, obj.tussock_meadow.colliders, depsgraph))
+    wind_key = wind_runtime.settings_key(scene)
+    if wind_key != pb.wind_key:  # other wind: every snapshot is out of date
+        pb.drop_snapshots()
+        pb.stale = pb.wind_key is not None
+        pb.wind_key = wind_key
+    pb.go_to(frame, wind_runtime.fps_of(scene),
+             lambda f, xyz: wind_runtime.sample(scene, f, xyz))
+    return pb
 
 
-CAPACITY_BLOCK = 1024  # the dynamic mesh grows in blocks of blades, so that its topology
-                       # (and Blender's work on it) changes seldom while tiles come and go
+# -- the dynamic mesh -------------------------------------------------------------------------
 
-
-def active_blades(e):
-    """(knots (n*K*3), widths, sides, blade_rand, active tiles) of the simulated blades."""
-    lib = native.require()
-    sim, k = e["sim"], e["K"]
-    info = lib.blade_sim_info(sim)
-    na, nb = info["active_tiles"], info["active_blades"]
-    tiles = np.empty(na, np.int32)
-    counts = np.empty(na, np.int32)
-    if na:
-        lib.blade_sim_get_active(sim, tiles, counts)
-    knots = np.empty(nb * k * 3, np.float32)
-    if nb:
-        lib.blade_sim_get_knots(sim, knots)
-    parts = [e["tiles"][int(t)] for t in tiles]
-    widths = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.float32)
-    sides = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.float32)
-    rand = np.concatenate([p[2] for p in parts]) if parts else np.zeros(0, np.float32)
-    return knots, widths, sides, rand, tiles
-
-
-def _topology(mesh, capacity, k):
-    """(Re)builds the dynamic mesh for `capacity` blades of k knots: triangles, UVs
-    (u across, v = knot / (k - 1) along) and attributes. Positions are set per frame."""
+def ribbon_topology(mesh, blades, k):
+    """(Re)builds `mesh` for `blades` ribbons of k knots: one quad per segment (the same
+    diagonal as the instanced blades' triangles when rendered), the point attributes tsk_v
+    (knot / (k - 1): 0 at the root, 1 at the tip; the material reads it where instanced
+    blades have their UV map's v, since a UV map, one value per face corner, would cost
+    Blender about a tenth more work per frame) and tsk_blade_rand. Positions are set
+    apart."""
     lib = native.require()
     mesh.clear_geometry()
-    tris = np.empty(capacity * 6 * (k - 1), np.int32)
-    lib.blade_indices(k, capacity, tris)
-    nv = capacity * 2 * k
-    mesh.vertices.add(nv)
-    mesh.loops.add(tris.size)
-    mesh.loops.foreach_set("vertex_index", tris)
-    nt = tris.size // 3
-    mesh.polygons.add(nt)
-    mesh.polygons.foreach_set("loop_start", np.arange(0, tris.size, 3, dtype=np.int32))
-    mesh.polygons.foreach_set("loop_total", np.full(nt, 3, np.int32))
-    mesh.polygons.foreach_set("use_smooth", np.ones(nt, bool))
+    tris = np.empty(blades * 6 * (k - 1), np.int32)
+    lib.blade_indices(k, blades, tris)
+    # triangles (v, v+1, v+3), (v, v+3, v+2) -> quad (v, v+1, v+3, v+2)
+    t = tris.reshape(-1, 6)
+    quads = np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], t[:, 2], t[:, 5]], axis=1)).ravel()
+    mesh.vertices.add(blades * 2 * k)
+    mesh.loops.add(quads.size)
+    mesh.loops.foreach_set("vertex_index", quads)
+    nq = quads.size // 4
+    mesh.polygons.add(nq)
+    mesh.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(nq, 4, np.int32))
+    mesh.polygons.foreach_set("use_smooth", np.ones(nq, bool))
     v = np.repeat(np.arange(k, dtype=np.float32) / (k - 1), 2)
-    u = np.tile(np.array([0.0, 1.0], np.float32), k)
-    uv_vertex = np.tile(np.stack([u, v], axis=1), (capacity, 1))
-    layer = mesh.uv_layers.new(name="UVMap")
-    layer.data.foreach_set("uv", np.ascontiguousarray(uv_vertex[tris]).ravel())
+    mesh.attributes.new("tsk_v", "FLOAT", "POINT").data.foreach_set("value", np.tile(v, blades))
     mesh.attributes.new("tsk_blade_rand", "FLOAT", "POINT")
+    grass = material.grass_material()  # (brought up to date if an older Tussock made it)
     if len(mesh.materials) == 0:
-        mesh.materials.append(material.grass_material())
-    mesh["tussock_capacity"] = capacity
+        mesh.materials.append(grass)
+    mesh.update(calc_edges=True)
+
+
+def set_blade_rand(mesh, rand, k):
+    """Per-blade colour variation (one value per blade) onto the ribbon vertices."""
+    vrand = np.zeros(len(mesh.vertices), np.float32)
+    vrand[:len(rand) * 2 * k] = np.repeat(rand, 2 * k)
+    mesh.attributes["tsk_blade_rand"].data.foreach_set("value", vrand)
+
+
+def set_hidden(obj, hidden):
+    """Sets the meadow's point attribute tsk_hidden (instances not drawn) if it differs."""
+    attr = obj.data.attributes.get("tsk_hidden")
+    if attr is None or len(attr.data) != len(hidden):
+        return
+    current = np.empty(len(hidden), bool)
+    attr.data.foreach_get("value", current)
+    if not np.array_equal(current, hidden):
+        attr.data.foreach_set("value", np.ascontiguousarray(hidden, bool))
+        obj.data.update()
 
 
 def blades_object(obj):
@@ -197,52 +357,66 @@ def blades_object(obj):
         for coll in obj.users_collection:
             coll.objects.link(child)
         child["tussock_simulated_blades"] = True
+    child["tussock_meadow_name"] = obj.name
     return child
 
 
-def write(obj, e):
+def write(obj, pb):
     """Writes the simulated blades into the meadow's dynamic mesh and hides the instances
-    of their tiles. Unused blade slots collapse to zero-area triangles."""
+    of their tiles. Per frame only vertex positions change; the topology, the per-blade
+    colour and the hidden instances change only when the set of active tiles does. Unused
+    blade slots collapse to zero-area quads."""
     lib = native.require()
-    knots, widths, sides, rand, tiles = active_blades(e)
-    k = e["K"]
-    nb = len(widths) // k if k else 0
-    capacity = max(1, -(-nb // CAPACITY_BLOCK)) * CAPACITY_BLOCK
+    r = pb.runner
+    k = r.K
+    tiles, counts = r.active()
+    nb = int(counts.sum())
     child = blades_object(obj)
     mesh = child.data
-    new_topology = mesh.get("tussock_capacity") != capacity
-    if new_topology:
-        _topology(mesh, capacity, k)
-    pos = np.zeros(capacity * 2 * k * 3, np.float32)
+    capacity = mesh.get("tussock_capacity") or 0
+    if not capacity or nb > capacity or nb < capacity // 4:
+        want = max(nb, capacity * 3 // 2) if nb > capacity else nb  # grow by half at least
+        capacity = max(1, -(-want // CAPACITY_BLOCK)) * CAPACITY_BLOCK
+    layout = tiles.tobytes()
+    fresh = (mesh.get("tussock_layout") != "live" or mesh.get("tussock_capacity") != capacity
+             or len(mesh.vertices) != capacity * 2 * k)
+    if fresh:
+        ribbon_topology(mesh, capacity, k)
+        mesh["tussock_layout"] = "live"
+        mesh["tussock_capacity"] = capacity
+    if fresh or pb.written != layout:
+        set_blade_rand(mesh, r.per_blade(tiles, 2), k)
+        pb.written = layout
+        pb.hidden = np.isin(pb.instance_tile, tiles)
+        pb.pos = np.zeros(capacity * 2 * k * 3, np.float32)
+        pb.ribbon = (r.per_blade(tiles, 0), r.per_blade(tiles, 1))
+    set_hidden(obj, pb.hidden)  # (checked every frame: rebuilding the meadow clears it)
     if nb:
-        lib.blades_expand(knots, np.ascontiguousarray(widths), np.ascontiguousarray(sides), k,
-                          pos[:nb * 2 * k * 3], None, None)
-    vrand = np.zeros(capacity * 2 * k, np.float32)
-    vrand[:nb * 2 * k] = np.repeat(rand, 2 * k)
-    mesh.vertices.foreach_set("co", pos)
-    mesh.attributes["tsk_blade_rand"].data.foreach_set("value", vrand)
+        lib.blades_expand(r.knots(), pb.ribbon[0], pb.ribbon[1], k, pb.pos[:nb * 2 * k * 3],
+                          None, None)
+    mesh.vertices.foreach_set("co", pb.pos)
     mesh.update()
-    # hide the instances of simulated tiles
-    hidden = np.isin(e["instance_tile"], tiles)
-    attr = obj.data.attributes.get("tsk_hidden")
-    if attr is not None and len(attr.data) == len(hidden):
-        current = np.empty(len(hidden), bool)
-        attr.data.foreach_get("value", current)
-        if not np.array_equal(current, hidden):
-            attr.data.foreach_set("value", hidden)
-            obj.data.update()
     obj["tussock_active_tiles"] = len(tiles)
-    obj["tussock_active_blades"] = int(nb)
+    obj["tussock_active_blades"] = nb
 
 
 def on_frame(scene, depsgraph=None):
+    if suspended:
+        return
+    from . import baking
     for obj in scene.objects:  # one simulation per meadow object
         s = compat.settings_of(obj, "tussock_meadow")
         if s is None or not s.is_meadow or not s.use_simulation:
             continue
         try:
-            e = simulate_to(obj, scene, scene.frame_current, depsgraph)
-            write(obj, e)
+            if baking.show_baked(obj, scene, scene.frame_current):
+                # the bake's Mesh Cache shows this frame; the colliders are still recorded
+                # for live frames after the baked range
+                _playback(obj, scene).record(
+                    scene.frame_current, colliders(scene, s.colliders, depsgraph))
+                continue
+            pb = simulate_to(obj, scene, scene.frame_current, depsgraph)
+            write(obj, pb)
             s.last_error = ""
         except (native.Error, ValueError) as exc:
             s.last_error = str(exc)

@@ -113,6 +113,12 @@ def _key(scene):
         + repr(scene.frame_start) + repr(scene.render.fps)
 
 
+def settings_key(scene):
+    """What the scene's wind at a frame depends on (settings, first frame, frame rate);
+    keyframed wind sources are not part of it."""
+    return _key(scene)
+
+
 def fps_of(scene):
     return scene.render.fps / scene.render.fps_base
 

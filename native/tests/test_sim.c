@@ -527,6 +527,120 @@ TEST(test_sim_touched_tile_never_releases) {
     tsk_blade_sim_destroy(sim);
 }
 
+/* A scene with two tiles activated by a moving sphere, stepped `steps` times from step `from`. */
+static void clone_scene_steps(tsk_blade_sim* sim, int from, int steps) {
+    for (int s = from; s < from + steps; ++s) {
+        tsk_blade_collider c = {TSK_COLLIDER_SPHERE, 0.12f, {0.3f + 0.02f * (float)s, 0.4f, 0.12f}, {0, 0, 0}};
+        CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+        int32_t pend[16];
+        const int32_t n = tsk_blade_sim_pending_count(sim);
+        CHECK(n <= 16);
+        CHECK(tsk_blade_sim_get_pending(sim, pend) == TSK_OK);
+        enum { NB = 40 };
+        static float knots[NB * K16 * 3], widths[NB * K16], sides[NB * 3];
+        tsk_blade_sim_def def = tsk_default_blade_sim_def();
+        def.tiles_x = def.tiles_y = 4;
+        for (int i = 0; i < n && i < 16; ++i) {
+            tile_blades(&def, pend[i], NB, knots, widths, sides);
+            CHECK(tsk_blade_sim_provide_tile(sim, pend[i], NB, knots, widths, sides) == TSK_OK);
+        }
+        const float wind[3] = {2.0f, 0.5f, 0.0f};
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    }
+}
+
+static float* all_knots(const tsk_blade_sim* sim, tsk_blade_sim_info* info) {
+    CHECK(tsk_blade_sim_get_info(sim, info) == TSK_OK);
+    float* k = malloc(sizeof(float) * (size_t)(info->active_blades * K16 * 3 + 1));
+    CHECK(tsk_blade_sim_get_knots(sim, k) == TSK_OK);
+    return k;
+}
+
+static int g_allocs_left;
+static void* failing_alloc(size_t size, void* user) {
+    (void)user;
+    return g_allocs_left-- > 0 ? malloc(size) : NULL;
+}
+static void plain_free(void* p, void* user) {
+    (void)user;
+    free(p);
+}
+
+TEST(test_sim_clone_resumes_with_identical_bytes) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.tiles_x = def.tiles_y = 4;
+    tsk_blade_sim* a = NULL;
+    CHECK(tsk_blade_sim_create(&def, &a) == TSK_OK);
+    clone_scene_steps(a, 0, 12);
+    tsk_blade_sim_info ia, ib;
+    CHECK(tsk_blade_sim_get_info(a, &ia) == TSK_OK);
+    CHECK(ia.active_tiles >= 2 && ia.collider_count == 1);
+    const size_t before = tsk_allocated_bytes();
+    tsk_blade_sim* b = NULL;
+    CHECK(tsk_blade_sim_clone(a, &b) == TSK_OK && b != NULL);
+    CHECK(tsk_allocated_bytes() - before >= ia.state_bytes);
+    CHECK(tsk_blade_sim_get_info(b, &ib) == TSK_OK);
+    CHECK(memcmp(&ia, &ib, sizeof ia) == 0);
+    /* the original goes on (new tiles activate on the way); the clone is untouched by it */
+    float* kb0 = all_knots(b, &ib);
+    const int64_t n0 = ib.active_blades;
+    int32_t first_tile = -1, first_count = 0;
+    CHECK(tsk_blade_sim_get_active(b, NULL, NULL) == TSK_OK);
+    {
+        int32_t tiles[64], counts[64];
+        CHECK(ib.active_tiles <= 64);
+        CHECK(tsk_blade_sim_get_active(b, tiles, counts) == TSK_OK);
+        first_tile = tiles[0], first_count = counts[0];
+    }
+    float* tile0 = malloc(sizeof(float) * (size_t)first_count * K16 * 3 + 4);
+    float* tile1 = malloc(sizeof(float) * (size_t)first_count * K16 * 3 + 4);
+    CHECK(tsk_blade_sim_get_tile_knots(b, first_tile, tile0) == TSK_OK);
+    clone_scene_steps(a, 12, 20);
+    float* kb1 = all_knots(b, &ib);
+    CHECK(ib.active_blades == n0 && memcmp(kb0, kb1, sizeof(float) * (size_t)(n0 * K16 * 3)) == 0);
+    /* the clone, stepped the same way, reaches the same bytes (and the same tiles) */
+    clone_scene_steps(b, 12, 20);
+    float* ka = all_knots(a, &ia);
+    float* kb = all_knots(b, &ib);
+    CHECK(ia.active_tiles == ib.active_tiles && ia.active_blades == ib.active_blades &&
+          ia.pending_tiles == ib.pending_tiles && ia.state_bytes == ib.state_bytes);
+    CHECK(ia.active_blades > 0 &&
+          memcmp(ka, kb, sizeof(float) * (size_t)(ia.active_blades * K16 * 3)) == 0);
+    /* and the blades moved meanwhile, so equal bytes say something */
+    CHECK(tsk_blade_sim_get_tile_knots(b, first_tile, tile1) == TSK_OK);
+    CHECK(first_count > 0 && memcmp(tile0, tile1, sizeof(float) * (size_t)first_count * K16 * 3) != 0);
+    free(tile0);
+    free(tile1);
+    free(ka);
+    free(kb);
+    free(kb0);
+    free(kb1);
+    const size_t with_b = tsk_allocated_bytes();
+    tsk_blade_sim_destroy(b);
+    CHECK(with_b - tsk_allocated_bytes() >= ib.state_bytes); /* the clone's memory is freed */
+    /* an allocation failing at any point: an error, *out NULL, nothing leaked */
+    const size_t held = tsk_allocated_bytes();
+    int failures = 0;
+    for (int n = 0; n < 64; ++n) {
+        g_allocs_left = n;
+        tsk_set_allocator(failing_alloc, plain_free, NULL);
+        tsk_blade_sim* c = (tsk_blade_sim*)&failures; /* not NULL before the call */
+        tsk_status s = tsk_blade_sim_clone(a, &c);
+        tsk_set_allocator(NULL, NULL, NULL);
+        if (s == TSK_OK) {
+            tsk_blade_sim_destroy(c);
+            break;
+        }
+        ++failures;
+        CHECK(s == TSK_ERR_MEMORY && c == NULL);
+        CHECK(tsk_allocated_bytes() == held);
+    }
+    CHECK_MSG(failures >= 4 && failures < 64, "%d failing allocations", failures);
+    CHECK_STATUS(tsk_blade_sim_clone(NULL, &b), TSK_ERR_ARGUMENT, "sim");
+    CHECK_STATUS(tsk_blade_sim_clone(a, NULL), TSK_ERR_ARGUMENT, "out");
+    tsk_blade_sim_destroy(a);
+}
+
 TEST(test_sim_bad_input_names_the_argument) {
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
     tsk_blade_sim* sim = NULL;
@@ -610,4 +724,5 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_identical_bytes_with_1_and_2_threads),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),
+          TEST_ENTRY(test_sim_clone_resumes_with_identical_bytes),
           TEST_ENTRY(test_sim_bad_input_names_the_argument))

@@ -129,6 +129,14 @@ tsk_status tsk_blade_sim_create(const tsk_blade_sim_def* def, tsk_blade_sim** ou
 /// Frees the simulation and every tile it holds. NULL is ignored.
 void tsk_blade_sim_destroy(tsk_blade_sim* sim);
 
+/// A deep copy of the whole state: definition, active tiles with their blades, pending and
+/// touched tiles, colliders, rest counters. The copy and the original are independent; stepping
+/// both the same way gives the same bytes. This is how callers keep snapshots of a simulation
+/// (to go back in time without starting again from rest): keep a clone, and clone it again to
+/// resume from it. Memory: about info.state_bytes plus a few hundred bytes. On failure *out is
+/// NULL and nothing is leaked.
+tsk_status tsk_blade_sim_clone(const tsk_blade_sim* sim, tsk_blade_sim** out);
+
 /// Sets the colliders for the next step (copied; count 0..TSK_BLADE_SIM_MAX_COLLIDERS, more
 /// returns TSK_ERR_LIMIT) and updates tile activation: every tile whose square, between
 /// ground_height and ground_height + max_blade_height, meets a collider's bounding box grown by

@@ -158,6 +158,23 @@ static PyObject* py_create(PyObject* self, PyObject* args, PyObject* kw) {
     return cap;
 }
 
+static PyObject* py_clone(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* sim_obj;
+    if (!PyArg_ParseTuple(args, "O:blade_sim_clone", &sim_obj)) return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    tsk_blade_sim* copy = NULL;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_blade_sim_clone(sim, &copy);
+    Py_END_ALLOW_THREADS
+    if (s != TSK_OK) return tsk_py_raise(s);
+    PyObject* cap = PyCapsule_New(copy, SIM_CAPSULE, sim_capsule_free);
+    if (!cap) tsk_blade_sim_destroy(copy);
+    return cap;
+}
+
 static PyObject* py_set_colliders(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *sim_obj, *col_obj;
@@ -394,6 +411,9 @@ PyMethodDef tsk_py_sim_methods[] = {
      "default_blade_sim_def() -> dict: every blade-simulation setting and its default."},
     {"blade_sim_create", (PyCFunction)(void (*)(void))py_create, METH_VARARGS | METH_KEYWORDS,
      "blade_sim_create(**settings) -> handle. Settings as default_blade_sim_def()."},
+    {"blade_sim_clone", py_clone, METH_VARARGS,
+     "blade_sim_clone(sim) -> handle: an independent deep copy of the whole state (a snapshot to "
+     "resume from; stepping both the same way gives the same bytes)."},
     {"blade_sim_set_colliders", py_set_colliders, METH_VARARGS,
      "blade_sim_set_colliders(sim, colliders): float32 (n, 8) rows kind (0 sphere, 1 capsule), "
      "radius, ax, ay, az, bx, by, bz; updates which tiles are touched and pending."},

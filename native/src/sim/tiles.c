@@ -138,6 +138,70 @@ void tsk_blade_sim_destroy(tsk_blade_sim* sim) {
     tsk_free(sim);
 }
 
+/* A copy of n int32 (NULL for n == 0); returns 0 on failure. */
+static int copy_i32(int32_t** dst, const int32_t* src, int32_t n) {
+    *dst = NULL;
+    if (n <= 0) return 1;
+    *dst = tsk_alloc(sizeof(int32_t) * (size_t)n, "tile list");
+    if (!*dst) return 0;
+    memcpy(*dst, src, sizeof(int32_t) * (size_t)n);
+    return 1;
+}
+
+tsk_status tsk_blade_sim_clone(const tsk_blade_sim* sim, tsk_blade_sim** out) {
+    if (!out) return tsk_error_arg(TSK_ERR_ARGUMENT, "out", "is NULL");
+    *out = NULL;
+    if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
+    tsk_blade_sim* c = tsk_calloc(1, sizeof *c, "blade simulation");
+    if (!c) return TSK_ERR_MEMORY;
+    c->def = sim->def;
+    c->K = sim->K;
+    c->bin_pad = sim->bin_pad;
+    /* every list is copied with its count only once it is complete, so that destroy frees
+       exactly what was copied when a later allocation fails */
+    if (!copy_i32(&c->pending, sim->pending, sim->pending_count)) goto fail;
+    c->pending_count = sim->pending ? sim->pending_count : 0;
+    if (!copy_i32(&c->forced, sim->forced, sim->forced_count)) goto fail;
+    c->forced_count = sim->forced ? sim->forced_count : 0;
+    if (!copy_i32(&c->touched, sim->touched, sim->touched_count)) goto fail;
+    c->touched_count = sim->touched ? sim->touched_count : 0;
+    if (sim->collider_count > 0) {
+        c->cols = tsk_alloc(sizeof(sim_collider) * (size_t)sim->collider_count, "colliders");
+        if (!c->cols) goto fail;
+        memcpy(c->cols, sim->cols, sizeof(sim_collider) * (size_t)sim->collider_count);
+        c->collider_count = sim->collider_count;
+    }
+    if (sim->tile_count > 0) {
+        c->tiles = tsk_calloc((size_t)sim->tile_count, sizeof(sim_tile), "active tiles");
+        if (!c->tiles) goto fail;
+        c->tile_cap = sim->tile_count;
+        const size_t bf = SIM_BLOCK_FLOATS(sim->K);
+        for (int32_t i = 0; i < sim->tile_count; ++i) {
+            const sim_tile* t = &sim->tiles[i];
+            sim_tile copy = *t;
+            copy.blocks = NULL;
+            copy.bounds = NULL;
+            if (t->block_count > 0) {
+                copy.blocks = tsk_alloc(sizeof(float) * bf * (size_t)t->block_count, "tile state");
+                copy.bounds = tsk_alloc(sizeof(float) * 6 * (size_t)t->block_count, "tile bounds");
+                if (!copy.blocks || !copy.bounds) {
+                    free_tile(&copy);
+                    goto fail;
+                }
+                memcpy(copy.blocks, t->blocks, sizeof(float) * bf * (size_t)t->block_count);
+                memcpy(copy.bounds, t->bounds, sizeof(float) * 6 * (size_t)t->block_count);
+            }
+            c->tiles[i] = copy;
+            c->tile_count = i + 1;
+        }
+    }
+    *out = c;
+    return TSK_OK;
+fail:
+    tsk_blade_sim_destroy(c);
+    return TSK_ERR_MEMORY;
+}
+
 /* ---- colliders and activation -------------------------------------------------------------- */
 
 static int finite3(const float* v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }

@@ -1,0 +1,361 @@
+"""Bakes of simulated meadows for farms (tussock.bake, see addon/bake.py and docs/farm.md).
+
+A Point Cache 2 file needs the same points in every frame, but tiles wake up and go back to
+sleep while a simulation plays. So the baked mesh `<meadow> blades` holds the blades of
+every tile that the colliders touch anywhere in the scene's frame range (in ascending tile
+order, each tile's blades as the meadow instances them); in a frame where such a tile is not
+simulated, its blades stand in their rest pose, exactly where its instances would be. The
+instances of all those tiles are hidden (the meadow's `tsk_hidden` attribute) for the whole
+range. What Blender shows without Tussock — the meadow's instances plus the baked ribbons
+played by a stock Mesh Cache modifier — is then what Tussock shows with the bake.
+
+Which tiles a range touches depends only on the colliders, so every farm worker computes the
+same layout from the collider positions of the whole range (read on the main thread by
+playing the frames, as rigid bodies need) without simulating; each worker then simulates
+from the first frame to the end of its part and writes its frames. A small manifest beside
+the cache (`<name>.layout.json`) records the range and a digest of the layout, settings and
+collider paths, so frames of another layout are never mixed in."""
+
+import hashlib
+import json
+import os
+
+import bpy
+import numpy as np
+
+from .. import bake, compat, native
+from ..wind import runtime as wind_runtime
+from . import build, simulate
+
+MANIFEST_VERSION = 1
+
+
+def inputs_key(meadow, scene):
+    """A digest of what a meadow's baked frames depend on, checked whenever a frame is
+    shown: meadow, solver and wind settings, first frame, frame rate and collider
+    collection. How the colliders move is checked only when baking (the manifest): after
+    changing their animation, bake again."""
+    s = meadow.tussock_meadow
+    parts = [simulate.layout_key(meadow, scene), wind_runtime.settings_key(scene),
+             wind_runtime.fps_of(scene), s.colliders.name if s.colliders else None]
+    return hashlib.sha256(repr(parts).encode()).hexdigest()
+
+
+def meadow_of(child, scene):
+    """The meadow object whose simulated blades `child` holds, or None."""
+    meadow = scene.objects.get(child.get("tussock_meadow_name", ""))
+    s = compat.settings_of(meadow, "tussock_meadow")
+    return meadow if s is not None and s.is_meadow else None
+
+
+def blades_inputs_key(child, scene):
+    meadow = meadow_of(child, scene)
+    return inputs_key(meadow, scene) if meadow is not None else None
+
+
+def read_colliders(scene, coll, frames):
+    """Collider rows of every frame in `frames`, read by playing them in order (rigid bodies
+    move only so) with the live simulation paused; the current frame is restored."""
+    current = scene.frame_current
+    rows = {}
+    simulate.suspended = True
+    try:
+        for f in frames:  # one frame_set per frame of the range
+            scene.frame_set(f)
+            rows[f] = simulate.colliders(scene, coll)
+    finally:
+        simulate.suspended = False
+        scene.frame_set(current)
+    return rows
+
+
+def touched_tiles(definition, rows_per_frame):
+    """Sorted int32 indices of every tile that the colliders of any of the frames touch:
+    exactly the tiles the simulation wakes up over those frames."""
+    lib = native.require()
+    sim = lib.blade_sim_create(**definition)
+    touched = set()
+    for rows in rows_per_frame:  # one native call per frame
+        lib.blade_sim_set_colliders(sim, np.ascontiguousarray(rows, np.float32).ravel())
+        n = lib.blade_sim_pending(sim)
+        if n:
+            pending = np.empty(n, np.int32)
+            lib.blade_sim_pending(sim, pending)
+            touched.update(pending.tolist())
+    return np.array(sorted(touched), np.int32)
+
+
+def rest_layout(runner, tiles):
+    """The baked mesh's blades at rest: counts per tile, ribbon positions (float32, 2K
+    vertices per blade) and per-blade colour values, tiles in the given order."""
+    lib = native.require()
+    k = runner.K
+    counts, ribbons, rands = [], [], []
+    for t in tiles:  # one native call per tile of the layout
+        knots, widths, sides, rand = runner.rest_blades(int(t))
+        ribbon = np.empty(len(rand) * 2 * k * 3, np.float32)
+        if len(rand):
+            lib.blades_expand(knots, widths, sides, k, ribbon, None, None)
+        counts.append(len(rand))
+        ribbons.append(ribbon)
+        rands.append(rand)
+    rest = np.concatenate(ribbons) if ribbons else np.zeros(0, np.float32)
+    rand = np.concatenate(rands) if rands else np.zeros(0, np.float32)
+    return dict(counts=np.array(counts, np.int32), rest=rest, rand=rand)
+
+
+def apply_layout(meadow, child, tiles, layout, k, instance_tile, digest):
+    """Puts the baked layout into Blender: the ribbons of every baked blade at rest, their
+    colour values, and the meadow's instances of those tiles hidden."""
+    mesh = child.data
+    simulate.ribbon_topology(mesh, int(layout["counts"].sum()), k)
+    mesh.vertices.foreach_set("co", layout["rest"])
+    simulate.set_blade_rand(mesh, layout["rand"], k)
+    mesh.update()
+    mesh["tussock_layout"] = "baked:" + digest
+    if "tussock_capacity" in mesh:
+        del mesh["tussock_capacity"]
+    simulate.set_hidden(meadow, np.isin(instance_tile, tiles))
+
+
+def show_baked(meadow, scene, frame):
+    """True when the meadow's bake shows `frame`. Then the baked layout is put back if live
+    frames (outside the baked range, or while the cache was out of date) replaced it."""
+    child = bpy.data.objects.get(f"{meadow.name} blades")
+    if child is None or child.modifiers.get(bake.MODIFIER) is None:
+        return False
+    if not bake.baked_frame(child, scene, frame):
+        return False
+    restore_layout(child, scene, meadow)
+    return True
+
+
+def restore_layout(child, scene, meadow=None):
+    """Puts a bake's layout back into the blades object and the meadow's hidden instances
+    if live frames replaced them."""
+    meadow = meadow or meadow_of(child, scene)
+    if meadow is None:
+        return
+    digest = child.get("tussock_bake_layout")
+    tiles = np.array(child.get("tussock_baked_tiles", []), np.int32)
+    pb = simulate._playback(meadow, scene)
+    if child.data.get("tussock_layout") != "baked:" + str(digest):
+        layout = rest_layout(pb.runner, tiles)
+        apply_layout(meadow, child, tiles, layout, pb.runner.K, pb.instance_tile, digest)
+        pb.written = None  # the live frames' layout is gone
+    # the hidden instances too (checked every frame: rebuilding the meadow clears them)
+    if pb.baked_hidden is None or pb.baked_hidden[0] != digest:
+        pb.baked_hidden = (digest, np.isin(pb.instance_tile, tiles))
+    simulate.set_hidden(meadow, pb.baked_hidden[1])
+
+
+def _atomic_json(path, data):
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w") as f:
+        json.dump(data, f, sort_keys=True)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+class MeadowJob:
+    """Everything needed to bake one simulated meadow, read from Blender on the main
+    thread: settings, native patch and layout, the colliders and wind sources of every
+    frame of the scene's range, and the baked layout."""
+
+    def __init__(self, obj, scene, root):
+        lib = native.require()
+        s = obj.tussock_meadow
+        self.meadow_name = obj.name
+        self.name = f"{obj.name} blades"
+        safe = bake.safe_name(self.name)
+        self.folder = os.path.join(root, safe)
+        self.pc2 = os.path.join(root, safe + ".pc2")
+        self.rel_pc2 = bake.CACHE_DIR + "/" + safe + ".pc2"
+        self.manifest = os.path.join(root, safe + ".layout.json")
+        self.range = (scene.frame_start, scene.frame_end)
+        self.key = inputs_key(obj, scene)
+        self.wind_kwargs = wind_runtime.wind_kwargs(scene)
+        self.fps = wind_runtime.fps_of(scene)
+        frames = range(self.range[0], self.range[1] + 1)
+        self.sources = {f: wind_runtime.sources(scene, f) for f in frames}
+        origin, size = build.area_of(obj, s)
+        patch = build.make_patch(s)
+        meadow = build.make_meadow(s, origin, size)
+        info = lib.meadow_info(meadow)
+        self.K = lib.patch_info(patch)["knot_count"]
+        definition = simulate.sim_definition(s, info, self.K)
+        blade_rand = np.empty(lib.patch_info(patch)["blade_count"], np.float32)
+        lib.rand_fill(s.seed, build.BLADE_RAND_STREAM, blade_rand)
+        self.instance_tile = np.empty(info["chunk_instances"], np.int32)
+        lib.meadow_chunk_instances(meadow, None, None, self.instance_tile)
+        self.runner_args = (patch, meadow, definition, blade_rand)
+        self.digest = None
+        self._check_manifest()  # the range at once, before the frames are played
+        self.colliders = read_colliders(scene, s.colliders, frames)
+        # the state at the first frame is the rest pose: its colliders are never used
+        self.tiles = touched_tiles(definition, [self.colliders[f] for f in frames[1:]])
+        self.layout = rest_layout(simulate.Runner(*self.runner_args), self.tiles)
+        counts = self.layout["counts"]
+        self.blades = int(counts.sum())
+        self.points = self.blades * 2 * self.K
+        self.offsets = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        h = hashlib.sha256(self.key.encode())
+        for f in frames:
+            h.update(self.colliders[f].tobytes())
+        h.update(self.tiles.tobytes())
+        h.update(counts.tobytes())
+        self.digest = h.hexdigest()[:32]
+        self._check_manifest()
+
+    def _check_manifest(self):
+        """Refuses (with what to do) to mix frames into a cache of another layout."""
+        if not os.path.exists(self.manifest):
+            return
+        try:
+            with open(self.manifest) as f:
+                m = json.load(f)
+            old = (int(m["version"]), tuple(m["range"]), m["digest"])
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise ValueError(f"cannot read '{self.manifest}' ({exc}): Free Bake, then bake "
+                             "again") from None
+        if old[0] != MANIFEST_VERSION:
+            raise ValueError(f"'{self.manifest}' is from another Tussock version: Free Bake, "
+                             "then bake again")
+        if old[1] != self.range:
+            raise ValueError(f"'{self.name}' was baked for frames {old[1][0]}–{old[1][1]} but "
+                             f"the scene now runs {self.range[0]}–{self.range[1]}: Free Bake, "
+                             "then bake again")
+        if self.digest is not None and old[2] != self.digest:
+            raise ValueError(f"'{self.name}' was baked with other settings or collider "
+                             "paths: Free Bake, then bake again")
+
+    def frames(self, part):
+        if self.blades == 0:
+            return []  # nothing is touched: the meadow needs no bake
+        lo, hi = part
+        return list(range(max(lo, self.range[0]), min(hi, self.range[1]) + 1))
+
+    def _frame_ok(self, lib, f):
+        try:
+            got, count = lib.bake_frame_info(bake.frame_path(self.folder, f))
+        except lib.Error as exc:
+            if "another Tussock" in str(exc):
+                raise
+            return False
+        return got == f and count == self.points
+
+    def frame_positions(self, runner):
+        """The baked mesh's vertex positions for the runner's current frame: the rest
+        ribbons, with those of simulated tiles replaced by their current ribbons."""
+        lib = native.require()
+        k = self.K
+        pos = self.layout["rest"].copy()
+        tiles, counts = runner.active()
+        n = int(counts.sum())
+        if n:
+            slot = np.searchsorted(self.tiles, tiles)
+            if np.any(slot >= len(self.tiles)) or np.any(self.tiles[np.minimum(slot, len(self.tiles) - 1)] != tiles):
+                raise ValueError("internal: a tile outside the baked layout woke up")
+            ribbon = np.empty(n * 2 * k * 3, np.float32)
+            lib.blades_expand(runner.knots(), runner.per_blade(tiles, 0),
+                              runner.per_blade(tiles, 1), k, ribbon, None, None)
+            first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+            index = np.repeat(self.offsets[slot] - first, counts) + np.arange(n)
+            pos.reshape(-1, 2 * k * 3)[index] = ribbon.reshape(-1, 2 * k * 3)
+        return pos
+
+    def bake_frames(self, frames, progress, cancel):
+        """Worker part: native and file work only. Frames whose files verify are kept
+        (resume); the simulation still runs from the first frame, since a frame depends on
+        every frame before it."""
+        lib = native.require()
+        if not frames:
+            return
+        os.makedirs(self.folder, exist_ok=True)
+        mine = {os.path.basename(bake.frame_path(self.folder, f)) for f in frames}
+        for name in os.listdir(self.folder):  # temporary files of a killed bake of this part
+            if ".tmp" in name and name.split(".tmp")[0] in mine:
+                os.remove(os.path.join(self.folder, name))
+        todo = set()
+        for f in frames:
+            if self._frame_ok(lib, f):
+                progress()
+            else:
+                todo.add(f)
+        if not todo:
+            return
+        _atomic_json(self.manifest, dict(version=MANIFEST_VERSION, range=list(self.range),
+                                         digest=self.digest, points=self.points))
+        runner = simulate.Runner(*self.runner_args)
+        runner.restart(self.range[0])
+        wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
+                                    lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)))
+        for f in range(self.range[0], max(todo) + 1):
+            if cancel():
+                return
+            if f > self.range[0]:
+                runner.step(f, self.colliders[f], self.fps, wind.sample)
+            if f in todo:
+                lib.bake_write_frame(bake.frame_path(self.folder, f), f, self.frame_positions(runner))
+                progress()
+
+    def assemble_if_complete(self):
+        """Assembles the .pc2 when every frame of the range exists; True if it did."""
+        if self.blades == 0:
+            return False
+        lib = native.require()
+        paths = [bake.frame_path(self.folder, f) for f in range(self.range[0], self.range[1] + 1)]
+        if not all(os.path.exists(p) for p in paths):
+            return False
+        lib.bake_assemble_pc2(self.pc2, paths, float(self.range[0]), 1.0)
+        return True
+
+    def wire(self, scene):
+        """Main thread, after baking: the baked layout in the blades object and the
+        meadow's hidden instances, and a Mesh Cache modifier reading the .pc2."""
+        if self.blades == 0:
+            return
+        meadow = scene.objects[self.meadow_name]
+        child = simulate.blades_object(meadow)
+        apply_layout(meadow, child, self.tiles, self.layout, self.K, self.instance_tile,
+                     self.digest)
+        mod = child.modifiers.get(bake.MODIFIER)
+        if mod is None:
+            mod = child.modifiers.new(bake.MODIFIER, "MESH_CACHE")
+        mod.cache_format = "PC2"
+        mod.filepath = self.rel_pc2
+        mod.deform_mode = "OVERWRITE"
+        mod.time_mode = "FRAME"
+        mod.play_mode = "SCENE"
+        mod.frame_start = float(self.range[0])
+        mod.frame_scale = 1.0
+        mod.show_render = mod.show_viewport = True  # reading the colliders may have
+        # played frames that the unfinished cache did not hold yet
+        child["tussock_baked_range"] = self.range
+        child["tussock_bake_key"] = self.key
+        child["tussock_bake_layout"] = self.digest
+        child["tussock_baked_points"] = self.points
+        child["tussock_baked_tiles"] = self.tiles.tolist()
+
+
+def jobs(scene, root):
+    return [MeadowJob(o, scene, root) for o in scene.objects
+            if compat.settings_of(o, "tussock_meadow") is not None and o.tussock_meadow.is_meadow
+            and o.tussock_meadow.use_simulation]
+
+
+def free(scene, child, root):
+    """After tussock.free_bake removed the Mesh Cache of a meadow's blades: removes the
+    manifest, forgets the baked layout and shows the live simulation again."""
+    path = os.path.join(root, bake.safe_name(child.name) + ".layout.json")
+    if os.path.exists(path):
+        os.remove(path)
+    for key in ("tussock_bake_key", "tussock_bake_layout", "tussock_baked_points",
+                "tussock_baked_tiles"):
+        child.pop(key, None)
+    if "tussock_layout" in child.data:
+        del child.data["tussock_layout"]  # the next live frame rebuilds the dynamic mesh
+    meadow = meadow_of(child, scene)
+    if meadow is not None:
+        simulate.on_frame(scene)
