@@ -80,8 +80,11 @@ class TreeJob:
         """Worker part: native only. Skips frames whose files verify (resume)."""
         lib = native.require()
         os.makedirs(self.folder, exist_ok=True)
-        for name in os.listdir(self.folder):  # temporary files of a killed bake
-            if ".tmp" in name:
+        # temporary files of a killed bake, of this part's frames only: another worker of a
+        # split bake may be writing its own frames in the same folder right now
+        mine = {os.path.basename(frame_path(self.folder, f)) for f in frames}
+        for name in os.listdir(self.folder):
+            if ".tmp" in name and name.split(".tmp")[0] in mine:
                 os.remove(os.path.join(self.folder, name))
         self._claim_folder()
         todo = []
