@@ -5,13 +5,10 @@ with SIGKILL resumes; a cache of another version, a missing frame, a changed fra
 full disk and a read-only folder are reported, never silently rendered wrong; freeing a
 meadow's bake brings its live simulation back."""
 
-import filecmp
 import os
 import shutil
-import signal
 import subprocess
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import harness  # noqa: E402
@@ -20,8 +17,7 @@ from harness import expect_cancel, test  # noqa: E402
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, os.path.join(harness.REPO, "tools"))
-import blender_env  # noqa: E402
+from farm import assert_same_caches, bake_killed, blender, cache_files, mount_tmpfs  # noqa: E402,F401
 
 harness.enable_addon()
 from tussock import bake, native  # noqa: E402
@@ -67,29 +63,6 @@ def make_scene(folder, frames=FRAMES, preset="quaking_aspen"):
     return path
 
 
-def blender(blend, expr, addon=True):
-    """Runs background Blender on a .blend with a python expression (a farm worker)."""
-    with blender_env.BlenderUser() as user:
-        if not addon:
-            os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
-        script = os.path.join(user.tmp, "run.py")
-        with open(script, "w") as f:
-            f.write("import bpy, addon_utils, sys\n")
-            if addon:
-                f.write("addon_utils.enable('tussock', default_set=True)\n")
-            f.write(expr + "\n")
-        proc = subprocess.run(blender_env.command(script, blend=blend), env=user.env,
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        assert proc.returncode == 0, proc.stdout[-3000:]
-        return proc.stdout
-
-
-def cache_files(folder):
-    root = os.path.join(folder, "tussock_cache")
-    out = []
-    for dirpath, _, files in os.walk(root):
-        out += [os.path.relpath(os.path.join(dirpath, f), root) for f in files]
-    return sorted(out)
 
 
 @test
@@ -131,10 +104,7 @@ def test_split_bake_equals_single_bake_and_renders_without_tussock():
     blender(two, "bpy.ops.tussock.bake(frame_start=4, frame_end=8, save=True)")
     a, b = cache_files(os.path.dirname(one)), cache_files(os.path.dirname(two))
     assert a == b and any(x.endswith(".pc2") for x in a), (a, b)
-    for rel in a:
-        assert filecmp.cmp(os.path.join(os.path.dirname(one), "tussock_cache", rel),
-                           os.path.join(os.path.dirname(two), "tussock_cache", rel),
-                           shallow=False), rel
+    assert_same_caches(os.path.dirname(one), os.path.dirname(two))
     # frame 6 rendered from the baked .blend: Tussock enabled, disabled, and the split bake
     renders = []
     for blend, addon in ((one, True), (one, False), (two, False)):
@@ -151,6 +121,22 @@ def test_split_bake_equals_single_bake_and_renders_without_tussock():
     assert 0.02 < (alpha > 0.5).mean() < 0.9, (alpha > 0.5).mean()  # the tree is in the picture
 
 
+def assert_killed_bake_resumes(ref, killed, timeout):
+    """A bake of `killed` (a copy of `ref`, whose bake is complete) killed with SIGKILL after
+    3 of its 24 frame files, then baked again, ends with the bytes of `ref`'s cache."""
+    folder = os.path.join(os.path.dirname(killed), "tussock_cache")
+
+    def frame_files():
+        return [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
+
+    bake_killed(killed, lambda: len(frame_files()) >= 3, timeout)
+    done = frame_files()
+    assert 3 <= len(done) < 24, len(done)  # killed part-way
+    assert not any(f.endswith(".pc2") for f in os.listdir(folder))
+    blender(killed, "bpy.ops.tussock.bake()")  # resumes
+    assert_same_caches(os.path.dirname(ref), os.path.dirname(killed))
+
+
 @test
 def test_killed_bake_resumes_to_the_same_cache():
     ref = make_scene(os.path.join(TMP, "ref"), frames=24, preset="black_tupelo")
@@ -158,30 +144,7 @@ def test_killed_bake_resumes_to_the_same_cache():
     os.makedirs(os.path.dirname(killed), exist_ok=True)
     shutil.copyfile(ref, killed)
     blender(ref, "bpy.ops.tussock.bake()")
-    folder = os.path.join(os.path.dirname(killed), "tussock_cache")
-    with blender_env.BlenderUser() as user:
-        script = os.path.join(user.tmp, "run.py")
-        with open(script, "w") as f:
-            f.write("import bpy, addon_utils\naddon_utils.enable('tussock')\nbpy.ops.tussock.bake()\n")
-        proc = subprocess.Popen(blender_env.command(script, blend=killed), env=user.env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        deadline = time.time() + 120
-        while time.time() < deadline:
-            done = [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
-            if len(done) >= 3:
-                break
-            time.sleep(0.05)
-        proc.send_signal(signal.SIGKILL)
-        proc.wait()
-    done = [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
-    assert 3 <= len(done) < 24, len(done)  # killed part-way
-    assert not any(f.endswith(".pc2") for f in os.listdir(folder))
-    blender(killed, "bpy.ops.tussock.bake()")  # resumes
-    a, b = cache_files(os.path.dirname(ref)), cache_files(os.path.dirname(killed))
-    assert a == b
-    for rel in a:
-        assert filecmp.cmp(os.path.join(os.path.dirname(ref), "tussock_cache", rel),
-                           os.path.join(folder, rel), shallow=False), rel
+    assert_killed_bake_resumes(ref, killed, timeout=120)
 
 
 @test
@@ -371,10 +334,7 @@ def test_meadow_split_bake_equals_single_bake_and_renders_without_tussock():
     blender(two, "bpy.ops.tussock.bake(frame_start=4, frame_end=8, save=True)")
     a, b = cache_files(os.path.dirname(one)), cache_files(os.path.dirname(two))
     assert a == b and "Meadow_blades.pc2" in a and "Meadow_blades.layout.json" in a, (a, b)
-    for rel in a:
-        assert filecmp.cmp(os.path.join(os.path.dirname(one), "tussock_cache", rel),
-                           os.path.join(os.path.dirname(two), "tussock_cache", rel),
-                           shallow=False), rel
+    assert_same_caches(os.path.dirname(one), os.path.dirname(two))
     renders = [render_png(one, 6, True, "with"), render_png(one, 6, False, "without"),
                render_png(two, 6, False, "split_without")]
     assert np.array_equal(renders[0], renders[1]) and np.array_equal(renders[1], renders[2])
@@ -389,30 +349,7 @@ def test_meadow_killed_bake_resumes_to_the_same_cache():
     os.makedirs(os.path.dirname(killed), exist_ok=True)
     shutil.copyfile(ref, killed)
     blender(ref, "bpy.ops.tussock.bake()")
-    folder = os.path.join(os.path.dirname(killed), "tussock_cache")
-    with blender_env.BlenderUser() as user:
-        script = os.path.join(user.tmp, "run.py")
-        with open(script, "w") as f:
-            f.write("import bpy, addon_utils\naddon_utils.enable('tussock')\nbpy.ops.tussock.bake()\n")
-        proc = subprocess.Popen(blender_env.command(script, blend=killed), env=user.env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        deadline = time.time() + 180
-        while time.time() < deadline:
-            done = [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
-            if len(done) >= 3:
-                break
-            time.sleep(0.02)
-        proc.send_signal(signal.SIGKILL)
-        proc.wait()
-    done = [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
-    assert 3 <= len(done) < 24, len(done)  # killed part-way
-    assert not any(f.endswith(".pc2") for f in os.listdir(folder))
-    blender(killed, "bpy.ops.tussock.bake()")  # resumes
-    a, b = cache_files(os.path.dirname(ref)), cache_files(os.path.dirname(killed))
-    assert a == b
-    for rel in a:
-        assert filecmp.cmp(os.path.join(os.path.dirname(ref), "tussock_cache", rel),
-                           os.path.join(folder, rel), shallow=False), rel
+    assert_killed_bake_resumes(ref, killed, timeout=180)
 
 
 @test
@@ -473,11 +410,6 @@ def test_meadow_range_change_is_reported_and_free_bake_restores_the_live_simulat
         assert np.array_equal(now[:len(live[f])], live[f]) and not now[len(live[f]):].any(), f
     assert bpy.ops.tussock.bake() == {"FINISHED"}  # and it bakes again after the free
 
-
-def mount_tmpfs(where, options):
-    os.makedirs(where, exist_ok=True)
-    return subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", where],
-                          stderr=subprocess.DEVNULL).returncode == 0
 
 
 @test

@@ -7,10 +7,8 @@ files; a cache of another version, a missing frame, a frame-range or settings ch
 reported and the live frame is shown instead, never a wrong one; a read-only folder and a
 full disk are reported with the scene unchanged; Free Bake restores the live wiring."""
 
-import filecmp
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import threading
@@ -23,8 +21,7 @@ from harness import expect_cancel, test  # noqa: E402
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, os.path.join(harness.REPO, "tools"))
-import blender_env  # noqa: E402
+from farm import assert_same_caches, bake_killed, blender, cache_files, mount_tmpfs  # noqa: E402,F401
 
 harness.enable_addon()
 from tussock import bake, native  # noqa: E402
@@ -124,22 +121,6 @@ def render(scene, frame, name):
     return read_exr(scene.render.filepath)
 
 
-def blender(blend, expr, addon=True):
-    """Runs background Blender on a .blend with a python expression (a farm worker)."""
-    with blender_env.BlenderUser() as user:
-        if not addon:
-            os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
-        script = os.path.join(user.tmp, "run.py")
-        with open(script, "w") as f:
-            f.write("import bpy, addon_utils, sys\n")
-            if addon:
-                f.write("addon_utils.enable('tussock', default_set=True)\n")
-            f.write(expr + "\n")
-        proc = subprocess.run(blender_env.command(script, blend=blend), env=user.env,
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        assert proc.returncode == 0, proc.stdout[-3000:]
-        return proc.stdout
-
 
 def render_in(blend, frame, out, addon):
     """Frame `frame` of a .blend rendered by another background Blender, with or without
@@ -149,13 +130,6 @@ def render_in(blend, frame, out, addon):
                    "bpy.ops.render.render(write_still=True)", addon=addon)
     return read_exr(out)
 
-
-def cache_files(folder):
-    root = os.path.join(folder, "tussock_cache")
-    out = []
-    for dirpath, _, files in os.walk(root):
-        out += [os.path.relpath(os.path.join(dirpath, f), root) for f in files]
-    return sorted(out)
 
 
 def uv_path(scene, i, frame):
@@ -243,9 +217,7 @@ def test_split_bake_equals_single_bake_and_renders_without_tussock():
     blender(two, "bpy.ops.tussock.bake(frame_start=4, frame_end=8, save=True)")
     a, b = cache_files(os.path.dirname(one)), cache_files(two_dir)
     assert a == b and sum(x.endswith(".exr") for x in a) == 3 + 2 * FRAMES, (a, b)
-    for rel in a:
-        assert filecmp.cmp(os.path.join(os.path.dirname(one), "tussock_cache", rel),
-                           os.path.join(two_dir, "tussock_cache", rel), shallow=False), rel
+    assert_same_caches(os.path.dirname(one), two_dir)
     # frame 6 rendered from the baked .blend with Tussock, without it, and from the split
     # bake without it; the pictures and masks are gone for the Blenders without Tussock
     with_tussock = render_in(one, 6, os.path.join(TMP, "one", "with.exr"), True)
@@ -293,27 +265,13 @@ def test_killed_bake_resumes_to_the_same_files():
                           read_exr(uv_path_in("ref", scene, 1, 13)))  # the loop closes
     folder = os.path.join(killed_dir, "tussock_cache")
     total = 3 + 2 * n
-    with blender_env.BlenderUser() as user:
-        script = os.path.join(user.tmp, "run.py")
-        with open(script, "w") as f:
-            f.write("import bpy, addon_utils\naddon_utils.enable('tussock')\n"
-                    "bpy.ops.tussock.bake()\n")
-        proc = subprocess.Popen(blender_env.command(script, blend=killed), env=user.env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        deadline = time.time() + 120
-        while time.time() < deadline and count_sidecars(folder) < 3 + 2 * 5:
-            time.sleep(0.01)
-        proc.send_signal(signal.SIGKILL)
-        proc.wait()
+    bake_killed(killed, lambda: count_sidecars(folder) >= 3 + 2 * 5, 120)
     done = count_sidecars(folder)
     print(f"    killed after {done} of {total} files")
     assert 3 + 2 * 5 <= done < total, done  # killed part-way
     blender(killed, "bpy.ops.tussock.bake()")  # resumes
-    a, b = cache_files(os.path.dirname(ref)), cache_files(killed_dir)
-    assert a == b and count_sidecars(folder) == total, (len(a), len(b))
-    for rel in a:
-        assert filecmp.cmp(os.path.join(os.path.dirname(ref), "tussock_cache", rel),
-                           os.path.join(folder, rel), shallow=False), rel
+    assert count_sidecars(folder) == total
+    assert_same_caches(os.path.dirname(ref), killed_dir)
 
 
 
@@ -443,11 +401,6 @@ def test_bad_input_cancels_with_the_scene_unchanged():
     expect_cancel(bpy.ops.tussock.bake, "save the .blend first")
     assert picture_bake.RECORD not in bpy.context.scene
 
-
-def mount_tmpfs(where, options):
-    os.makedirs(where, exist_ok=True)
-    return subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", where],
-                          stderr=subprocess.DEVNULL).returncode == 0
 
 
 @test
