@@ -14,21 +14,8 @@ import blender_env  # noqa: E402
 
 
 def blender(blend, expr, addon=True):
-    """Runs background Blender on a .blend with a python expression (a farm worker), with
-    Tussock enabled, or not installed at all (addon=False). Returns its output."""
-    with blender_env.BlenderUser() as user:
-        if not addon:
-            os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
-        script = os.path.join(user.tmp, "run.py")
-        with open(script, "w") as f:
-            f.write("import bpy, addon_utils, sys\n")
-            if addon:
-                f.write("addon_utils.enable('tussock', default_set=True)\n")
-            f.write(expr + "\n")
-        proc = subprocess.run(blender_env.command(script, blend=blend), env=user.env,
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        assert proc.returncode == 0, proc.stdout[-3000:]
-        return proc.stdout
+    """Runs background Blender on a .blend with a python expression (a farm worker)."""
+    return blender_env.run_worker(blend, expr, addon)
 
 
 def cache_files(folder):

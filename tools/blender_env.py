@@ -51,3 +51,22 @@ def run(script, args=(), blend=None, timeout=None, capture=True):
             kw.update(stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
         proc = subprocess.run(command(script, args, blend), **kw)
         return proc.returncode, proc.stdout or ""
+
+
+def run_worker(blend, expr, addon=True):
+    """Runs python `expr` in a background Blender on `blend`, as a farm worker would: with
+    Tussock enabled, or with Tussock not installed at all (addon=False). Returns the output;
+    raises AssertionError with its end when Blender fails."""
+    with BlenderUser() as user:
+        if not addon:
+            os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
+        script = os.path.join(user.tmp, "run.py")
+        with open(script, "w") as f:
+            f.write("import bpy, addon_utils, sys\n")
+            if addon:
+                f.write("addon_utils.enable('tussock', default_set=True)\n")
+            f.write(expr + "\n")
+        proc = subprocess.run(command(script, blend=blend), env=user.env, text=True,
+                              errors="replace", stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        assert proc.returncode == 0, proc.stdout[-3000:]
+        return proc.stdout

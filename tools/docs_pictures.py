@@ -348,14 +348,38 @@ def simulation():
     render("simulation_ball", res=(560, 315), samples=16)
 
 
-def farm():
-    """A tree baked in two halves by two background Blenders (as farm workers would), then
-    frame 12 rendered by a Blender with Tussock and by one without it: the same picture."""
-    import subprocess
+def split_bake_with_without(frame, name):
+    """Saves the scene (frames 1-24), bakes it in two halves by two background Blenders as
+    two farm workers would, renders `frame` by a Blender with Tussock and by one without it,
+    and saves both side by side as `name`."""
     import tempfile
     import numpy as np
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     import blender_env
+    w, h = bpy.context.scene.render.resolution_x, bpy.context.scene.render.resolution_y
+    tiles = []
+    with tempfile.TemporaryDirectory() as tmp:
+        blend = os.path.join(tmp, "farm.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=blend)
+        for part in ("frame_start=1, frame_end=12", "frame_start=13, frame_end=24"):
+            blender_env.run_worker(blend, f"bpy.ops.tussock.bake({part}, save=True)")
+        for addon in (True, False):
+            out = os.path.join(tmp, f"r{int(addon)}")
+            blender_env.run_worker(blend, f"bpy.context.scene.render.filepath = {out!r}\n"
+                                   f"bpy.context.scene.frame_set({frame})\n"
+                                   "bpy.ops.render.render(write_still=True)", addon=addon)
+            img = bpy.data.images.load(out + ".png")
+            px = np.empty(w * h * 4, np.float32)
+            img.pixels.foreach_get(px)
+            tiles += [px.reshape(h, w, 4)[::-1], np.ones((h, 8, 4), np.float32)]
+        same = np.array_equal(tiles[0], tiles[2])
+        print(f"[pictures] with and without Tussock identical: {same}", flush=True)
+    save_rgba(name, np.concatenate(tiles[:-1], axis=1))
+
+
+def farm():
+    """A tree baked in two halves by two background Blenders (as farm workers would), then
+    frame 12 rendered by a Blender with Tussock and by one without it: the same picture."""
     reset()
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, 24
@@ -368,37 +392,7 @@ def farm():
     scene.render.engine = "CYCLES"
     scene.cycles.samples, scene.cycles.use_denoising = 12, False
     scene.render.resolution_x, scene.render.resolution_y = 240, 300
-    tiles = []
-    with tempfile.TemporaryDirectory() as tmp:
-        blend = os.path.join(tmp, "farm.blend")
-        bpy.ops.wm.save_as_mainfile(filepath=blend)
-
-        def run(expr, addon=True):
-            with blender_env.BlenderUser() as user:
-                if not addon:
-                    os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
-                script = os.path.join(user.tmp, "run.py")
-                with open(script, "w") as f:
-                    f.write("import bpy, addon_utils\n")
-                    if addon:
-                        f.write("addon_utils.enable('tussock', default_set=True)\n")
-                    f.write(expr + "\n")
-                subprocess.run(blender_env.command(script, blend=blend), env=user.env,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
-
-        run("bpy.ops.tussock.bake(frame_start=1, frame_end=12, save=True)")
-        run("bpy.ops.tussock.bake(frame_start=13, frame_end=24, save=True)")
-        for addon in (True, False):
-            out = os.path.join(tmp, f"r{int(addon)}")
-            run(f"bpy.context.scene.render.filepath = {out!r}\nbpy.context.scene.frame_set(12)\n"
-                "bpy.ops.render.render(write_still=True)", addon=addon)
-            img = bpy.data.images.load(out + ".png")
-            px = np.empty(240 * 300 * 4, np.float32)
-            img.pixels.foreach_get(px)
-            tiles += [px.reshape(300, 240, 4)[::-1], np.ones((300, 8, 4), np.float32)]
-        same = np.array_equal(tiles[0], tiles[2])
-        print(f"[pictures] with and without Tussock identical: {same}", flush=True)
-    save_rgba("farm_with_without", np.concatenate(tiles[:-1], axis=1))
+    split_bake_with_without(12, "farm_with_without")
 
 
 def farm_picture():
@@ -407,7 +401,6 @@ def farm_picture():
     crown, enlarged twice), and the crown layer's baked UV pass read from its EXR file:
     how far each pixel takes its colour from (red: sideways, green: up and down)."""
     import shutil
-    import subprocess
     import tempfile
     import numpy as np
     from tussock import native
@@ -437,17 +430,7 @@ def farm_picture():
         bpy.ops.wm.save_mainfile()
 
         def run(expr, addon=True):
-            with blender_env.BlenderUser() as user:
-                if not addon:
-                    os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
-                script = os.path.join(user.tmp, "run.py")
-                with open(script, "w") as f:
-                    f.write("import bpy, addon_utils\n")
-                    if addon:
-                        f.write("addon_utils.enable('tussock', default_set=True)\n")
-                    f.write(expr + "\n")
-                subprocess.run(blender_env.command(script, blend=blend), env=user.env,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+            blender_env.run_worker(blend, expr, addon)
 
         def read(path):
             p = lib.picture_load(path)
@@ -486,11 +469,6 @@ def farm_picture():
 def farm_meadow():
     """A ball crossing a simulated meadow, baked in two halves by two background Blenders,
     then frame 18 rendered by a Blender with Tussock and by one without it."""
-    import subprocess
-    import tempfile
-    import numpy as np
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-    import blender_env
     reset()
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, 24
@@ -520,37 +498,7 @@ def farm_meadow():
     scene.cycles.samples, scene.cycles.use_denoising = 12, False
     w, h = 320, 220
     scene.render.resolution_x, scene.render.resolution_y = w, h
-    tiles = []
-    with tempfile.TemporaryDirectory() as tmp:
-        blend = os.path.join(tmp, "farm.blend")
-        bpy.ops.wm.save_as_mainfile(filepath=blend)
-
-        def run(expr, addon=True):
-            with blender_env.BlenderUser() as user:
-                if not addon:
-                    os.unlink(os.path.join(user.root, "scripts", "addons", "tussock"))
-                script = os.path.join(user.tmp, "run.py")
-                with open(script, "w") as f:
-                    f.write("import bpy, addon_utils\n")
-                    if addon:
-                        f.write("addon_utils.enable('tussock', default_set=True)\n")
-                    f.write(expr + "\n")
-                subprocess.run(blender_env.command(script, blend=blend), env=user.env,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
-
-        run("bpy.ops.tussock.bake(frame_start=1, frame_end=12, save=True)")
-        run("bpy.ops.tussock.bake(frame_start=13, frame_end=24, save=True)")
-        for addon in (True, False):
-            out = os.path.join(tmp, f"r{int(addon)}")
-            run(f"bpy.context.scene.render.filepath = {out!r}\nbpy.context.scene.frame_set(18)\n"
-                "bpy.ops.render.render(write_still=True)", addon=addon)
-            img = bpy.data.images.load(out + ".png")
-            px = np.empty(w * h * 4, np.float32)
-            img.pixels.foreach_get(px)
-            tiles += [px.reshape(h, w, 4)[::-1], np.ones((h, 8, 4), np.float32)]
-        same = np.array_equal(tiles[0], tiles[2])
-        print(f"[pictures] with and without Tussock identical: {same}", flush=True)
-    save_rgba("farm_meadow", np.concatenate(tiles[:-1], axis=1))
+    split_bake_with_without(18, "farm_meadow")
 
 
 def reliability():
