@@ -25,7 +25,8 @@ def sim_settings(s):
 def colliders(scene, coll, depsgraph=None):
     """float32 (n, 8) collider rows (kind, radius, a xyz, b xyz) fitted to the evaluated
     bounds of the objects in `coll`: a sphere for round objects and sphere rigid bodies,
-    else a capsule along the longest axis."""
+    else a capsule along the longest axis. Objects without extent (empties, cameras,
+    lights) are skipped."""
     rows = []
     if coll is None:
         return np.zeros((0, 8), np.float32)
@@ -38,6 +39,8 @@ def colliders(scene, coll, depsgraph=None):
         centre = m[:3, :3] @ ((lo + hi) / 2) + m[:3, 3]
         axes = m[:3, :3] * ((hi - lo) / 2)[None, :]  # columns: half-extent vectors
         half = np.linalg.norm(axes, axis=0)
+        if half.max() == 0.0:  # no extent (an empty, camera, light, empty mesh): not a collider
+            continue           # (NaN bounds go on, and the native check reports them)
         order = np.argsort(half)
         rb = obj.rigid_body
         if (rb is not None and rb.collision_shape == "SPHERE") or half[order[2]] < 1.5 * half[order[1]]:
@@ -107,21 +110,28 @@ def _provide_pending(e):
         e["tiles"][t] = (widths, sides, e["blade_rand"][index])
 
 
-def _step_frame(e, scene, frame):
+def _wind(e, scene, frame):
+    """(wind per knot, layout, active blades) at the active blades' knots now."""
     lib = native.require()
     sim, k = e["sim"], e["K"]
+    n = lib.blade_sim_info(sim)["active_blades"]
+    if not n:
+        return None, 0, 0
+    knots = np.empty(n * k * 3, np.float32)
+    lib.blade_sim_get_knots(sim, knots)
+    return np.ascontiguousarray(wind_runtime.sample(scene, frame, knots.reshape(-1, 3)).ravel()), 3, n
+
+
+def _step_frame(e, scene, frame):
+    lib = native.require()
+    sim = e["sim"]
     lib.blade_sim_set_colliders(sim, e["colliders"].get(frame, np.zeros((0, 8), np.float32)).ravel())
     _provide_pending(e)
-    info = lib.blade_sim_info(sim)
     dt = 1.0 / wind_runtime.fps_of(scene) / STEPS_PER_FRAME
-    wind = None
-    layout = 0
-    if info["active_blades"]:
-        knots = np.empty(info["active_blades"] * k * 3, np.float32)
-        lib.blade_sim_get_knots(sim, knots)
-        wind = np.ascontiguousarray(wind_runtime.sample(scene, frame, knots.reshape(-1, 3)).ravel())
-        layout = 3
+    wind, layout, n = _wind(e, scene, frame)
     for _ in range(STEPS_PER_FRAME):
+        if lib.blade_sim_info(sim)["active_blades"] != n:  # the step before released a tile
+            wind, layout, n = _wind(e, scene, frame)
         lib.blade_sim_step(sim, dt, wind, layout)
 
 
@@ -131,9 +141,16 @@ def simulate_to(obj, scene, frame, depsgraph=None):
     e["colliders"][frame] = colliders(scene, obj.tussock_meadow.colliders, depsgraph)
     if e["sim"] is None or frame < e["frame"]:
         _restart(e, obj, scene)
-    while e["frame"] < frame:
-        e["frame"] += 1
-        _step_frame(e, scene, e["frame"])
+    try:
+        while e["frame"] < frame:
+            e["frame"] += 1
+            _step_frame(e, scene, e["frame"])
+    except (native.Error, ValueError):
+        # A refused step (bad colliders, time step...) must not count as simulated: the
+        # next frame restarts from rest, and this frame's colliders are not replayed.
+        e["sim"] = None
+        e["colliders"].pop(frame, None)
+        raise
     return e
 
 
