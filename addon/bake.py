@@ -305,8 +305,8 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
         objs = [o for o in context.scene.objects if o.modifiers.get(MODIFIER) is not None]
         # Files first, the scene after: a cache that cannot be deleted (read-only folder)
         # cancels before any object changes. Folders are checked before anything is deleted.
-        paths = [(os.path.join(root, safe_name(o.name)), os.path.join(root, safe_name(o.name) + ".pc2"))
-                 for o in objs]
+        paths = [(os.path.join(root, safe_name(o.name)),
+                  os.path.join(root, safe_name(o.name) + ".pc2")) for o in objs]
         for folder, pc2 in paths:
             for d in ([folder] if os.path.isdir(folder) else []) + \
                      ([root] if os.path.exists(pc2) or os.path.isdir(folder) else []):

@@ -6,8 +6,8 @@
  * width or side), and the simulation is stepped 1..8 times with a fuzzed dt and wind (every
  * layout), moving the colliders between steps. After every step that succeeds the contracts
  * are checked: every knot finite, no knot below ground_height (within float rounding), a
- * provided tile starting at its rest pose (within rounding), info consistent with the active list, and nothing left
- * allocated after destroy. Cost only: at most 4 tiles are given blades. */
+ * provided tile starting at its rest pose (within rounding), info consistent with the active
+ * list, and nothing left allocated after destroy. Cost only: at most 4 tiles are given blades. */
 #include "fuzz.h"
 #include "tussock/sim.h"
 
