@@ -103,7 +103,7 @@ run_fuzzers() { # seconds [name...]
       -print_final_stats=1 -artifact_prefix="$BUILD/fuzz/artifacts/$name-" \
       "$BUILD/fuzz/corpus/$name" "$ROOT/native/fuzz/corpus/$name" >"$log" 2>&1 || rc=$?
     t1=$(date +%s)
-    execs="$(grep -E '^stat::number_of_executed_units' "$log" | awk '{print $2}' | tail -n 1)"
+    execs="$(grep -E '^stat::number_of_executed_units' "$log" | awk '{print $2}' | tail -n 1 || true)"
     if [ "$rc" -eq 0 ]; then
       printf '%-8s %-28s 1 passed, 0 failed  (%s executions in %s s)\n' fuzz "fuzz_$name" \
         "${execs:-?}" "$((t1 - t0))"

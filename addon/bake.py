@@ -267,6 +267,9 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
         part = self._part(scene)
         if part[0] > part[1]:
             raise ValueError(f"frame_start: {part[0]} is after frame_end {part[1]}")
+        if part[1] < scene.frame_start or part[0] > scene.frame_end:
+            raise ValueError(f"frames {part[0]}-{part[1]} hold no frame of the scene's range "
+                             f"{scene.frame_start}-{scene.frame_end}")
         os.makedirs(cache_root(), exist_ok=True)
         return jobs, part
 
@@ -351,29 +354,32 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
 
     def _free(self, context):
         root = cache_root()
-        removed = 0
-        for obj in context.scene.objects:
-            mod = obj.modifiers.get(MODIFIER)
-            if mod is None:
-                continue
-            name = safe_name(obj.name)
-            folder = os.path.join(root, name)
+        objs = [o for o in context.scene.objects if o.modifiers.get(MODIFIER) is not None]
+        # Files first, the scene after: a cache that cannot be deleted (read-only folder)
+        # cancels before any object changes. Folders are checked before anything is deleted.
+        paths = [(os.path.join(root, safe_name(o.name)),
+                  os.path.join(root, safe_name(o.name) + ".pc2")) for o in objs]
+        for folder, pc2 in paths:
+            for d in ([folder] if os.path.isdir(folder) else []) + \
+                     ([root] if os.path.exists(pc2) or os.path.isdir(folder) else []):
+                if not os.access(d, os.W_OK):
+                    raise OSError(f"cannot delete the cache in {d}: the folder is read-only")
+        for folder, pc2 in paths:
             if os.path.isdir(folder):
                 for f in os.listdir(folder):
                     if f.endswith(".tskf") or ".tmp" in f or f == "inputs.key":
                         os.remove(os.path.join(folder, f))
                 if not os.listdir(folder):
                     os.rmdir(folder)
-            pc2 = os.path.join(root, name + ".pc2")
             if os.path.exists(pc2):
                 os.remove(pc2)
-            obj.modifiers.remove(mod)
+        for obj in objs:
+            obj.modifiers.remove(obj.modifiers.get(MODIFIER))
             obj.pop("tussock_baked_range", None)
             if obj.get("tussock_simulated_blades"):
                 from .meadow import baking
                 baking.free(context.scene, obj, root)
-            removed += 1
-        removed += picture_bake.free(context.scene, root)
+        removed = len(objs) + picture_bake.free(context.scene, root)
         self.report({"INFO"}, f"Freed the caches of {removed} objects")
         return {"FINISHED"}
 

@@ -8,12 +8,15 @@ Blender clamps operator properties to their min/max (NaN passes through a FloatP
 clamp unchanged), so NaN is tried wherever a FloatProperty takes it and out-of-range values
 are tried at the limits Blender lets through.
 
-Not covered yet (the operators do not exist): simulation, bake caches, picture operators.
-Add their rows here when they land."""
+The blade simulation is not an operator: it runs on every frame change for meadows with
+"Simulate touched blades" on. Its rows check the same promise in that setting: the error is
+shown in the meadow's panel (`last_error`), nothing is created or moved, and the next frame
+with good settings works again."""
 
 import json
 import os
 import struct
+import subprocess
 import sys
 import zlib
 
@@ -423,6 +426,333 @@ def test_wind_over_memory_budget_cancels():
     w.use_fluid = True
     with budget(64 << 10):  # the fluid grid needs more
         expect_cancel(ops.wind_debug_image, "memory budget", size=8)
+
+
+# ---- blade simulation (meadow settings, run by the frame-change handler) ---------------------
+
+def sim_scene():
+    """A small simulated meadow with a ball resting in it (a collider touching tiles)."""
+    fresh()
+    from tussock.meadow import simulate
+    simulate.forget()
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    assert ops.add_meadow(tile_size=0.25, blades_per_tile=16, density="UNIFORM",
+                          patch_blades=256, chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.2, location=(0.0, 0.0, 0.2))
+    ball = bpy.context.active_object
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    coll.objects.link(ball)
+    meadow.tussock_meadow.colliders = coll
+    meadow.tussock_meadow.use_simulation = True
+    return scene, meadow, ball, coll
+
+
+def expect_sim_error(scene, meadow, needle):
+    """Plays the next frame: the meadow reports an error containing `needle` and nothing
+    else changes (no blades object, nothing hidden, no datablock or setting touched but
+    the error text and the frame)."""
+    s = meadow.tussock_meadow
+    frame, error = scene.frame_current, s.last_error
+    bpy.context.view_layer.update()  # transforms the test just set, evaluated
+    before = harness.scene_description()
+    scene.frame_set(frame + 1)
+    got = s.last_error
+    s.last_error = error        # the two things the frame may change, put back without
+    scene.frame_current = frame  # running the handlers again
+    after = harness.scene_description()
+    assert got and needle in got, f"error {got!r} lacks {needle!r}"
+    if before != after:
+        gone = [x[:300] for x in before if x not in after][:3]
+        new = [x[:300] for x in after if x not in before][:3]
+        raise AssertionError(f"a frame with a bad simulation setting ({needle}) changed the "
+                             f"scene: before {gone}, after {new}")
+
+
+@test
+def test_simulation_bad_settings_are_reported_and_change_nothing():
+    scene, meadow, ball, coll = sim_scene()
+    s = meadow.tussock_meadow
+    # NaN passes a FloatProperty's clamp; ID properties (scripts, old files, overrides)
+    # bypass min/max entirely
+    for prop, value, needle in [
+        ("sim_damping", NAN, "damping"),
+        ("sim_stiffness", NAN, "global_stiffness_root"),
+        ("sim_local_stiffness", NAN, "local_stiffness"),
+        ("sim_damping", -5.0, "damping"),
+        ("sim_stiffness", -1.0, "global_stiffness_root"),
+        ("sim_local_stiffness", -1e30, "local_stiffness"),
+        ("sim_iterations", 0, "iterations"),
+        ("sim_iterations", -7, "iterations"),
+        ("sim_iterations", 1000, "iterations"),
+        ("sim_iterations", 2 ** 31 - 1, "iterations"),
+    ]:
+        old = getattr(s, prop)
+        if value != value:
+            setattr(s, prop, value)
+        else:
+            s[prop] = value
+        assert value != value or np.float32(getattr(s, prop)) == np.float32(value), \
+            (prop, getattr(s, prop))
+        expect_sim_error(scene, meadow, needle)
+        setattr(s, prop, old)
+    # the time step: two steps per frame at fps / fps_base; 0.1 fps gives 5 s steps
+    scene.render.fps, scene.render.fps_base = 1, 10.0
+    expect_sim_error(scene, meadow, "dt")
+    scene.render.fps, scene.render.fps_base = 24, 1.0
+    # colliders: huge (beyond 1000 km) or NaN-sized objects
+    ball.scale = (1e30, 1e30, 1e30)
+    expect_sim_error(scene, meadow, "within 1e+06 m")
+    ball.scale = (NAN, NAN, NAN)
+    expect_sim_error(scene, meadow, "radius")
+    ball.scale = (1.0, 1.0, 1.0)
+    ball.location = (3e38, 0.0, 0.2)
+    expect_sim_error(scene, meadow, "colliders")
+    ball.location = (0.0, 0.0, 0.2)
+    # good settings again: the next frame simulates, without an error
+    scene.frame_set(scene.frame_current + 1)
+    assert s.last_error == "", s.last_error
+    assert meadow["tussock_active_blades"] > 0
+
+
+@test
+def test_simulation_colliders_empty_or_without_geometry_simulate_nothing():
+    """An empty collection and objects without extent (an empty, a camera, a light) touch
+    no blade: no error, no simulated blade; a mesh collider beside them still works."""
+    scene, meadow, ball, coll = sim_scene()
+    s = meadow.tussock_meadow
+    s.colliders = bpy.data.collections.new("Nothing")
+    scene.frame_set(2)
+    assert s.last_error == "" and meadow["tussock_active_blades"] == 0
+    s.colliders = coll
+    empty = bpy.data.objects.new("Empty", None)
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    light = bpy.data.objects.new("Light", bpy.data.lights.new("Light", "POINT"))
+    for obj in (empty, cam, light):
+        coll.objects.link(obj)
+    coll.objects.unlink(ball)
+    scene.frame_set(3)
+    assert s.last_error == "", s.last_error
+    assert meadow["tussock_active_blades"] == 0
+    coll.objects.link(ball)
+    scene.frame_set(4)
+    assert s.last_error == "", s.last_error
+    assert meadow["tussock_active_blades"] > 0
+
+
+# ---- bake caches ------------------------------------------------------------------------------
+
+def bake_scene(folder, tree=True, frames=3):
+    fresh()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, frames
+    if tree:
+        assert ops.add_tree(preset=lib.tree_presets()[0], leaves=False) == {"FINISHED"}
+    os.makedirs(folder, exist_ok=True)
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(folder, "scene.blend"))
+    return scene
+
+
+def mount_tmpfs(where, options):
+    os.makedirs(where, exist_ok=True)
+    return subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", where],
+                          stderr=subprocess.DEVNULL).returncode == 0
+
+
+@test
+def test_bake_bad_input_cancels():
+    from tussock import bake
+    fresh()
+    assert ops.add_tree(preset=lib.tree_presets()[0], leaves=False) == {"FINISHED"}
+    expect_cancel(ops.bake, "save the .blend first")              # unsaved .blend
+    expect_cancel(ops.free_bake, "save the .blend first")
+    bake_scene(tmp("bake_nothing"), tree=False)
+    expect_cancel(ops.bake, "nothing to bake")                    # nothing to bake
+    bake_scene(tmp("bake_bad"))
+    expect_cancel(ops.bake, "after frame_end", frame_start=3, frame_end=2)  # end < start
+    expect_cancel(ops.bake, "after frame_end", frame_start=-1, frame_end=-5)
+    expect_cancel(ops.bake, "after frame_end", frame_start=2 ** 31 - 1, frame_end=-2 ** 31)
+    expect_cancel(ops.bake, "no frame of the scene", frame_start=1000, frame_end=2000)
+    expect_cancel(ops.bake, "no frame of the scene", frame_start=-20, frame_end=-10)
+    # read-only output: sysfs refuses new folders even to root; a file in the folder's way
+    for where, needle in (("/sys/tussock_cache", ""), ("/proc/tussock_cache", ""),
+                          (tmp("in_the_way", b"a file, not a folder"), "")):
+        bake.CACHE_DIR_OVERRIDE = where
+        try:
+            expect_cancel(ops.bake, needle)
+        finally:
+            bake.CACHE_DIR_OVERRIDE = None
+    # a cache of another format version is refused, not used
+    assert ops.bake() == {"FINISHED"}
+    tree = next(o for o in bpy.context.scene.objects if o.modifiers.get(bake.MODIFIER))
+    frame = bake.frame_path(os.path.join(bake.cache_root(), bake.safe_name(tree.name)), 2)
+    with open(frame, "r+b") as f:
+        f.seek(8)
+        f.write(struct.pack("<I", 99))
+    expect_cancel(ops.bake, "another Tussock")
+
+
+@test
+def test_bake_cache_read_only_or_forged_is_refused():
+    """free_bake on a cache it cannot delete: CANCELLED, every modifier kept. A .pc2 whose
+    header is forged (NaN start frame) is not used: the live tree shows, no traceback."""
+    from tussock import bake
+    scene = bake_scene(tmp("bake_forged"))
+    assert ops.add_tree(preset=lib.tree_presets()[0], leaves=False) == {"FINISHED"}
+    bpy.ops.wm.save_mainfile()
+    assert ops.bake() == {"FINISHED"}
+    trees = [o for o in scene.objects if o.modifiers.get(bake.MODIFIER)]
+    assert len(trees) == 2
+    root = bake.cache_root()
+    # the second tree's folder becomes read-only (root: a read-only tmpfs over it holding
+    # the same files; otherwise: no write permission), so the first could be freed alone
+    second = os.path.join(root, bake.safe_name(trees[1].name))
+    saved = {n: open(os.path.join(second, n), "rb").read() for n in os.listdir(second)}
+    mounted = False
+    if os.geteuid() == 0 and mount_tmpfs(second, "size=4m"):
+        mounted = True
+        for n, data in saved.items():
+            with open(os.path.join(second, n), "wb") as f:
+                f.write(data)
+        subprocess.run(["mount", "-o", "remount,ro", second], check=True)
+    elif os.geteuid() != 0:
+        os.chmod(second, 0o555)
+    try:
+        if mounted or os.geteuid() != 0:
+            expect_cancel(ops.free_bake, "")
+            assert all(o.modifiers.get(bake.MODIFIER) for o in trees)
+    finally:
+        if mounted:
+            subprocess.run(["umount", second])
+        else:
+            os.chmod(second, 0o755)
+    # a forged .pc2: NaN start frame
+    first = trees[0]
+    pc2 = bpy.path.abspath(first.modifiers[bake.MODIFIER].filepath)
+    with open(pc2, "r+b") as f:
+        f.seek(20)
+        f.write(struct.pack("<f", NAN))
+    assert bake.cached_range(first, scene) is None
+    assert bake.baked_frame(first, scene, 2) is False
+    assert ops.free_bake() == {"FINISHED"}
+    assert not any(o.modifiers.get(bake.MODIFIER) for o in scene.objects)
+
+
+# ---- pictures ---------------------------------------------------------------------------------
+
+def picture_png(name, width=64, height=48, bit_depth=8, colour=2, value=None):
+    """A valid PNG: RGB (colour 2) or grey (0), 8 or 16 bits; `value(x, y)` in 0..1 per
+    pixel (default a gradient), the same in every channel."""
+    ch = {0: 1, 2: 3}[colour]
+    nbytes = bit_depth // 8
+    y, x = np.mgrid[0:height, 0:width]
+    v = (x / max(1, width - 1) * 0.6 + y / max(1, height - 1) * 0.3) if value is None \
+        else value(x, y)
+    top = (1 << bit_depth) - 1
+    q = np.repeat((np.clip(v, 0, 1) * top + 0.5).astype(">u2" if nbytes == 2 else "u1")[..., None],
+                  ch, axis=2)
+    rows = b"".join(b"\0" + q[r].tobytes() for r in range(height))
+    return tmp(name, png_bytes(width, height, bit_depth, colour, rows))
+
+
+@test
+def test_picture_bad_input_cancels():
+    fresh()
+    op = ops.animate_picture
+    s = bpy.context.scene.tussock_picture
+    pic8 = picture_png("pic8.png")
+    half = picture_png("mask_half.png", value=lambda x, y: (y > 30).astype(float))
+    expect_cancel(op, "layer", filepath=pic8)                            # no layer yet
+    expect_cancel(ops.picture_layer_remove, "poll")                      # nothing to remove
+    layer = s.layers.add()
+    layer.mask_path = half
+    good = open(pic8, "rb").read()
+    for needle, path in [
+        ("no file given", ""),                                           # no file
+        ("not found", tmp("missing_picture.png")),                       # missing
+        ("not found", TMP),                                              # a folder
+        ("picture", tmp("pic_truncated.png", good[:60])),                # corrupt
+        ("picture", tmp("pic_garbage.png", b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 4)),
+        ("picture", tmp("pic_text.exr", b"not an image\n" * 40)),        # wrong format
+        ("picture", tmp("pic_empty.png", b"")),
+        ("", tmp("pic_huge.png", png_bytes(100000, 100000, 8, 2))),     # extreme size
+        ("", tmp("pic_zero.png", png_bytes(0, 0, 8, 2))),
+    ]:
+        expect_cancel(op, needle, filepath=path)
+    with budget(64 << 10):                                               # over the budget
+        expect_cancel(op, "memory budget", filepath=pic8)
+    # masks: missing, corrupt, empty (no vegetation), another size (8- and 16-bit)
+    for needle, mask in [
+        ("not found", tmp("missing_mask.png")),
+        ("mask", tmp("mask_truncated.png", open(half, "rb").read()[:70])),
+        ("mask", picture_png("mask_empty.png", value=lambda x, y: 0.0 * x)),
+        ("32x24", picture_png("mask_small.png", 32, 24)),
+        ("32x24", picture_png("mask_small16.png", 32, 24, 16, 0)),
+    ]:
+        layer.mask_path = mask
+        expect_cancel(op, needle, filepath=pic8)
+    layer.mask_path = half
+    layer.mask_mode = "IMAGE"
+    layer.mask_image = "no such image"
+    expect_cancel(op, "no image named", filepath=pic8)
+    layer.mask_mode = "GRABCUT"
+    layer.rect = (0, 0, 0, 0)                                            # empty rectangle
+    expect_cancel(op, "rect", filepath=pic8)
+    layer.rect = (4, 4, 40, 30)
+    layer.grabcut_max_side = -1
+    expect_cancel(op, "proposal size", filepath=pic8)
+    layer.grabcut_max_side = 0
+    layer.strokes_path = picture_png("strokes_small.png", 10, 10)
+    expect_cancel(op, "10x10", filepath=pic8)
+    layer.strokes_path = ""
+    layer.mask_mode = "FILE"
+    layer.scale_map_path = tmp("missing_scale.png")
+    expect_cancel(op, "scale map", filepath=pic8)
+    layer.scale_map_path = ""
+    # NaN / negative / huge parameters of the layer and of the picture
+    for obj, prop, value, needle in [
+        (layer, "lambda_x", NAN, "lambda"), (layer, "lambda_y", NAN, "lambda"),
+        (layer, "lambda_x", INF, "lambda"), (layer, "rigidity", NAN, "rigidity"),
+        (layer, "rigidity", -1.0, "rigidity"), (layer, "cell_x", 0, "cell_x"),
+        (layer, "cell_y", -4, "cell_y"), (layer, "cell_x", 2 ** 31 - 1, "cell_x"),
+        (s, "inpaint_radius", NAN, "radius"), (s, "inpaint_radius", -1.0, "radius"),
+        (s, "grow", NAN, "grow"), (s, "feather", NAN, "feather"),
+        (s, "feather", INF, "feather"), (s, "loop_frames", -3, "loop"),
+    ]:
+        old = getattr(obj, prop)
+        setattr(obj, prop, value)
+        try:
+            expect_cancel(op, needle, filepath=pic8)
+        except AssertionError as exc:
+            raise AssertionError(f"{prop} = {value}: {exc}") from None
+        setattr(obj, prop, old)
+    layer.root_auto = False
+    for prop, value in (("root_line", NAN), ("root_height", NAN), ("root_height", 0.0),
+                        ("root_line", 3e38)):
+        old = getattr(layer, prop)
+        setattr(layer, prop, value)
+        expect_cancel(op, "", filepath=pic8)
+        setattr(layer, prop, old)
+    layer.root_auto = True
+
+
+@test
+def test_picture_8_and_16_bit_files_are_both_read():
+    """Not bad input: an 8-bit and a 16-bit picture, masks of either depth, all animate
+    (the cancel rows above would be meaningless if a depth were refused)."""
+    for pic_depth, mask_depth in ((8, 16), (16, 8)):
+        fresh()
+        s = bpy.context.scene.tussock_picture
+        layer = s.layers.add()
+        layer.mask_path = picture_png(f"mask_{mask_depth}.png", bit_depth=mask_depth, colour=0,
+                                      value=lambda x, y: (y > 30).astype(float))
+        pic = picture_png(f"pic_{pic_depth}.png", bit_depth=pic_depth)
+        assert ops.animate_picture(filepath=pic) == {"FINISHED"}
+        img = bpy.data.images["Tussock Layer 1"]
+        assert tuple(img.size) == (64, 48)
+        assert s.last_error == ""
 
 
 harness.main()

@@ -48,7 +48,8 @@ def sim_definition(s, info, knot_count):
 def colliders(scene, coll, depsgraph=None):
     """float32 (n, 8) collider rows (kind, radius, a xyz, b xyz) fitted to the evaluated
     bounds of the objects in `coll`: a sphere for round objects and sphere rigid bodies,
-    else a capsule along the longest axis."""
+    else a capsule along the longest axis. Objects without extent (empties, cameras,
+    lights) are skipped."""
     rows = []
     if coll is None:
         return np.zeros((0, 8), np.float32)
@@ -61,6 +62,8 @@ def colliders(scene, coll, depsgraph=None):
         centre = m[:3, :3] @ ((lo + hi) / 2) + m[:3, 3]
         axes = m[:3, :3] * ((hi - lo) / 2)[None, :]  # columns: half-extent vectors
         half = np.linalg.norm(axes, axis=0)
+        if half.max() == 0.0:  # no extent (an empty, camera, light, empty mesh): not a collider
+            continue           # (NaN bounds go on, and the native check reports them)
         order = np.argsort(half)
         rb = obj.rigid_body
         if (rb is not None and rb.collision_shape == "SPHERE") or half[order[2]] < 1.5 * half[order[1]]:
@@ -158,19 +161,25 @@ class Runner:
         lib, sim = self.lib, self.sim
         lib.blade_sim_set_colliders(sim, np.ascontiguousarray(rows, np.float32).ravel())
         self._provide_pending()
+        dt = 1.0 / fps / STEPS_PER_FRAME
+        wind, layout, n = self._wind(frame, wind_at)
+        for _ in range(STEPS_PER_FRAME):
+            if lib.blade_sim_info(sim)["active_blades"] != n:  # a step released a tile
+                wind, layout, n = self._wind(frame, wind_at)
+            lib.blade_sim_step(sim, dt, wind, layout)
+        self.frame = frame
+
+    def _wind(self, frame, wind_at):
+        """(wind per blade root, its layout, active blades) for the active tiles now."""
         tiles, _ = self.active()
         key = tiles.tobytes()
         if self._roots[0] != key:
             self._roots = (key, self.per_blade(tiles, 3))
         roots = self._roots[1]
-        dt = 1.0 / fps / STEPS_PER_FRAME
-        wind, layout = None, 0
-        if len(roots):
-            wind = np.ascontiguousarray(wind_at(frame, roots), np.float32).ravel()
-            layout = 2  # one velocity per blade
-        for _ in range(STEPS_PER_FRAME):
-            lib.blade_sim_step(sim, dt, wind, layout)
-        self.frame = frame
+        if not len(roots):
+            return None, 0, 0
+        wind = np.ascontiguousarray(wind_at(frame, roots), np.float32).ravel()
+        return wind, 2, len(roots)  # layout 2: one velocity per blade
 
 
 class Playback:
@@ -255,10 +264,18 @@ class Playback:
                 r.restart(self.frame_start)
             self.restored_from = r.frame
             self.stale = False
-        while r.frame < frame:
-            f = r.frame + 1
-            r.step(f, self.colliders.get(f, NO_COLLIDERS), fps, wind_at)
-            self._take_snapshot()
+        try:
+            while r.frame < frame:
+                f = r.frame + 1
+                r.step(f, self.colliders.get(f, NO_COLLIDERS), fps, wind_at)
+                self._take_snapshot()
+        except (native.Error, ValueError):
+            # A refused step (bad colliders, time step...) must not count as simulated: the
+            # solver may have taken part of it, so the next frame starts again from a
+            # snapshot or rest, and the refused colliders are not replayed.
+            self.stale = True
+            self.colliders.pop(frame, None)
+            raise
 
 
 def layout_key(obj, scene):

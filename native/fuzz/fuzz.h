@@ -67,9 +67,10 @@ static inline int fz_int(fz* r, int def) {
     case 2: return INT_MAX;
     case 3: return INT_MIN;
     case 4: return (int)fz_u8(r);
-    case 5: return def + (int8_t)fz_u8(r);
+    /* wrapping arithmetic: a default near the limits must not overflow in the harness */
+    case 5: return (int)((uint32_t)def + (uint32_t)(int32_t)(int8_t)fz_u8(r));
     case 6: return (int)fz_u32(r);
-    case 7: return def * 2;
+    case 7: return (int)((uint32_t)def * 2u);
     default: return def;
     }
 }

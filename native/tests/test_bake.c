@@ -165,8 +165,126 @@ TEST(test_pc2_assembly_matches_frames_and_header) {
     for (int f = 0; f < F; ++f) free((void*)paths[f]);
 }
 
+/* Writes a frame file by hand (the writer refuses what these tests need): the header as
+ * frames.c lays it out and a correct checksum of `xyz`. */
+static void forge_frame(const char* path, int32_t frame, const float* xyz, uint32_t count) {
+    unsigned char h[32];
+    memcpy(h, "TSKFRAME", 8);
+    uint32_t v[4] = {TSK_BAKE_FORMAT_VERSION, (uint32_t)frame, count, 0};
+    for (int k = 0; k < 4; ++k)
+        for (int i = 0; i < 4; ++i) h[8 + 4 * k + i] = (unsigned char)(v[k] >> (8 * i));
+    uint64_t sum = tsk_bake_checksum(xyz, (size_t)count * 12);
+    for (int i = 0; i < 8; ++i) h[24 + i] = (unsigned char)(sum >> (8 * i));
+    FILE* f = fopen(path, "wb");
+    fwrite(h, 1, 32, f);
+    fwrite(xyz, 12, count, f);
+    fclose(f);
+}
+
+/* fuzz_bake: a frame whose checksum matches but which holds NaN was read as valid, and a
+ * .pc2 sample with NaN was returned as is: both are refused now. */
+TEST(test_frames_and_samples_with_non_finite_points_are_refused) {
+    float a[6] = {0, 0, 0, 1, NAN, 1}, b[6];
+    const char* p = tmp_path("forged_nan.tskf");
+    forge_frame(p, 4, a, 2);
+    CHECK_STATUS(tsk_bake_frame_info(p, NULL, NULL), TSK_ERR_FORMAT, "non-finite");
+    CHECK_STATUS(tsk_bake_read_frame(p, b, 2), TSK_ERR_FORMAT, "non-finite");
+    a[4] = 1.0f; /* the same file with finite points is accepted: the checksum was right */
+    forge_frame(p, 4, a, 2);
+    int32_t fr = 0;
+    uint32_t n = 0;
+    CHECK(tsk_bake_frame_info(p, &fr, &n) == TSK_OK && fr == 4 && n == 2);
+    /* a .pc2 of one sample whose second point is inf */
+    const char* pc2 = tmp_path("inf.pc2");
+    FILE* f = fopen(pc2, "wb");
+    int32_t head[5] = {1, 2, 0, 0, 1};
+    float start = 1.0f, rate = 1.0f, pts[6] = {0, 0, 0, INFINITY, 0, 0};
+    memcpy(&head[2], &start, 4);
+    memcpy(&head[3], &rate, 4);
+    fwrite("POINTCACHE2", 1, 12, f);
+    fwrite(head, 4, 5, f);
+    fwrite(pts, 4, 6, f);
+    fclose(f);
+    uint32_t points = 0, samples = 0;
+    CHECK(tsk_pc2_info(pc2, &points, NULL, NULL, &samples) == TSK_OK && points == 2);
+    CHECK_STATUS(tsk_pc2_read_sample(pc2, 0, b, 2), TSK_ERR_FORMAT, "non-finite");
+    CHECK_STATUS(tsk_pc2_read_sample(pc2, 0, NULL, 2), TSK_ERR_ARGUMENT, "xyz");
+}
+
+/* fuzz_bake: a .pc2 header with a NaN or infinite start frame or a zero, negative or NaN
+ * sample rate was accepted (the add-on's int(start_frame) then raised), and the assembly
+ * wrote such headers for an infinite start or rate. */
+TEST(test_pc2_headers_with_bad_start_or_rate_are_refused) {
+    const char* pc2 = tmp_path("hdr.pc2");
+    const float starts[] = {NAN, INFINITY, -INFINITY, 1.0f, 1.0f, 1.0f, 1.0f};
+    const float rates[] = {1.0f, 1.0f, 1.0f, 0.0f, -1.0f, NAN, INFINITY};
+    for (int c = 0; c < 7; ++c) {
+        FILE* f = fopen(pc2, "wb");
+        int32_t head[5] = {1, 0, 0, 0, 0}; /* no points, no samples: only the header */
+        memcpy(&head[2], &starts[c], 4);
+        memcpy(&head[3], &rates[c], 4);
+        fwrite("POINTCACHE2", 1, 12, f);
+        fwrite(head, 4, 5, f);
+        fclose(f);
+        CHECK_STATUS(tsk_pc2_info(pc2, NULL, NULL, NULL, NULL), TSK_ERR_FORMAT, "bad .pc2 header");
+    }
+    float a[3] = {1, 2, 3};
+    const char* fp = tmp_path("one.tskf");
+    CHECK(tsk_bake_write_frame(fp, 1, a, 1) == TSK_OK);
+    const char* list[1] = {fp};
+    const char* out = tmp_path("never.pc2");
+    CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, INFINITY, 1.0f), TSK_ERR_ARGUMENT, "start_frame");
+    CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, NAN, 1.0f), TSK_ERR_ARGUMENT, "start_frame");
+    CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, 1.0f, INFINITY), TSK_ERR_ARGUMENT, "sample_rate");
+    CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, 1.0f, 0.0f), TSK_ERR_ARGUMENT, "sample_rate");
+    CHECK(access(out, F_OK) != 0);
+    CHECK(tsk_bake_assemble_pc2(out, list, 1, -3.5f, 0.5f) == TSK_OK);
+    float st = 0, rt = 0;
+    CHECK(tsk_pc2_info(out, NULL, &st, &rt, NULL) == TSK_OK && st == -3.5f && rt == 0.5f);
+}
+
+/* Frame numbers near INT32_MAX: the consecutiveness check computed first + i in 32 bits
+ * (signed overflow, undefined behaviour); a frame INT32_MIN after INT32_MAX is not the next. */
+TEST(test_assembly_frame_numbers_at_int32_limits) {
+    float a[3] = {1, 2, 3};
+    const char* p0 = strdup(tmp_path("max0.tskf"));
+    const char* p1 = strdup(tmp_path("max1.tskf"));
+    CHECK(tsk_bake_write_frame(p0, INT32_MAX, a, 1) == TSK_OK);
+    CHECK(tsk_bake_write_frame(p1, INT32_MIN, a, 1) == TSK_OK);
+    const char* list[2] = {p0, p1};
+    CHECK_STATUS(tsk_bake_assemble_pc2(tmp_path("max.pc2"), list, 2, 0.0f, 1.0f), TSK_ERR_FORMAT,
+                 "expected frame 2147483648");
+    CHECK(tsk_bake_write_frame(p0, INT32_MAX - 1, a, 1) == TSK_OK);
+    CHECK(tsk_bake_write_frame(p1, INT32_MAX, a, 1) == TSK_OK);
+    CHECK(tsk_bake_assemble_pc2(tmp_path("max.pc2"), list, 2, 0.0f, 1.0f) == TSK_OK);
+    free((void*)p0);
+    free((void*)p1);
+}
+
+/* The assembly holds the whole .pc2 in memory: above the memory budget it is refused with
+ * a message instead of allocating. Verifying a frame needs no memory of its size. */
+TEST(test_assembly_over_memory_budget_is_refused) {
+    enum { N = 20000 };
+    static float a[3 * N];
+    fill(a, N, 1);
+    const char* p = tmp_path("budget.tskf");
+    CHECK(tsk_bake_write_frame(p, 1, a, N) == TSK_OK);
+    const char* list[1] = {p};
+    tsk_set_memory_budget(64 << 10); /* 64 KiB < 240 KB of points */
+    CHECK(tsk_bake_frame_info(p, NULL, NULL) == TSK_OK);
+    CHECK_STATUS(tsk_bake_assemble_pc2(tmp_path("budget.pc2"), list, 1, 1.0f, 1.0f), TSK_ERR_LIMIT,
+                 "memory budget");
+    tsk_set_memory_budget(0);
+    CHECK(access(tmp_path("budget.pc2"), F_OK) != 0);
+    CHECK(tsk_bake_assemble_pc2(tmp_path("budget.pc2"), list, 1, 1.0f, 1.0f) == TSK_OK);
+}
+
 TEST_MAIN(TEST_ENTRY(test_frame_round_trip_is_exact),
           TEST_ENTRY(test_corrupt_truncated_and_foreign_frames_are_refused),
           TEST_ENTRY(test_non_finite_points_and_limits_are_refused),
           TEST_ENTRY(test_read_only_folder_and_full_disk_report_io_errors),
-          TEST_ENTRY(test_pc2_assembly_matches_frames_and_header))
+          TEST_ENTRY(test_pc2_assembly_matches_frames_and_header),
+          TEST_ENTRY(test_frames_and_samples_with_non_finite_points_are_refused),
+          TEST_ENTRY(test_pc2_headers_with_bad_start_or_rate_are_refused),
+          TEST_ENTRY(test_assembly_frame_numbers_at_int32_limits),
+          TEST_ENTRY(test_assembly_over_memory_budget_is_refused))

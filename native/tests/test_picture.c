@@ -9,6 +9,7 @@
 
 #include <stdint.h>
 #include <unistd.h>
+#include <float.h>
 
 /* ---- helpers ------------------------------------------------------------------------- */
 
@@ -914,6 +915,17 @@ TEST(test_bad_arguments_name_the_argument) {
     d.lambda_x = NAN;
     CHECK_STATUS(tsk_picture_layer_frame(p, 0, &d, &f, NULL, 0, out, W * H * 4, NULL, 0, 0),
                  TSK_ERR_ARGUMENT, "lambda_x");
+    /* a finite but huge lambda (Blender's inf is FLT_MAX) is refused even on a still field,
+       where it would pass and then fail every frame with wind (bad-input suite) */
+    d.lambda_x = FLT_MAX;
+    CHECK_STATUS(tsk_picture_layer_frame(p, 0, &d, &f, NULL, 0, out, W * H * 4, NULL, 0, 0),
+                 TSK_ERR_ARGUMENT, "lambda_x");
+    d.lambda_x = 4.0f;
+    d.lambda_y = -2e6f;
+    CHECK_STATUS(tsk_picture_layer_frame(p, 0, &d, &f, NULL, 0, out, W * H * 4, NULL, 0, 0),
+                 TSK_ERR_ARGUMENT, "lambda_y");
+    d.lambda_y = -TSK_WARP_MAX_LAMBDA;
+    CHECK(tsk_picture_layer_frame(p, 0, &d, &f, NULL, 0, out, W * H * 4, NULL, 0, 0) == TSK_OK);
     d = tsk_default_warp_def();
     d.cell_x = -4;
     CHECK_STATUS(tsk_picture_layer_frame(p, 0, &d, &f, NULL, 0, out, W * H * 4, NULL, 0, 0),

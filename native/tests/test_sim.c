@@ -4,6 +4,7 @@
 #include "test.h"
 #include "tussock/sim.h"
 
+#include <float.h>
 #include <stdint.h>
 
 #if defined(__SANITIZE_ADDRESS__)
@@ -711,6 +712,90 @@ TEST(test_sim_bad_input_names_the_argument) {
     tsk_blade_sim_destroy(sim);
 }
 
+/* fuzz_sim: a sphere of radius 3.4e38 (finite, so accepted) centred at 3.4e38 made every knot
+ * of every blade NaN (r^2 and the squared distance overflow to inf, inf - inf is NaN). Sizes
+ * and positions beyond TSK_BLADE_SIM_MAX_COORD, gravity and wind beyond their bounds are
+ * refused now, naming the argument; the largest accepted ones keep every knot finite. */
+TEST(test_sim_huge_colliders_and_values_are_refused_not_nan) {
+    enum { N = 8 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], out[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.0f, knots, widths, sides);
+    tsk_blade_sim* sim = one_tile_sim(big_tile_def(), N, knots, widths, sides);
+    tsk_blade_collider c = {TSK_COLLIDER_SPHERE, FLT_MAX, {FLT_MAX, FLT_MAX, 0.1f}, {0, 0, 0}};
+    CHECK_STATUS(tsk_blade_sim_set_colliders(sim, &c, 1), TSK_ERR_ARGUMENT, "colliders");
+    c = (tsk_blade_collider){TSK_COLLIDER_CAPSULE, 0.1f, {0, 0, 0}, {0, -2e6f, 0}};
+    CHECK_STATUS(tsk_blade_sim_set_colliders(sim, &c, 1), TSK_ERR_ARGUMENT, "colliders");
+    /* the largest accepted: a sphere of radius 1e6 m whose surface passes through the blades */
+    c = (tsk_blade_collider){TSK_COLLIDER_SPHERE, TSK_BLADE_SIM_MAX_COORD,
+                             {0.1f, 0.0f, 0.1f - TSK_BLADE_SIM_MAX_COORD}, {0, 0, 0}};
+    CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+    float wind[3] = {TSK_BLADE_SIM_MAX_WIND, 0, 0};
+    for (int i = 0; i < 5; ++i) CHECK(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    int finite = 1;
+    for (int i = 0; i < N * K16 * 3; ++i) finite &= isfinite(out[i]) != 0;
+    CHECK_MSG(finite, "a knot is not finite after stepping with the largest collider and wind");
+    wind[0] = 2 * TSK_BLADE_SIM_MAX_WIND;
+    CHECK_STATUS(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT, "wind");
+    wind[0] = FLT_MAX;
+    CHECK_STATUS(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT, "wind");
+    tsk_blade_sim_destroy(sim);
+    /* a knot 2000 km up */
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    knots[3 * 4 + 2] = 2e6f;
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, NULL), TSK_ERR_ARGUMENT, "knots");
+    tsk_blade_sim_destroy(sim);
+    /* definition fields */
+    def.collision_margin = FLT_MAX;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "collision_margin");
+    def = tsk_default_blade_sim_def();
+    def.activation_margin = 3e30f;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "activation_margin");
+    def = tsk_default_blade_sim_def();
+    def.gravity[2] = -1e30f;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "gravity");
+    def = tsk_default_blade_sim_def();
+    def.origin[0] = 5e6f;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "origin");
+    def = tsk_default_blade_sim_def();
+    def.ground_height = -FLT_MAX;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "ground_height");
+    def = tsk_default_blade_sim_def();
+    def.tile_size = 1e7f;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "tile_size");
+    def = tsk_default_blade_sim_def();
+    def.max_blade_height = FLT_MAX;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "max_blade_height");
+    CHECK(sim == NULL);
+}
+
+/* The per-tile state counts against the memory budget: a tile that would take the state past
+ * it is refused with a message, stays pending, and nothing is held for it. */
+TEST(test_sim_tile_over_memory_budget_is_refused) {
+    enum { N = 100 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3];
+    make_row(K16, N, 0.0f, 0.004f, 0.0f, knots, widths, sides);
+    tsk_blade_sim_def def = big_tile_def();
+    def.tiles_x = 2;
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    CHECK(tsk_blade_sim_activate_tile(sim, 0) == TSK_OK);
+    CHECK(tsk_blade_sim_activate_tile(sim, 1) == TSK_OK);
+    const size_t before = tsk_allocated_bytes();
+    tsk_set_memory_budget(64 << 10); /* 100 blades of 16 knots need 4 blocks of ~23 KB */
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, N, knots, widths, sides), TSK_ERR_LIMIT,
+                 "memory budget");
+    CHECK(tsk_blade_sim_tile_state(sim, 0) == 2);
+    CHECK(tsk_allocated_bytes() == before);
+    CHECK(tsk_blade_sim_provide_tile(sim, 0, 32, knots, widths, sides) == TSK_OK); /* one block */
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 1, 64, knots, widths, sides), TSK_ERR_LIMIT,
+                 "memory budget"); /* 1 + 2 blocks: past the budget together */
+    tsk_set_memory_budget(0);
+    CHECK(tsk_blade_sim_provide_tile(sim, 1, 64, knots, widths, sides) == TSK_OK);
+    tsk_blade_sim_destroy(sim);
+}
+
 TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_blade_at_rest_stays_at_rest),
           TEST_ENTRY(test_sim_without_preload_gravity_bends_blades_down),
@@ -725,4 +810,6 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),
           TEST_ENTRY(test_sim_clone_resumes_with_identical_bytes),
-          TEST_ENTRY(test_sim_bad_input_names_the_argument))
+          TEST_ENTRY(test_sim_bad_input_names_the_argument),
+          TEST_ENTRY(test_sim_huge_colliders_and_values_are_refused_not_nan),
+          TEST_ENTRY(test_sim_tile_over_memory_budget_is_refused))

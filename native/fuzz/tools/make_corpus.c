@@ -3,7 +3,9 @@
  *   cc -O1 -Inative/include -Inative/tests native/fuzz/tools/make_corpus.c \
  *      build/release/libtussock.a $(pkg-config --libs opencv4 libopenni2) -losdCPU \
  *      -lstdc++ -fopenmp -lm -o /tmp/make_corpus && /tmp/make_corpus
- * Small valid depth images (PNG16, EXR), a two-frame .oni recording, small pictures, and
+ * Small valid depth images (PNG16, EXR), a two-frame .oni recording, small pictures, bake
+ * caches (a frame file and a .pc2 made by the library's writers, prefixed by the byte that
+ * picks fuzz_bake's mode, and seeds for its structured modes), and
  * byte strings for the definition targets: all 0x0a reads as "every field at its default"
  * (see fuzz.h), a few others as single edge values. */
 #include <stdio.h>
@@ -12,6 +14,7 @@
 #include <sys/stat.h>
 
 #include "oni_writer.h"
+#include "tussock/bake.h"
 #include "tussock/capture.h"
 
 static void put(const char* dir, const char* name, const void* data, size_t n) {
@@ -88,7 +91,32 @@ int main(void) {
         copy_file("/tmp/tsk_corpus.oni", "oni", "two_frames.oni", 0, 0);
     }
     /* definition targets */
-    const char* defs[] = {"capture_def", "meadow", "wind", "tree", "refine"};
+    /* bake caches: a 5-point frame file (mode 0), a 3-frame .pc2 (mode 1), and byte
+       strings for the structured modes 2 (frames), 4 (.pc2 header) and 5 (write) */
+    {
+        float pts[3][15];
+        const char* paths[3] = {"/tmp/tsk_corpus_1.tskf", "/tmp/tsk_corpus_2.tskf",
+                                "/tmp/tsk_corpus_3.tskf"};
+        for (int f = 0; f < 3; ++f) {
+            for (int i = 0; i < 15; ++i) pts[f][i] = 0.01f * (float)(i + 7 * f);
+            if (tsk_bake_write_frame(paths[f], f + 1, pts[f], 5) != TSK_OK) return 1;
+        }
+        if (tsk_bake_assemble_pc2("/tmp/tsk_corpus.pc2", paths, 3, 1.0f, 1.0f) != TSK_OK) {
+            fprintf(stderr, "%s\n", tsk_last_error());
+            return 1;
+        }
+        copy_file(paths[0], "bake", "frame", 0, 1);
+        copy_file("/tmp/tsk_corpus.pc2", "bake", "pc2", 1, 1);
+        unsigned char b[1024];
+        const unsigned char modes[3] = {2, 4, 5};
+        const char* names[3] = {"frames", "pc2_header", "write"};
+        for (int m = 0; m < 3; ++m) {
+            memset(b, 0x0a, sizeof b);
+            b[0] = modes[m];
+            put("bake", names[m], b, sizeof b);
+        }
+    }
+    const char* defs[] = {"capture_def", "meadow", "wind", "tree", "refine", "sim"};
     for (size_t t = 0; t < sizeof defs / sizeof *defs; ++t) {
         unsigned char b[4096];
         memset(b, 0x0a, sizeof b);

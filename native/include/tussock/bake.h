@@ -32,9 +32,10 @@ uint64_t tsk_bake_checksum(const void* data, size_t size);
 tsk_status tsk_bake_write_frame(const char* path, int32_t frame, const float* xyz,
                                 uint32_t count);
 
-/// Reads and checks a frame file's header: its frame number and point count. A missing
-/// file gives TSK_ERR_IO; a file that is not a Tussock frame, of another format version,
-/// truncated, or whose data does not match its checksum gives TSK_ERR_FORMAT.
+/// Reads and checks a frame file: its frame number and point count. A missing file gives
+/// TSK_ERR_IO; a file that is not a Tussock frame, of another format version, truncated,
+/// whose data does not match its checksum or holds a non-finite value gives TSK_ERR_FORMAT.
+/// The data is verified in small chunks: no memory of the frame's size is needed.
 tsk_status tsk_bake_frame_info(const char* path, int32_t* frame, uint32_t* count);
 
 /// Reads a verified frame: `count` must equal the file's point count.
@@ -42,18 +43,22 @@ tsk_status tsk_bake_read_frame(const char* path, float* xyz, uint32_t count);
 
 /// Assembles `frame_count` frame files (paths in frame order) into a .pc2 file at `path`
 /// (atomically), with `start_frame` and `sample_rate` (frames per sample, 1 = every
-/// frame) in its header. Every frame file is verified first: a missing, corrupt or
+/// frame) in its header. start_frame must be finite, sample_rate positive and finite
+/// (TSK_ERR_ARGUMENT). Every frame file is verified first: a missing, corrupt or
 /// mismatched frame (other point count, frame numbers not consecutive) is reported with
-/// its path and nothing is written.
+/// its path and nothing is written. The file is assembled in memory: more than the memory
+/// budget (tsk_memory_check) gives TSK_ERR_LIMIT.
 tsk_status tsk_bake_assemble_pc2(const char* path, const char* const* frame_paths,
                                  int32_t frame_count, float start_frame, float sample_rate);
 
 /// Reads a .pc2 header: point count, start frame, sample rate and sample count, checking
-/// that the file is as long as the header says.
+/// that the file is as long as the header says and that the start frame is finite and the
+/// sample rate positive and finite (else TSK_ERR_FORMAT).
 tsk_status tsk_pc2_info(const char* path, uint32_t* points, float* start_frame,
                         float* sample_rate, uint32_t* samples);
 
-/// Reads sample `index` (0-based) of a .pc2 file into xyz (3*points floats).
+/// Reads sample `index` (0-based) of a .pc2 file into xyz (3*points floats). A sample
+/// holding a non-finite value gives TSK_ERR_FORMAT.
 tsk_status tsk_pc2_read_sample(const char* path, uint32_t index, float* xyz, uint32_t points);
 
 #ifdef __cplusplus

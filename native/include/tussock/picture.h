@@ -191,11 +191,16 @@ typedef enum tsk_warp_sampling {
     TSK_SAMPLE_MAP_UV = 1,
 } tsk_warp_sampling;
 
+/// Largest |lambda| of a warp (cells per unit of Vp*dt). Beyond, any wind moves the grid by
+/// more than the 1e7 pixels the frames accept, so the value is refused where it is set, not
+/// on every frame (a lambda of 3e38, Blender's "inf", passed the old finite-only check).
+#define TSK_WARP_MAX_LAMBDA 1.0e6f
+
 /// Warp grid and eq. 5-7 parameters of one layer.
 typedef struct tsk_warp_def {
     int cell_x, cell_y;       ///< grid cell size sx, sy, pixels, 1..4096 (default 16)
     float lambda_x, lambda_y; ///< scale factor lambda of eq. 5, in cells per unit of Vp*dt,
-                              ///< finite (default 4)
+                              ///< |lambda| <= TSK_WARP_MAX_LAMBDA (default 4)
     float dt;                 ///< simulation step dt of eq. 5, seconds, >= 0 (default 1/24)
     float rigidity;           ///< r of eq. 6, 0..10 (default 1)
     tsk_picture_root root;    ///< default TSK_ROOT_BOTTOM

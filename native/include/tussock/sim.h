@@ -28,6 +28,14 @@ extern "C" {
 #define TSK_BLADE_SIM_MAX_BLADES_PER_TILE 65536
 /// Most length-constraint iterations per step.
 #define TSK_BLADE_SIM_MAX_ITERATIONS 64
+/// Largest |coordinate| in metres (1000 km) of the grid origin, ground height, collider ends
+/// and rest knots, and the largest tile size, collider radius, collision and activation
+/// margins and blade height: beyond, squared distances in the solver's float arithmetic
+/// overflow (a collider of radius 3e38 made every knot NaN). TSK_ERR_ARGUMENT above.
+#define TSK_BLADE_SIM_MAX_COORD 1.0e6f
+/// Largest |component| of gravity (m/s^2) and of wind velocities (m/s); TSK_ERR_ARGUMENT above.
+#define TSK_BLADE_SIM_MAX_ACCEL 1.0e4f
+#define TSK_BLADE_SIM_MAX_WIND 1.0e4f
 
 /* ---- definition ---------------------------------------------------------------------------- */
 
@@ -124,7 +132,8 @@ typedef enum tsk_wind_layout {
 typedef struct tsk_blade_sim tsk_blade_sim;
 
 /// Validates `def` (messages name the field; TSK_ERR_LIMIT for knot_count > 64, too many tiles
-/// or iterations) and creates an empty simulation (no tile active, no per-tile memory).
+/// or iterations; TSK_ERR_ARGUMENT for lengths beyond TSK_BLADE_SIM_MAX_COORD and gravity beyond
+/// TSK_BLADE_SIM_MAX_ACCEL) and creates an empty simulation (no tile active, no per-tile memory).
 tsk_status tsk_blade_sim_create(const tsk_blade_sim_def* def, tsk_blade_sim** out);
 /// Frees the simulation and every tile it holds. NULL is ignored.
 void tsk_blade_sim_destroy(tsk_blade_sim* sim);
@@ -138,7 +147,7 @@ void tsk_blade_sim_destroy(tsk_blade_sim* sim);
 tsk_status tsk_blade_sim_clone(const tsk_blade_sim* sim, tsk_blade_sim** out);
 
 /// Sets the colliders for the next step (copied; count 0..TSK_BLADE_SIM_MAX_COLLIDERS, more
-/// returns TSK_ERR_LIMIT) and updates tile activation: every tile whose square, between
+/// returns TSK_ERR_LIMIT; a radius or end beyond TSK_BLADE_SIM_MAX_COORD is refused) and updates tile activation: every tile whose square, between
 /// ground_height and ground_height + max_blade_height, meets a collider's bounding box grown by
 /// activation_margin is "touched". A touched tile that is not active becomes pending: it needs
 /// its rest blades (tsk_blade_sim_get_pending, tsk_blade_sim_provide_tile). A pending tile that
@@ -164,7 +173,9 @@ tsk_status tsk_blade_sim_get_pending(const tsk_blade_sim* sim, int32_t* tiles);
 ///    blade's material frame, so bending keeps its direction relative to the blade's face.
 /// These are what tsk_meadow_realise_knots writes for one tile. blade_count 0 marks the tile as
 /// empty (active, no memory, nothing to simulate). Errors: tile out of range, non-finite values,
-/// negative widths, a zero-length segment, blade_count > TSK_BLADE_SIM_MAX_BLADES_PER_TILE.
+/// a knot coordinate beyond TSK_BLADE_SIM_MAX_COORD, negative widths, a zero-length segment,
+/// blade_count > TSK_BLADE_SIM_MAX_BLADES_PER_TILE; TSK_ERR_LIMIT when the state of every
+/// active tile with this one would exceed the memory budget (tsk_memory_check).
 tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t blade_count,
                                       const float* knots, const float* widths, const float* sides);
 
@@ -174,7 +185,8 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
 /// a collider (grown by collision_margin) or below the ground (for colliders that do not
 /// overlap each other). Then tiles that have been quiet and untouched for rest_frames steps blend
 /// back to rest over blend_frames steps and are released (memory freed). `wind` as `layout`
-/// says; non-finite wind returns TSK_ERR_ARGUMENT and leaves the state unchanged.
+/// says; non-finite wind or a component beyond TSK_BLADE_SIM_MAX_WIND returns TSK_ERR_ARGUMENT
+/// and leaves the state unchanged.
 /// Deterministic and independent of the thread count.
 tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
                               tsk_wind_layout layout);

@@ -20,11 +20,14 @@
 static const char MAGIC[8] = {'T', 'S', 'K', 'F', 'R', 'A', 'M', 'E'};
 enum { HEADER_SIZE = 8 + 4 + 4 + 4 + 4 + 8 };
 
-uint64_t tsk_bake_checksum(const void* data, size_t size) {
+static uint64_t fnv_update(uint64_t h, const void* data, size_t size) {
     const unsigned char* p = data;
-    uint64_t h = 1469598103934665603ull;
     for (size_t i = 0; i < size; ++i) h = (h ^ p[i]) * 1099511628211ull;
     return h;
+}
+
+uint64_t tsk_bake_checksum(const void* data, size_t size) {
+    return fnv_update(1469598103934665603ull, data, size);
 }
 
 static void put_u32(unsigned char* p, uint32_t v) {
@@ -152,13 +155,29 @@ static tsk_status read_header(const char* path, FILE** out, int32_t* frame, uint
     return TSK_OK;
 }
 
+/* Reads `count` points in chunks into `xyz` (or, with xyz NULL, into a small buffer: the
+ * check needs no memory of the frame's size), verifying the checksum and that every value is
+ * finite (the writer refuses others, so one means a forged or damaged file). */
 static tsk_status read_data(FILE* f, const char* path, float* xyz, uint32_t count,
                             uint64_t checksum) {
-    size_t n = (size_t)count * 3;
-    if (fread(xyz, sizeof(float), n, f) != n)
-        return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is truncated", path);
-    if (tsk_bake_checksum(xyz, n * sizeof(float)) != checksum)
+    enum { CHUNK = 4096 }; /* floats */
+    float local[CHUNK];
+    const size_t n = (size_t)count * 3;
+    uint64_t h = 1469598103934665603ull;
+    int finite = 1;
+    for (size_t done = 0; done < n;) {
+        const size_t m = n - done < CHUNK ? n - done : CHUNK;
+        float* dst = xyz ? xyz + done : local;
+        if (fread(dst, sizeof(float), m, f) != m)
+            return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is truncated", path);
+        h = fnv_update(h, dst, m * sizeof(float));
+        for (size_t i = 0; i < m; ++i) finite &= isfinite(dst[i]) != 0;
+        done += m;
+    }
+    if (h != checksum)
         return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is corrupt (checksum mismatch)", path);
+    if (!finite)
+        return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' holds a non-finite point", path);
     return TSK_OK;
 }
 
@@ -169,13 +188,7 @@ tsk_status tsk_bake_frame_info(const char* path, int32_t* frame, uint32_t* count
     uint64_t sum = 0;
     tsk_status s = read_header(path, &f, &fr, &n, &sum);
     if (s != TSK_OK) return s;
-    float* buf = tsk_alloc((size_t)n * 12u, "bake frame");
-    if (buf == NULL) {
-        fclose(f);
-        return TSK_ERR_MEMORY;
-    }
-    s = read_data(f, path, buf, n, sum);
-    tsk_free(buf);
+    s = read_data(f, path, NULL, n, sum);
     fclose(f);
     if (s != TSK_OK) return s;
     if (frame) *frame = fr;

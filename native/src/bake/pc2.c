@@ -5,6 +5,7 @@
 #include "tussock/bake.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -22,8 +23,12 @@ tsk_status tsk_bake_assemble_pc2(const char* path, const char* const* frame_path
     if (frame_count > TSK_BAKE_MAX_FRAMES)
         return tsk_error_arg(TSK_ERR_LIMIT, "frame_count", "%d frames exceed the limit %d",
                              frame_count, TSK_BAKE_MAX_FRAMES);
-    if (!(sample_rate > 0.0f) || start_frame != start_frame)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "sample_rate", "must be positive");
+    if (!isfinite(start_frame))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "start_frame", "must be finite, got %g",
+                             (double)start_frame);
+    if (!(isfinite(sample_rate) && sample_rate > 0.0f))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "sample_rate", "must be positive and finite, got %g",
+                             (double)sample_rate);
     uint32_t points = 0;
     int32_t first = 0;
     for (int32_t i = 0; i < frame_count; ++i) { /* verify everything before writing */
@@ -38,14 +43,16 @@ tsk_status tsk_bake_assemble_pc2(const char* path, const char* const* frame_path
             return tsk_error_arg(TSK_ERR_FORMAT, "frame_paths",
                                  "'%s' has %u points, the first frame has %u", frame_paths[i], n,
                                  points);
-        } else if (fr != first + i) {
+        } else if ((int64_t)fr != (int64_t)first + i) { /* 64 bits: first + i may pass INT32_MAX */
             return tsk_error_arg(TSK_ERR_FORMAT, "frame_paths",
-                                 "'%s' holds frame %d, expected frame %d", frame_paths[i], fr,
-                                 first + i);
+                                 "'%s' holds frame %d, expected frame %lld", frame_paths[i], fr,
+                                 (long long)first + i);
         }
     }
     const size_t frame_bytes = (size_t)points * 12u;
     const size_t total = PC2_HEADER + frame_bytes * (size_t)frame_count;
+    tsk_status s = tsk_memory_check((double)total, "frame_paths");
+    if (s != TSK_OK) return s;
     unsigned char* buf = tsk_alloc(total, "pc2 file");
     if (buf == NULL) return TSK_ERR_MEMORY;
     memcpy(buf, PC2_MAGIC, 12);
@@ -55,7 +62,6 @@ tsk_status tsk_bake_assemble_pc2(const char* path, const char* const* frame_path
     memcpy(buf + 20, &start_frame, 4);
     memcpy(buf + 24, &sample_rate, 4);
     memcpy(buf + 28, &samples, 4);
-    tsk_status s = TSK_OK;
     for (int32_t i = 0; i < frame_count && s == TSK_OK; ++i)
         s = tsk_bake_read_frame(frame_paths[i], (float*)(void*)(buf + PC2_HEADER + frame_bytes * (size_t)i),
                                 points);
@@ -90,6 +96,10 @@ tsk_status tsk_pc2_info(const char* path, uint32_t* points, float* start_frame,
     memcpy(&ns, h + 28, 4);
     if (version != 1 || np < 0 || ns < 0 || (uint32_t)np > TSK_BAKE_MAX_POINTS)
         return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' has a bad .pc2 header", path);
+    if (!isfinite(start) || !(isfinite(rate) && rate > 0.0f))
+        return tsk_error_arg(TSK_ERR_FORMAT, "path",
+                             "'%s' has a bad .pc2 header (start frame %g, sample rate %g)", path,
+                             (double)start, (double)rate);
     if (!stat_ok || (uint64_t)st.st_size != PC2_HEADER + (uint64_t)np * 12u * (uint64_t)ns)
         return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is truncated or too long", path);
     if (points) *points = (uint32_t)np;
@@ -100,6 +110,7 @@ tsk_status tsk_pc2_info(const char* path, uint32_t* points, float* start_frame,
 }
 
 tsk_status tsk_pc2_read_sample(const char* path, uint32_t index, float* xyz, uint32_t points) {
+    if (xyz == NULL && points > 0) return tsk_error_arg(TSK_ERR_ARGUMENT, "xyz", "is NULL");
     uint32_t np, ns;
     tsk_status s = tsk_pc2_info(path, &np, NULL, NULL, &ns);
     if (s != TSK_OK) return s;
@@ -116,5 +127,10 @@ tsk_status tsk_pc2_read_sample(const char* path, uint32_t index, float* xyz, uin
     size_t n = (size_t)np * 3;
     int ok = fseek(f, offset, SEEK_SET) == 0 && fread(xyz, sizeof(float), n, f) == n;
     fclose(f);
-    return ok ? TSK_OK : tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is truncated", path);
+    if (!ok) return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is truncated", path);
+    for (size_t i = 0; i < n; ++i)
+        if (!isfinite(xyz[i]))
+            return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' sample %u holds a non-finite point",
+                                 path, index);
+    return TSK_OK;
 }

@@ -52,12 +52,12 @@ tsk_status tsk_warp_grid_size(int width, int height, int cell_x, int cell_y, int
 static tsk_status check_def(const tsk_warp_def* d) {
     tsk_status s = check_cells(d->cell_x, d->cell_y);
     if (s != TSK_OK) return s;
-    if (!isfinite(d->lambda_x))
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "lambda_x", "must be finite, got %g",
-                             (double)d->lambda_x);
-    if (!isfinite(d->lambda_y))
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "lambda_y", "must be finite, got %g",
-                             (double)d->lambda_y);
+    if (!(fabsf(d->lambda_x) <= TSK_WARP_MAX_LAMBDA))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "lambda_x", "must be finite, within +-%g, got %g",
+                             (double)TSK_WARP_MAX_LAMBDA, (double)d->lambda_x);
+    if (!(fabsf(d->lambda_y) <= TSK_WARP_MAX_LAMBDA))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "lambda_y", "must be finite, within +-%g, got %g",
+                             (double)TSK_WARP_MAX_LAMBDA, (double)d->lambda_y);
     if (!(d->dt >= 0.0f && d->dt <= 1e6f))
         return tsk_error_arg(TSK_ERR_ARGUMENT, "dt", "must be 0..1e6 s, got %g", (double)d->dt);
     if (!(d->rigidity >= 0.0f && d->rigidity <= 10.0f))

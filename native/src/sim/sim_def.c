@@ -46,13 +46,22 @@ tsk_blade_sim_def tsk_default_blade_sim_def(void) {
     return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be >= 0 and finite, got %g",      \
                          (double)def->field)
 
+/* |field| <= bound (a finite field is checked first) */
+#define CHECK_ABS(field, bound)                                                             \
+    if (!(fabsf(def->field) <= (bound)))                                                    \
+    return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be within +-%g, got %g", (double)(bound), \
+                         (double)def->field)
+
 tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def) {
     if (!def) return tsk_error_arg(TSK_ERR_ARGUMENT, "def", "is NULL");
     for (int c = 0; c < 3; ++c) {
         CHECK_FINITE(origin[c]);
+        CHECK_ABS(origin[c], TSK_BLADE_SIM_MAX_COORD);
         CHECK_FINITE(gravity[c]);
+        CHECK_ABS(gravity[c], TSK_BLADE_SIM_MAX_ACCEL);
     }
     CHECK_POSITIVE(tile_size);
+    CHECK_ABS(tile_size, TSK_BLADE_SIM_MAX_COORD);
     if (def->tiles_x < 1) return tsk_error_arg(TSK_ERR_ARGUMENT, "tiles_x", "must be >= 1, got %d", def->tiles_x);
     if (def->tiles_y < 1) return tsk_error_arg(TSK_ERR_ARGUMENT, "tiles_y", "must be >= 1, got %d", def->tiles_y);
     if ((int64_t)def->tiles_x * def->tiles_y > TSK_BLADE_SIM_MAX_TILES)
@@ -77,9 +86,13 @@ tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def) {
     if (def->iterations < 1)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "iterations", "must be >= 1, got %d", def->iterations);
     CHECK_FINITE(ground_height);
+    CHECK_ABS(ground_height, TSK_BLADE_SIM_MAX_COORD);
     CHECK_NONNEG(collision_margin);
+    CHECK_ABS(collision_margin, TSK_BLADE_SIM_MAX_COORD);
     CHECK_NONNEG(activation_margin);
+    CHECK_ABS(activation_margin, TSK_BLADE_SIM_MAX_COORD);
     CHECK_POSITIVE(max_blade_height);
+    CHECK_ABS(max_blade_height, TSK_BLADE_SIM_MAX_COORD);
     CHECK_POSITIVE(rest_distance);
     CHECK_POSITIVE(rest_speed);
     if (def->rest_frames < 1)

@@ -205,6 +205,11 @@ fail:
 /* ---- colliders and activation -------------------------------------------------------------- */
 
 static int finite3(const float* v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
+/* finite and within TSK_BLADE_SIM_MAX_COORD (false for NaN) */
+static int bounded3(const float* v) {
+    return fabsf(v[0]) <= TSK_BLADE_SIM_MAX_COORD && fabsf(v[1]) <= TSK_BLADE_SIM_MAX_COORD &&
+           fabsf(v[2]) <= TSK_BLADE_SIM_MAX_COORD;
+}
 
 static void mark_touched(tsk_blade_sim* sim) {
     for (int32_t i = 0; i < sim->tile_count; ++i) {
@@ -233,6 +238,11 @@ tsk_status tsk_blade_sim_set_colliders(tsk_blade_sim* sim, const tsk_blade_colli
         if (!finite3(c->a) || (c->kind == TSK_COLLIDER_CAPSULE && !finite3(c->b)))
             return tsk_error_arg(TSK_ERR_ARGUMENT, "colliders", "collider %d position is not finite",
                                  i);
+        if (c->radius > TSK_BLADE_SIM_MAX_COORD || !bounded3(c->a) ||
+            (c->kind == TSK_COLLIDER_CAPSULE && !bounded3(c->b)))
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "colliders",
+                                 "collider %d: radius and ends must be within %g m", i,
+                                 (double)TSK_BLADE_SIM_MAX_COORD);
     }
     const tsk_blade_sim_def* d = &sim->def;
     /* prepared colliders */
@@ -412,6 +422,9 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
         for (int32_t k = 0; k < K; ++k) {
             if (!finite3(x + 3 * k))
                 return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "blade %d knot %d is not finite", b, k);
+            if (!bounded3(x + 3 * k))
+                return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "blade %d knot %d is beyond %g m", b,
+                                     k, (double)TSK_BLADE_SIM_MAX_COORD);
             const float w = widths[(size_t)b * K + k];
             if (!(isfinite(w) && w >= 0))
                 return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
@@ -433,6 +446,13 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
     t.index = tile;
     t.blade_count = blade_count;
     t.block_count = (blade_count + SIM_W - 1) / SIM_W;
+    if (t.block_count > 0) { /* the state of every active tile with this one: within the budget */
+        double held = 0;
+        for (int32_t i = 0; i < sim->tile_count; ++i) held += (double)sim->tiles[i].bytes;
+        s = tsk_memory_check(held + (double)t.block_count * (SIM_BLOCK_FLOATS(K) + 6) * sizeof(float),
+                             "blade_count");
+        if (s != TSK_OK) return s;
+    }
     if (t.block_count > 0) {
         const size_t bf = SIM_BLOCK_FLOATS(K);
         t.blocks = tsk_calloc((size_t)t.block_count * bf, sizeof(float), "tile state");
@@ -569,7 +589,7 @@ typedef struct finite_ctx {
 static void check_finite_chunk(size_t begin, size_t end, size_t chunk, void* vctx) {
     finite_ctx* ctx = vctx;
     int bad = 0;
-    for (size_t i = begin; i < end; ++i) bad |= !isfinite(ctx->v[i]);
+    for (size_t i = begin; i < end; ++i) bad |= !(fabsf(ctx->v[i]) <= TSK_BLADE_SIM_MAX_WIND);
     ctx->bad[chunk] = bad;
 }
 
@@ -612,7 +632,10 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
             int any = 0;
             for (size_t c = 0; c < chunks; ++c) any |= bad[c];
             tsk_free(bad);
-            if (any) return tsk_error_arg(TSK_ERR_ARGUMENT, "wind", "contains a non-finite value");
+            if (any)
+                return tsk_error_arg(TSK_ERR_ARGUMENT, "wind",
+                                     "contains a non-finite value or one beyond %g m/s",
+                                     (double)TSK_BLADE_SIM_MAX_WIND);
         }
     }
     const tsk_blade_sim_def* d = &sim->def;
