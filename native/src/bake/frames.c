@@ -30,23 +30,6 @@ uint64_t tsk_bake_checksum(const void* data, size_t size) {
     return fnv_update(1469598103934665603ull, data, size);
 }
 
-static void put_u32(unsigned char* p, uint32_t v) {
-    for (int i = 0; i < 4; ++i) p[i] = (unsigned char)(v >> (8 * i));
-}
-static void put_u64(unsigned char* p, uint64_t v) {
-    for (int i = 0; i < 8; ++i) p[i] = (unsigned char)(v >> (8 * i));
-}
-static uint32_t get_u32(const unsigned char* p) {
-    uint32_t v = 0;
-    for (int i = 0; i < 4; ++i) v |= (uint32_t)p[i] << (8 * i);
-    return v;
-}
-static uint64_t get_u64(const unsigned char* p) {
-    uint64_t v = 0;
-    for (int i = 0; i < 8; ++i) v |= (uint64_t)p[i] << (8 * i);
-    return v;
-}
-
 tsk_status tsk_bake_write_parts(const char* path, const void* const* parts, const size_t* sizes,
                                 int part_count) {
     if (path == NULL || path[0] == '\0') return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");

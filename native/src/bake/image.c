@@ -21,23 +21,6 @@
 static const char MAGIC[8] = {'T', 'S', 'K', 'I', 'M', 'A', 'G', 'E'};
 enum { SIDECAR_SIZE = 8 + 4 + 4 + 4 + 4 + 8 + 8 + 8 };
 
-static void put_u32(unsigned char* p, uint32_t v) {
-    for (int i = 0; i < 4; ++i) p[i] = (unsigned char)(v >> (8 * i));
-}
-static void put_u64(unsigned char* p, uint64_t v) {
-    for (int i = 0; i < 8; ++i) p[i] = (unsigned char)(v >> (8 * i));
-}
-static uint32_t get_u32(const unsigned char* p) {
-    uint32_t v = 0;
-    for (int i = 0; i < 4; ++i) v |= (uint32_t)p[i] << (8 * i);
-    return v;
-}
-static uint64_t get_u64(const unsigned char* p) {
-    uint64_t v = 0;
-    for (int i = 0; i < 8; ++i) v |= (uint64_t)p[i] << (8 * i);
-    return v;
-}
-
 /* `path` + ".tski" in a new tsk_alloc'd string, or NULL (error set). */
 static char* sidecar_path(const char* path) {
     size_t n = strlen(path);
