@@ -3,6 +3,7 @@
  * thread counts, tile activation and release with memory freed, and argument checks. */
 #include "test.h"
 #include "tussock/sim.h"
+#include "sim/sim_internal.h"
 
 #include <stdint.h>
 
@@ -423,6 +424,27 @@ TEST(test_sim_identical_bytes_with_1_and_2_threads) {
     free(b);
 }
 
+/* The AVX-512, AVX2 and portable kernels (those the CPU has) give the same bytes: only IEEE
+ * operations and exact conversions, no fused multiply-add. */
+TEST(test_sim_kernel_paths_give_identical_bytes) {
+    const size_t n = (size_t)36 * 40 * K16 * 3;
+    float* a = malloc(sizeof(float) * n);
+    float* b = malloc(sizeof(float) * n);
+    size_t na = 0, nb = 0;
+    run_scene(2, a, &na); /* the best kernel */
+    for (int path = 1; path <= 2; ++path) {
+        tsk_sim_kernel_path = path; /* 1 portable, 2 at most AVX2 */
+        run_scene(2, b, &nb);
+        tsk_sim_kernel_path = 0;
+        CHECK(na == n && nb == n);
+        size_t differ = 0;
+        for (size_t i = 0; i < n; ++i) differ += memcmp(a + i, b + i, sizeof(float)) != 0;
+        CHECK_MSG(differ == 0, "path %d: %zu of %zu floats differ", path, differ, n);
+    }
+    free(a);
+    free(b);
+}
+
 /* Rest blades of tile t in a grid with the given def: n blades inside the tile square. */
 static void tile_blades(const tsk_blade_sim_def* def, int t, int n, float* knots, float* widths,
                         float* sides) {
@@ -608,6 +630,7 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_local_shape_alone_restores_bend),
           TEST_ENTRY(test_sim_ground_never_penetrated),
           TEST_ENTRY(test_sim_identical_bytes_with_1_and_2_threads),
+          TEST_ENTRY(test_sim_kernel_paths_give_identical_bytes),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),
           TEST_ENTRY(test_sim_bad_input_names_the_argument))
