@@ -412,14 +412,15 @@ INL void rest_knot(rest_state* R, const blk* b, scratch* S, int k, int lo) {
         acc = g - pre (ga t + g - ga u),  ga = u . g,  u the rest direction, t the current one. */
 typedef struct move_state {
     v3 ft, fs, fn; /* current frame of the segment before */
-    v3 xo, xp;     /* old and new position of the knot before */
+    v3 xp;         /* new position of the knot before */
 } move_state;
 
-INL void move_start(move_state* M, const blk* b, int lo) {
+INL void move_start(move_state* M, const blk* b, scratch* S, int lo) {
     const float* lane = b->lane + lo;
     M->ft = ld3(lane + SIM_LANE_T0 * W), M->fs = ld3(lane + SIM_LANE_S0 * W);
     M->fn = cross3(M->ft, M->fs);
-    M->xo = ld3(b->P + lo), M->xp = M->xo;
+    M->xp = ld3(b->P + lo);
+    st3(S->xold + lo, M->xp); /* the root */
 }
 
 INL void move_knot(move_state* M, const kconst* C, int k, int lo) {
@@ -432,8 +433,7 @@ INL void move_knot(move_state* M, const kconst* C, int k, int lo) {
        at its rest length (follow-the-leader pass), so d / L is a unit vector */
     const v3 x = ld3(C->P + o3);
     st3(S->xold + o3, x);
-    const v3 tc = mul3(il, sub3(x, M->xo));
-    M->xo = x;
+    const v3 tc = mul3(il, sub3(x, ld3(S->xold + o3 - 3 * W)));
     /* Verlet: x' = x + damp v + a dt^2 + kd (wind dt - v), v = x - x_prev */
     const v3 v = {ld_half(C->V + r3), ld_half(C->V + r3 + W), ld_half(C->V + r3 + 2 * W)};
     const vf ga = dot3(u, C->gp);
@@ -461,7 +461,7 @@ INL void move_knot(move_state* M, const kconst* C, int k, int lo) {
     const v3 d = sub3(xn, M->xp);
     const vf dd = dot3(d, d);
     const vi ok = gts(dd, 1e-30f);
-    const v3 a = sel3(ok, mul3(rsq2(sel(ok, dd, splat(1.0f))), d), pt);
+    const v3 a = sel3(ok, mul3(1.0f / vsqrt(sel(ok, dd, splat(1.0f))), d), pt);
     const vf den = 1.0f + dot3(pt, a);
     const vi okd = gts(den, 1e-6f);
     const vf q = sel(okd, dot3(a, ps) / sel(okd, den, splat(1.0f)), splat(0.0f));
@@ -571,7 +571,7 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
         const v3 d = sub3(x, xp);
         const vf dd = dot3(d, d);
         const vi ok = gts(dd, 1e-30f);
-        x = sel3(ok, add3(xp, mul3(len * rsq2(sel(ok, dd, splat(1.0f))), d)), x);
+        x = sel3(ok, add3(xp, mul3(len / vsqrt(sel(ok, dd, splat(1.0f))), d)), x);
     }
     for (int ci = 0; ci < nnear; ++ci) {
         const sim_collider* col = near[ci];
@@ -675,8 +675,8 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
     for (int h = 0; h < NSLICE; h += 2) {
         const int lo0 = h * LN, lo1 = PAIR_LO1(h);
         move_state A, B;
-        move_start(&A, &b, lo0);
-        if (lo1 != lo0) move_start(&B, &b, lo1);
+        move_start(&A, &b, &S, lo0);
+        if (lo1 != lo0) move_start(&B, &b, &S, lo1);
         for (int k = 1; k < K; ++k) {
             move_knot(&A, &C, k, lo0);
             if (lo1 != lo0) move_knot(&B, &C, k, lo1);
