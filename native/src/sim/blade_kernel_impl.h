@@ -306,12 +306,18 @@ INL rest_seg rest_segment(const int16_t* Dk, vf ds, v3* t, v3* s, v3* n) {
 
 /* Pushes x out of a collider (capsule core a + t ab, t in [0, 1]; ab = 0 for a sphere) along
  * the surface normal. A knot exactly on the core goes straight up. */
-INL v3 push_out(v3 x, const sim_collider* col) {
+/* The point of a collider's core (a + t ab, t in [0, 1]) nearest to x; for a sphere, a. */
+INL v3 core_point(v3 x, const sim_collider* col) {
     const v3 a = {splat(col->a[0]), splat(col->a[1]), splat(col->a[2])};
+    if (col->inv_ab2 == 0.0f) return a;
     const v3 ab = {splat(col->ab[0]), splat(col->ab[1]), splat(col->ab[2])};
-    const vf r = splat(col->r);
     const vf t = vmin(vmax(dot3(sub3(x, a), ab) * col->inv_ab2, splat(0.0f)), splat(1.0f));
-    const v3 c = add3(a, mul3(t, ab));
+    return add3(a, mul3(t, ab));
+}
+
+INL v3 push_out(v3 x, const sim_collider* col) {
+    const vf r = splat(col->r);
+    const v3 c = core_point(x, col);
     const v3 d = sub3(x, c);
     const vf dd = dot3(d, d);
     const vi inside = lt(dd, r * r);
@@ -490,8 +496,16 @@ INL void length_segment(v3* xp, v3* x, vf il2q, int first) {
     }
 }
 
-INL v3 clamp_ground(v3 x, vf ground, int clamp) {
-    if (clamp) x.z = vmax(x.z, ground);
+/* A knot done with this iteration's length constraints: out of the colliders near the block, in
+   their order, then above the ground. */
+typedef struct near_list {
+    const sim_collider* const* c;
+    int n;
+} near_list;
+
+INL v3 finish_knot(v3 x, vf ground, near_list nl) {
+    for (int ci = 0; ci < nl.n; ++ci) x = push_out(x, nl.c[ci]);
+    x.z = vmax(x.z, ground);
     return x;
 }
 
@@ -509,43 +523,44 @@ INL void length_start(length_state* L, float* P, const float* il2q, int lo) {
 }
 
 /* odd segment j and even segment j - 1 */
-INL void length_step(length_state* L, float* P, const float* il2q, int j, vf ground, int clamp) {
+INL void length_step(length_state* L, float* P, const float* il2q, int j, vf ground,
+                        near_list nl) {
     const int lo = L->lo;
     v3 a = ld3(P + (size_t)(j - 1) * 3 * W + lo), c = ld3(P + (size_t)j * 3 * W + lo);
     length_segment(&a, &c, ld(il2q + (size_t)j * W + lo), 0);
     length_segment(&L->hold, &a, ld(il2q + (size_t)(j - 1) * W + lo), 0);
-    st3(P + (size_t)(j - 2) * 3 * W + lo, clamp_ground(L->hold, ground, clamp));
-    st3(P + (size_t)(j - 1) * 3 * W + lo, clamp_ground(a, ground, clamp));
+    st3(P + (size_t)(j - 2) * 3 * W + lo, finish_knot(L->hold, ground, nl));
+    st3(P + (size_t)(j - 1) * 3 * W + lo, finish_knot(a, ground, nl));
     L->hold = c;
 }
 
 INL void length_end(length_state* L, int K, float* P, const float* il2q, int j, vf ground,
-                    int clamp) {
+                    near_list nl) {
     const int lo = L->lo;
     if (j - 1 < K) { /* an even last segment j - 1 */
         v3 c = ld3(P + (size_t)(j - 1) * 3 * W + lo);
         length_segment(&L->hold, &c, ld(il2q + (size_t)(j - 1) * W + lo), 0);
-        st3(P + (size_t)(j - 2) * 3 * W + lo, clamp_ground(L->hold, ground, clamp));
-        st3(P + (size_t)(j - 1) * 3 * W + lo, clamp_ground(c, ground, clamp));
+        st3(P + (size_t)(j - 2) * 3 * W + lo, finish_knot(L->hold, ground, nl));
+        st3(P + (size_t)(j - 1) * 3 * W + lo, finish_knot(c, ground, nl));
     } else {
-        st3(P + (size_t)(j - 2) * 3 * W + lo, clamp_ground(L->hold, ground, clamp));
+        st3(P + (size_t)(j - 2) * 3 * W + lo, finish_knot(L->hold, ground, nl));
     }
 }
 
 /* One length iteration over slices lo0 and lo1 (the same slice twice is fine: then only one
    is done), interleaved so that the two chains overlap. */
 INL void length_iteration2(int K, float* P, const float* il2q, int lo0, int lo1, vf ground,
-                           int clamp) {
+                           near_list nl) {
     length_state A, B;
     length_start(&A, P, il2q, lo0);
     if (lo1 != lo0) length_start(&B, P, il2q, lo1);
     int j = 3;
     for (; j < K; j += 2) {
-        length_step(&A, P, il2q, j, ground, clamp);
-        if (lo1 != lo0) length_step(&B, P, il2q, j, ground, clamp);
+        length_step(&A, P, il2q, j, ground, nl);
+        if (lo1 != lo0) length_step(&B, P, il2q, j, ground, nl);
     }
-    length_end(&A, K, P, il2q, j, ground, clamp);
-    if (lo1 != lo0) length_end(&B, K, P, il2q, j, ground, clamp);
+    length_end(&A, K, P, il2q, j, ground, nl);
+    if (lo1 != lo0) length_end(&B, K, P, il2q, j, ground, nl);
 }
 
 /* ---- pass 3, one knot of one slice: follow the leader (Mueller et al. 2012): the segment is
@@ -575,14 +590,11 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
     }
     for (int ci = 0; ci < nnear; ++ci) {
         const sim_collider* col = near[ci];
-        const v3 a = {splat(col->a[0]), splat(col->a[1]), splat(col->a[2])};
-        const v3 ab = {splat(col->ab[0]), splat(col->ab[1]), splat(col->ab[2])};
         const vf r = splat(col->r), r2 = r * r;
         /* a capsule's nearest core point moves with the knot: more rounds refine it */
         const int rounds = col->inv_ab2 > 0.0f ? 3 : 1;
         for (int round = 0; round < rounds; ++round) {
-            const vf t = vmin(vmax(dot3(sub3(x, a), ab) * col->inv_ab2, splat(0.0f)), splat(1.0f));
-            const v3 c = add3(a, mul3(t, ab));
+            const v3 c = core_point(x, col);
             const v3 xd = sub3(x, c);
             const vi inside = lt(dot3(xd, xd), r2);
             if (!any(inside)) break; /* no lane inside: nothing to project */
@@ -729,26 +741,12 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
     for (int h = 0; h < NSLICE; h += 2) {
         const int lo0 = h * LN, lo1 = PAIR_LO1(h);
         for (int it = 0; it < p->iterations; ++it) {
-            if (nnear == 0) {
-                length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, 1);
-                continue;
-            }
-            length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, 0);
-            for (int hh = h; hh < h + 2 && hh < NSLICE; ++hh) {
-                float* P = b.P + hh * LN;
-                for (int ci = 0; ci < nnear; ++ci)
-                    for (int k = 1; k < K; ++k) {
-                        float* pk = P + (size_t)k * 3 * W;
-                        st3(pk, push_out(ld3(pk), near[ci]));
-                    }
-                for (int k = 1; k < K; ++k) {
-                    float* pz = P + (size_t)k * 3 * W + 2 * W;
-                    st(pz, vmax(ld(pz), ground));
-                }
-            }
+            if (nnear == 0)
+                length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, (near_list){near, 0});
+            else
+                length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, (near_list){near, nnear});
         }
     }
-
     /* ---- pass 3: follow the leader, velocity and statistics */
     vf md = splat(0.0f), ms = splat(0.0f);
     for (int h = 0; h < NSLICE; h += 2) {
@@ -769,14 +767,11 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
             float* P = b.P + h * LN;
             for (int ci = 0; ci < ncol; ++ci) {
                 const sim_collider* col = cols[ci];
-                const v3 a = {splat(col->a[0]), splat(col->a[1]), splat(col->a[2])};
-                const v3 ab = {splat(col->ab[0]), splat(col->ab[1]), splat(col->ab[2])};
                 const vf r2 = splat(col->r * col->r);
                 vi hit = (vi){0};
                 for (int k = 1; k < K; ++k) {
                     const v3 x = ld3(P + (size_t)k * 3 * W);
-                    const vf t = vmin(vmax(dot3(sub3(x, a), ab) * col->inv_ab2, splat(0.0f)), splat(1.0f));
-                    const v3 d = sub3(x, add3(a, mul3(t, ab)));
+                    const v3 d = sub3(x, core_point(x, col));
                     hit |= lt(dot3(d, d), r2);
                 }
                 if (!any(hit)) continue;
