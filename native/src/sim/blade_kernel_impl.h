@@ -169,10 +169,18 @@ INL vf ld_u8(const uint8_t* p) {
 INL vi gt(vf a, vf b) { return a > b; }
 INL vf vmax(vf a, vf b) { return sel(a > b, a, b); }
 INL vf vmin(vf a, vf b) { return sel(a < b, a, b); }
+#if defined(__SSE2__)
+#include <emmintrin.h>
+INL vf vsqrt(vf a) { return (vf)_mm_sqrt_ps((__m128)a); }
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+#include <arm_neon.h>
+INL vf vsqrt(vf a) { return (vf)vsqrtq_f32((float32x4_t)a); }
+#else
 INL vf vsqrt(vf a) {
     for (int l = 0; l < LN; ++l) a[l] = sqrtf(a[l]); /* correctly rounded, as sqrtps */
     return a;
 }
+#endif
 INL int any(vi m) {
     int32_t o = 0;
     for (int l = 0; l < LN; ++l) o |= m[l];
