@@ -355,6 +355,9 @@ void SIM_KFN(tsk_sim_block_rest)(int32_t K, float* block) {
     }
 }
 
+/* Slices are worked two at a time (h and h + 1), their root-to-tip chains interleaved. */
+#define PAIR_LO1(h) ((h) + 1 < NSLICE ? ((h) + 1) * LN : (h) * LN)
+
 /* Per step and block, [k][c][lane] (rows of W floats): rest positions, positions at the start
  * of the step, rest directions in the world (u) and in the parent's frame (r), the rotation
  * coefficient c of each segment, lengths, 1 / length, 1 / (4 length^2), the global shape
@@ -437,7 +440,7 @@ INL void move_start(move_state* M, const blk* b, scratch* S, int lo) {
     st3(S->xold + lo, M->xp); /* the root */
 }
 
-INL void move_knot(move_state* M, const kconst* C, int k, int lo) {
+INL void move_knot(move_state* M, const kconst* C, int k, int lo, int has_wind) {
     scratch* S = C->S;
     const size_t o3 = (size_t)k * 3 * W + lo, o1 = (size_t)k * W + lo;
     const size_t r3 = (size_t)(k - 1) * 3 * W + lo;
@@ -452,7 +455,7 @@ INL void move_knot(move_state* M, const kconst* C, int k, int lo) {
     const v3 v = {ld_half(C->V + r3), ld_half(C->V + r3 + W), ld_half(C->V + r3 + 2 * W)};
     const vf ga = dot3(u, C->gp);
     v3 xn = add3(add3(x, mul3(C->damp - kd, v)), add3(C->g1, mul3(ga, sub3(u, tc))));
-    if (C->wind) xn = add3(xn, mul3(kd * C->dtv, ld3(C->wind + (size_t)k * C->wind_stride + lo)));
+    if (has_wind) xn = add3(xn, mul3(kd * C->dtv, ld3(C->wind + (size_t)k * C->wind_stride + lo)));
     /* global shape constraint */
     xn = add3(xn, mul3(ld(S->al + o1), sub3(ld3(S->rest + o3), xn)));
     /* local shape constraint of segment k-1 -> k: its rest direction in the current frame of
@@ -483,6 +486,28 @@ INL void move_knot(move_state* M, const kconst* C, int k, int lo) {
     M->fs = sub3(ps, mul3(q, add3(pt, a)));
     M->fn = cross3(M->ft, M->fs);
     M->xp = xn;
+}
+
+/* Pass 1 over slices h and h + 1; the first knot (the root stays) and the wind are decided
+   outside the loop. */
+INL void move_sweep(const blk* b, kconst* C, int h, int has_wind) {
+    const int K = C->K, lo0 = h * LN, lo1 = PAIR_LO1(h);
+    move_state A, B;
+    move_start(&A, b, C->S, lo0);
+    if (lo1 != lo0) move_start(&B, b, C->S, lo1);
+    move_knot(&A, C, 1, lo0, has_wind);
+    if (lo1 != lo0) move_knot(&B, C, 1, lo1, has_wind);
+    for (int k = 2; k < K; ++k) {
+        move_knot(&A, C, k, lo0, has_wind);
+        if (lo1 != lo0) move_knot(&B, C, k, lo1, has_wind);
+        if (C->next && h == 0) { /* the next block into L2 while this one computes */
+            const char* q = C->next + (size_t)(k - 2) * C->next_lines * 64;
+            const char* end = C->next + SIM_BLOCK_FLOATS(K) * 4;
+            for (size_t i = 0; i < C->next_lines && q < end; ++i, q += 64) __builtin_prefetch(q, 1, 2);
+        }
+    }
+    st3(b->P + (size_t)(K - 1) * 3 * W + lo0, A.xp);
+    if (lo1 != lo0) st3(b->P + (size_t)(K - 1) * 3 * W + lo1, B.xp);
 }
 
 /* ---- pass 2 without colliders, one iteration: segments relaxed odd then even (segments of
@@ -651,8 +676,6 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
     F->ms = vmax(F->ms, dot3(v, v));
 }
 
-/* Slices are worked two at a time (h and h + 1), their root-to-tip chains interleaved. */
-#define PAIR_LO1(h) ((h) + 1 < NSLICE ? ((h) + 1) * LN : (h) * LN)
 
 void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const float* wind,
                                  size_t wind_stride, const sim_collider* const* cols, int ncol,
@@ -680,7 +703,7 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
     kconst C;
     C.K = K, C.P = b.P, C.V = b.V, C.wind = wind, C.wind_stride = wind_stride, C.S = &S;
     C.next = (const char*)next;
-    C.next_lines = (SIM_BLOCK_FLOATS(K) * 4 / 64 + (size_t)K - 2) / (size_t)(K - 1);
+    C.next_lines = K > 2 ? (SIM_BLOCK_FLOATS(K) * 4 / 64 + (size_t)K - 3) / (size_t)(K - 2) : 0;
     C.damp = splat(p->damp), C.dtv = splat(p->dt);
     C.alc1 = splat(p->alpha_local), C.alc2 = splat(0.5f * p->alpha_local);
     /* acceleration times dt^2: (1 - pre) g + pre ga (u - t) with ga = u . g */
@@ -693,21 +716,10 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
 
     /* ---- pass 1: one sweep root to tip per slice */
     for (int h = 0; h < NSLICE; h += 2) {
-        const int lo0 = h * LN, lo1 = PAIR_LO1(h);
-        move_state A, B;
-        move_start(&A, &b, &S, lo0);
-        if (lo1 != lo0) move_start(&B, &b, &S, lo1);
-        for (int k = 1; k < K; ++k) {
-            move_knot(&A, &C, k, lo0);
-            if (lo1 != lo0) move_knot(&B, &C, k, lo1);
-            if (C.next && h == 0) { /* the next block into L2 while this one computes */
-                const char* q = C.next + (size_t)(k - 1) * C.next_lines * 64;
-                const char* end = C.next + SIM_BLOCK_FLOATS(K) * 4;
-                for (size_t i = 0; i < C.next_lines && q < end; ++i, q += 64) __builtin_prefetch(q, 1, 2);
-            }
-        }
-        st3(b.P + (size_t)(K - 1) * 3 * W + lo0, A.xp);
-        if (lo1 != lo0) st3(b.P + (size_t)(K - 1) * 3 * W + lo1, B.xp);
+        if (wind)
+            move_sweep(&b, &C, h, 1);
+        else
+            move_sweep(&b, &C, h, 0);
     }
 
     /* ---- colliders near the block now: its knots' box grown by SIM_CULL_MARGIN. The iterations
