@@ -676,6 +676,33 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
     F->ms = vmax(F->ms, dot3(v, v));
 }
 
+/* The last length iteration without colliders near, with the follow-the-leader pass running
+   right behind it: each knot is set to its segment's length as soon as the sweep is done with
+   it, while the sweep goes on (the same operations as the two passes one after the other). */
+INL void length_iteration2_ftl(int K, float* P, const float* il2q, int lo0, int lo1, vf ground,
+                               const kconst* C, ftl_state* FA, ftl_state* FB) {
+    const near_list nl = {NULL, 0};
+    length_state A, B;
+    length_start(&A, P, il2q, lo0);
+    if (lo1 != lo0) length_start(&B, P, il2q, lo1);
+    int j = 3;
+    for (; j < K; j += 2) {
+        length_step(&A, P, il2q, j, ground, nl);
+        if (lo1 != lo0) length_step(&B, P, il2q, j, ground, nl);
+        /* knots j - 2 and j - 1 are done */
+        ftl_knot(FA, C, NULL, 0, ground, j - 2, lo0);
+        if (lo1 != lo0) ftl_knot(FB, C, NULL, 0, ground, j - 2, lo1);
+        ftl_knot(FA, C, NULL, 0, ground, j - 1, lo0);
+        if (lo1 != lo0) ftl_knot(FB, C, NULL, 0, ground, j - 1, lo1);
+    }
+    length_end(&A, K, P, il2q, j, ground, nl);
+    if (lo1 != lo0) length_end(&B, K, P, il2q, j, ground, nl);
+    for (int k = j - 2; k < K; ++k) {
+        ftl_knot(FA, C, NULL, 0, ground, k, lo0);
+        if (lo1 != lo0) ftl_knot(FB, C, NULL, 0, ground, k, lo1);
+    }
+}
+
 
 void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const float* wind,
                                  size_t wind_stride, const sim_collider* const* cols, int ncol,
@@ -757,24 +784,24 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
 
     const vf ground = splat(p->ground);
     /* ---- pass 2: length constraints (each segment's two knots move half way; the root never)
-            and collisions, iterated. */
-    for (int h = 0; h < NSLICE; h += 2) {
-        const int lo0 = h * LN, lo1 = PAIR_LO1(h);
-        for (int it = 0; it < p->iterations; ++it) {
-            if (nnear == 0)
-                length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, (near_list){near, 0});
-            else
-                length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, (near_list){near, nnear});
-        }
-    }
-    /* ---- pass 3: follow the leader, velocity and statistics */
+            and collisions, iterated; then pass 3, follow the leader, with the new velocities
+            and the statistics. Without colliders near, pass 3 runs inside the last
+            iteration. */
     vf md = splat(0.0f), ms = splat(0.0f);
     for (int h = 0; h < NSLICE; h += 2) {
         const int lo0 = h * LN, lo1 = PAIR_LO1(h);
         ftl_state A = {ld3(b.P + lo0), md, ms}, B = {ld3(b.P + lo1), md, ms};
-        for (int k = 1; k < K; ++k) {
-            ftl_knot(&A, &C, near, nnear, ground, k, lo0);
-            if (lo1 != lo0) ftl_knot(&B, &C, near, nnear, ground, k, lo1);
+        if (nnear == 0) {
+            for (int it = 0; it + 1 < p->iterations; ++it)
+                length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, (near_list){near, 0});
+            length_iteration2_ftl(K, b.P, S.il2q, lo0, lo1, ground, &C, &A, &B);
+        } else {
+            for (int it = 0; it < p->iterations; ++it)
+                length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, (near_list){near, nnear});
+            for (int k = 1; k < K; ++k) {
+                ftl_knot(&A, &C, near, nnear, ground, k, lo0);
+                if (lo1 != lo0) ftl_knot(&B, &C, near, nnear, ground, k, lo1);
+            }
         }
         md = vmax(A.md, B.md), ms = vmax(A.ms, B.ms);
     }
