@@ -312,8 +312,6 @@ INL rest_seg rest_segment(const int16_t* Dk, vf ds, v3* t, v3* s, v3* n) {
     return g;
 }
 
-/* Pushes x out of a collider (capsule core a + t ab, t in [0, 1]; ab = 0 for a sphere) along
- * the surface normal. A knot exactly on the core goes straight up. */
 /* The point of a collider's core (a + t ab, t in [0, 1]) nearest to x; for a sphere, a. */
 INL v3 core_point(v3 x, const sim_collider* col) {
     const v3 a = {splat(col->a[0]), splat(col->a[1]), splat(col->a[2])};
@@ -323,6 +321,8 @@ INL v3 core_point(v3 x, const sim_collider* col) {
     return add3(a, mul3(t, ab));
 }
 
+/* Pushes x out of a collider (capsule core a + t ab, t in [0, 1]; ab = 0 for a sphere) along
+ * the surface normal. A knot exactly on the core goes straight up. */
 INL v3 push_out(v3 x, const sim_collider* col) {
     const vf r = splat(col->r);
     const v3 c = core_point(x, col);
@@ -361,7 +361,8 @@ void SIM_KFN(tsk_sim_block_rest)(int32_t K, float* block) {
 /* Per step and block, [k][c][lane] (rows of W floats): rest positions, positions at the start
  * of the step, rest directions in the world (u) and in the parent's frame (r), the rotation
  * coefficient c of each segment, lengths, 1 / length, 1 / (4 length^2), the global shape
- * fraction and the drag fraction at each knot. */
+ * fraction and the drag fraction at each knot. On the stack: 147 KB for 64 knots, of which a
+ * step touches 36 KB at 16 knots. */
 enum { MK = TSK_BLADE_SIM_MAX_KNOTS };
 typedef struct scratch {
     float rest[MK * 3 * W], xold[MK * 3 * W], ru[MK * 3 * W], rr[MK * 3 * W];
