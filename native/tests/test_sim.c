@@ -424,6 +424,30 @@ TEST(test_sim_identical_bytes_with_1_and_2_threads) {
     free(b);
 }
 
+/* Wind given once per blade acts as the same wind given at each of its knots. */
+TEST(test_sim_wind_per_blade_equals_wind_per_knot) {
+    enum { N = 40 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], a[N * K16 * 3], b[N * K16 * 3];
+    static float wb[N * 3], wk[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.5f, knots, widths, sides);
+    for (int i = 0; i < N; ++i) {
+        wb[3 * i] = 3.0f * sinf((float)i), wb[3 * i + 1] = 2.0f + cosf((float)i), wb[3 * i + 2] = 0.1f;
+        for (int k = 0; k < K16; ++k) memcpy(wk + (size_t)(i * K16 + k) * 3, wb + 3 * i, sizeof(float) * 3);
+    }
+    for (int layout = 0; layout < 2; ++layout) {
+        tsk_blade_sim* sim = one_tile_sim(big_tile_def(), N, knots, widths, sides);
+        for (int s = 0; s < 60; ++s)
+            CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, layout ? wk : wb,
+                                     layout ? TSK_WIND_PER_KNOT : TSK_WIND_PER_BLADE) == TSK_OK);
+        CHECK(tsk_blade_sim_get_tile_knots(sim, 0, layout ? b : a) == TSK_OK);
+        tsk_blade_sim_destroy(sim);
+    }
+    CHECK(memcmp(a, b, sizeof a) == 0);
+    double moved = 0;
+    for (int i = 0; i < N * K16 * 3; ++i) moved = fmax(moved, fabs(a[i] - knots[i]));
+    CHECK_MSG(moved > 1e-3, "the wind moved the knots by only %g m", moved);
+}
+
 /* The AVX-512, AVX2 and portable kernels (those the CPU has) give the same bytes: only IEEE
  * operations and exact conversions, no fused multiply-add. */
 TEST(test_sim_kernel_paths_give_identical_bytes) {
@@ -631,6 +655,7 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_ground_never_penetrated),
           TEST_ENTRY(test_sim_identical_bytes_with_1_and_2_threads),
           TEST_ENTRY(test_sim_kernel_paths_give_identical_bytes),
+          TEST_ENTRY(test_sim_wind_per_blade_equals_wind_per_knot),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),
           TEST_ENTRY(test_sim_bad_input_names_the_argument))
