@@ -200,16 +200,17 @@ int main(int argc, char** argv) {
         tsk_blade_sim_info info;
         tsk_blade_sim_get_info(sc.sim, &info);
         const double ns = ms * 1e6 / (double)sc.blades;
-        char params[512];
+        char params[640];
         snprintf(params, sizeof params,
                  "\"blades\": %lld, \"tiles\": 15625, \"knots\": %d, \"iterations\": 4, "
                  "\"objects\": 128, \"threads\": %d, \"ms_per_step\": %.4g, "
                  "\"cpu_ns_per_blade_step\": %.4g, \"load_avg\": %.2f, \"state_mb\": %.1f, "
+                 "\"state_bytes_per_blade\": %.1f, "
                  "\"target_ns\": 40, \"blender_hair_ns_reference\": 220000, "
                  "\"blender_hair_ratio\": %.4g, \"blender_hair_note\": \"quoted in issue 7 "
                  "(15 segments, this machine), not measured in this run\"",
                  (long long)sc.blades, KNOTS, threads, ms, cpu * 1e6 / (double)sc.blades, load_avg(),
-                 (double)info.state_bytes / 1048576.0,
+                 (double)info.state_bytes / 1048576.0, (double)info.state_bytes / (double)sc.blades,
                  220000.0 / ns);
         bench_emit("blade_sim_1M", ns, "ns per blade-step", params, NULL);
         scene_free(&sc);

@@ -3,6 +3,7 @@
  * thread counts, tile activation and release with memory freed, and argument checks. */
 #include "test.h"
 #include "tussock/sim.h"
+#include "sim/sim_internal.h"
 
 #include <float.h>
 #include <stdint.h>
@@ -424,6 +425,51 @@ TEST(test_sim_identical_bytes_with_1_and_2_threads) {
     free(b);
 }
 
+/* Wind given once per blade acts as the same wind given at each of its knots. */
+TEST(test_sim_wind_per_blade_equals_wind_per_knot) {
+    enum { N = 40 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], a[N * K16 * 3], b[N * K16 * 3];
+    static float wb[N * 3], wk[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.5f, knots, widths, sides);
+    for (int i = 0; i < N; ++i) {
+        wb[3 * i] = 3.0f * sinf((float)i), wb[3 * i + 1] = 2.0f + cosf((float)i), wb[3 * i + 2] = 0.1f;
+        for (int k = 0; k < K16; ++k) memcpy(wk + (size_t)(i * K16 + k) * 3, wb + 3 * i, sizeof(float) * 3);
+    }
+    for (int layout = 0; layout < 2; ++layout) {
+        tsk_blade_sim* sim = one_tile_sim(big_tile_def(), N, knots, widths, sides);
+        for (int s = 0; s < 60; ++s)
+            CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, layout ? wk : wb,
+                                     layout ? TSK_WIND_PER_KNOT : TSK_WIND_PER_BLADE) == TSK_OK);
+        CHECK(tsk_blade_sim_get_tile_knots(sim, 0, layout ? b : a) == TSK_OK);
+        tsk_blade_sim_destroy(sim);
+    }
+    CHECK(memcmp(a, b, sizeof a) == 0);
+    double moved = 0;
+    for (int i = 0; i < N * K16 * 3; ++i) moved = fmax(moved, fabs(a[i] - knots[i]));
+    CHECK_MSG(moved > 1e-3, "the wind moved the knots by only %g m", moved);
+}
+
+/* The AVX-512, AVX2 and portable kernels (those the CPU has) give the same bytes: only IEEE
+ * operations and exact conversions, no fused multiply-add. */
+TEST(test_sim_kernel_paths_give_identical_bytes) {
+    const size_t n = (size_t)36 * 40 * K16 * 3;
+    float* a = malloc(sizeof(float) * n);
+    float* b = malloc(sizeof(float) * n);
+    size_t na = 0, nb = 0;
+    run_scene(2, a, &na); /* the best kernel */
+    for (int path = 1; path <= 2; ++path) {
+        tsk_sim_kernel_path = path; /* 1 portable, 2 at most AVX2 */
+        run_scene(2, b, &nb);
+        tsk_sim_kernel_path = 0;
+        CHECK(na == n && nb == n);
+        size_t differ = 0;
+        for (size_t i = 0; i < n; ++i) differ += memcmp(a + i, b + i, sizeof(float)) != 0;
+        CHECK_MSG(differ == 0, "path %d: %zu of %zu floats differ", path, differ, n);
+    }
+    free(a);
+    free(b);
+}
+
 /* Rest blades of tile t in a grid with the given def: n blades inside the tile square. */
 static void tile_blades(const tsk_blade_sim_def* def, int t, int n, float* knots, float* widths,
                         float* sides) {
@@ -783,7 +829,9 @@ TEST(test_sim_tile_over_memory_budget_is_refused) {
     CHECK(tsk_blade_sim_activate_tile(sim, 0) == TSK_OK);
     CHECK(tsk_blade_sim_activate_tile(sim, 1) == TSK_OK);
     const size_t before = tsk_allocated_bytes();
-    tsk_set_memory_budget(64 << 10); /* 100 blades of 16 knots need 4 blocks of ~23 KB */
+    /* room for two and a half blocks of 32 blades: 100 blades need 4 */
+    const size_t block_bytes = (SIM_BLOCK_FLOATS(K16) + 6) * sizeof(float);
+    tsk_set_memory_budget(block_bytes * 5 / 2);
     CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, N, knots, widths, sides), TSK_ERR_LIMIT,
                  "memory budget");
     CHECK(tsk_blade_sim_tile_state(sim, 0) == 2);
@@ -807,6 +855,8 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_local_shape_alone_restores_bend),
           TEST_ENTRY(test_sim_ground_never_penetrated),
           TEST_ENTRY(test_sim_identical_bytes_with_1_and_2_threads),
+          TEST_ENTRY(test_sim_kernel_paths_give_identical_bytes),
+          TEST_ENTRY(test_sim_wind_per_blade_equals_wind_per_knot),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),
           TEST_ENTRY(test_sim_clone_resumes_with_identical_bytes),

@@ -6,29 +6,43 @@
 
 #include "tussock/sim.h"
 
-/* Blades per block: the lanes of every vector value. 32 floats = two AVX-512 registers (four
- * AVX2, eight SSE): two independent registers per operation hide the latency of the solver's
- * root-to-tip chains (measured: 16 lanes 201, 32 lanes 156, 64 lanes 152 ns per blade-step,
- * one thread, block in cache). A block of 32 blades x 16 knots is ~23 KB, so every pass of a
- * step runs in L1 after the block is read once. */
+#include <math.h>
+#include <string.h>
+
+/* Blades per block: the lanes of every stored value. The kernel works on 16 lanes at a time
+ * (one AVX-512 register, two AVX2 ones), half a block per sweep. */
 #define SIM_W 32
 
-/* Block layout, in floats, for K knots (each array is [knot][component][lane]):
- *   P  [K][3][W]  current positions (knot 0 = root, never moves)
- *   Q  [K][3][W]  previous positions (Verlet)
- *   R  [K][3][W]  R[k], k >= 1: unit rest direction of segment k-1 -> k in the rest frame of the
- *                 segment before it (segment 0: the root frame); R[0] = root frame tangent T0
- *   L  [K][W]     L[k], k >= 1: rest length of segment k-1 -> k; L[0] = total rest length
- *   WD [K][W]     full width at each knot, metres
- *   S0 [3][W]     root frame side vector
+/* Block layout for K knots, W = SIM_W lanes; every array is [row][lane], rows as listed.
+ * The state is kept small because a step over a million blades streams all of it through
+ * memory (docs/performance.md): 423 bytes per blade at 16 knots, of which only P and V are
+ * written back.
+ *   P   float    [K][3]    current positions (knot 0 = root, never moves)
+ *   V   half     [K-1][3]  displacement of knots 1..K-1 over the last step, metres (IEEE
+ *                          binary16 bits: the Verlet velocity times dt)
+ *   D   int16    [K-1][3]  rest segment k-1 -> k (row k-1) in the rest frame of the segment
+ *                          before it (segment 0: the root frame), in units of DS. The rest
+ *                          pose is what the solver rebuilds from these: lengths |D|, directions
+ *                          D/|D|, frames parallel-transported (sim_side_coef)
+ *   WD  uint8    [K-1]     width at knots 1..K-1 in units of WS (only wind drag uses it)
+ *   lane floats  [9]       T0 xyz (root frame tangent), S0 xyz (root frame side), DS (metres
+ *                          per D unit), WS (metres per WD unit), LT (total rest length)
  * Lanes past the tile's blade count hold copies of the tile's first blade and are never output. */
+#define SIM_ROUND64(b) (((b) + 63) & ~(size_t)63)
+#define SIM_BYTES_P(K) ((size_t)(K) * 3 * SIM_W * 4)
+#define SIM_BYTES_V(K) ((size_t)((K) - 1) * 3 * SIM_W * 2)
+#define SIM_BYTES_WD(K) SIM_ROUND64((size_t)((K) - 1) * SIM_W)
+#define SIM_BOFF_V(K) SIM_BYTES_P(K)
+#define SIM_BOFF_D(K) (SIM_BOFF_V(K) + SIM_BYTES_V(K))
+#define SIM_BOFF_WD(K) (SIM_BOFF_D(K) + SIM_BYTES_V(K))
+#define SIM_BOFF_LANE(K) (SIM_BOFF_WD(K) + SIM_BYTES_WD(K))
+#define SIM_LANE_ROWS 9
+enum { SIM_LANE_T0 = 0, SIM_LANE_S0 = 3, SIM_LANE_DS = 6, SIM_LANE_WS = 7, SIM_LANE_LT = 8 };
+/* Offsets and sizes in floats (blocks are float arrays, 64-byte aligned). */
 #define SIM_OFF_P(K) 0
-#define SIM_OFF_Q(K) ((size_t)3 * (K) * SIM_W)
-#define SIM_OFF_R(K) ((size_t)6 * (K) * SIM_W)
-#define SIM_OFF_L(K) ((size_t)9 * (K) * SIM_W)
-#define SIM_OFF_WD(K) ((size_t)10 * (K) * SIM_W)
-#define SIM_OFF_S0(K) ((size_t)11 * (K) * SIM_W)
-#define SIM_BLOCK_FLOATS(K) ((size_t)11 * (K) * SIM_W + 3 * SIM_W)
+#define SIM_OFF_LANE(K) (SIM_BOFF_LANE(K) / 4)
+#define SIM_OFF_LT(K) (SIM_OFF_LANE(K) + (size_t)SIM_LANE_LT * SIM_W) /* total rest length */
+#define SIM_BLOCK_FLOATS(K) ((SIM_BOFF_LANE(K) + (size_t)SIM_LANE_ROWS * SIM_W * 4) / 4)
 
 /* A collider prepared for the kernel: segment a + t*ab (t in [0,1]; ab = 0 for spheres). */
 typedef struct sim_collider {
@@ -75,7 +89,8 @@ typedef struct sim_block_stats {
 /* Rest-frame rotation. The rest frames are parallel-transported (Bishop) frames: the frame of
  * segment k is the frame of segment k-1 turned by the smallest rotation that takes its tangent
  * to segment k's direction. In the parent's coordinates that rotation takes e_x to r (unit), and
- * its side vector is  e_y - (r_y / (1 + r_x)) (e_x + r). The same rotation carries the current
+ * its side vector is  e_y - c (e_x + r), c = r_y / (1 + r_x); in world coordinates the side
+ * turns into  s - c (t + u)  (t the parent's tangent, u the segment's). The same rotation carries the current
  * frames, so a segment's rest direction in its parent's frame (r) holds bending and the bend's
  * direction relative to the blade's face (twist). */
 static inline float sim_side_coef(float rx, float ry) {
@@ -84,23 +99,108 @@ static inline float sim_side_coef(float rx, float ry) {
     return ry / den;
 }
 
-/* Runs one step on one block. `wind` is NULL or [K][3][W] velocities (m/s) for the block's
- * lanes. `cols`/`ncol`: the colliders that may reach the block. blend: fraction (0..1] of the
- * remaining way to rest to blend after the step, 0 for none. */
-void tsk_sim_block_step(const sim_step_params* p, float* block, const float* wind,
-                        const sim_collider* const* cols, int ncol, float blend,
-                        sim_block_stats* stats);
+/* One lane of the kernel's rest_segment, the same operations in the same order: the stored
+ * segment d (metres, in the frame (t, s, n) of the segment before) turns the frame into the
+ * segment's own; returns the segment's length. */
+static inline float sim_rest_segment(const float d[3], float t[3], float s[3], float n[3]) {
+    const float len = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    const float il = 1.0f / len;
+    const float rx = il * d[0], ry = il * d[1], rz = il * d[2];
+    const float c = sim_side_coef(rx, ry);
+    float u[3], w[3];
+    for (int i = 0; i < 3; ++i) u[i] = t[i] * rx + s[i] * ry + n[i] * rz;
+    for (int i = 0; i < 3; ++i) w[i] = s[i] - c * (t[i] + u[i]);
+    for (int i = 0; i < 3; ++i) t[i] = u[i], s[i] = w[i];
+    n[0] = u[1] * w[2] - u[2] * w[1];
+    n[1] = u[2] * w[0] - u[0] * w[2];
+    n[2] = u[0] * w[1] - u[1] * w[0];
+    return len;
+}
 
-/* Fills P (and Q = P) of a block with the rest pose rebuilt from R, L, S0 and the root. */
+/* IEEE binary16 <-> binary32, round to nearest even: the bits that F16C's vcvtps2ph/vcvtph2ps
+ * give, for the portable path. */
+static inline uint16_t sim_float_to_half(float f) {
+    uint32_t x;
+    memcpy(&x, &f, 4);
+    const uint32_t sign = (x >> 16) & 0x8000u;
+    x &= 0x7fffffffu;
+    if (x >= 0x7f800000u) return (uint16_t)(sign | 0x7c00u | (x > 0x7f800000u ? 0x200u : 0u));
+    if (x >= 0x477ff000u) return (uint16_t)(sign | 0x7c00u); /* rounds past 65504 */
+    const uint32_t e = x >> 23;
+    if (e >= 113u) { /* a normal half */
+        const uint32_t m = x - (112u << 23);
+        return (uint16_t)(sign | ((m + 0xfffu + ((m >> 13) & 1u)) >> 13));
+    }
+    if (e < 102u) return (uint16_t)sign; /* below 2^-25 */
+    const uint32_t m = (x & 0x7fffffu) | 0x800000u, sh = 126u - e;
+    uint32_t q = m >> sh;
+    const uint32_t rem = m & ((1u << sh) - 1u), half = 1u << (sh - 1u);
+    if (rem > half || (rem == half && (q & 1u))) ++q;
+    return (uint16_t)(sign | q);
+}
+static inline float sim_half_to_float(uint16_t h) {
+    const uint32_t sign = (uint32_t)(h & 0x8000u) << 16, e = (h >> 10) & 0x1fu, m = h & 0x3ffu;
+    uint32_t x;
+    if (e == 0) {
+        const float f = (float)m * 0x1p-24f; /* zero or subnormal: exact */
+        memcpy(&x, &f, 4);
+        x |= sign;
+    } else if (e == 31) {
+        x = sign | 0x7f800000u | (m << 13);
+    } else {
+        x = sign | ((e + 112u) << 23) | (m << 13);
+    }
+    float f;
+    memcpy(&f, &x, 4);
+    return f;
+}
+
+/* The instruction-set kernels (blade_kernel_avx512.c, blade_kernel_avx2.c) are built by GCC on
+ * x86-64; elsewhere, and with Clang (the sanitizer build), only the portable one. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define SIM_HAVE_X86_PATHS 1
+#else
+#define SIM_HAVE_X86_PATHS 0
+#endif
+
+/* Which kernel runs: 0 the best the CPU has (AVX-512, then AVX2 + F16C), 1 the portable one,
+ * 2 at most AVX2. All give the same bytes (only IEEE add, sub, mul, div, sqrt, comparisons and
+ * exact conversions; no fused multiply-add); test_sim checks it. */
+extern int tsk_sim_kernel_path;
+
+/* Runs one step on one block. `wind` is NULL or velocities (m/s) for the block's lanes, [3][W]
+ * for each knot, `wind_stride` floats from one knot's rows to the next (0: the same wind at every
+ * knot). `cols`/`ncol`: the colliders that may reach the block. blend: fraction (0..1] of the
+ * remaining way to rest to blend after the step, 0 for none. `next`: the block stepped next, or
+ * NULL; it is prefetched. */
+void tsk_sim_block_step(const sim_step_params* p, float* block, const float* wind,
+                        size_t wind_stride, const sim_collider* const* cols, int ncol,
+                        float blend, const float* next, sim_block_stats* stats);
+
+/* Fills P of a block with the rest pose rebuilt from D, the root frame and the root (exactly as
+ * the solver rebuilds it every step) and sets V to zero. */
 void tsk_sim_block_rest(int32_t K, float* block);
 
 /* Validates a definition (messages name the field). */
 tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def);
 
 /* Loads one blade (K knots xyz, K widths, side or NULL; validated by the caller) into `lane`
- * of a block: root frame, rest directions, lengths, widths. Call tsk_sim_block_rest after
+ * of a block: root, root frame, rest segments (quantised; see blade_rest.c), widths. Call tsk_sim_block_rest after
  * every lane is loaded. */
 void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* knots,
                              const float* widths, const float* side);
+
+/* The kernels per instruction set, behind tsk_sim_block_step and tsk_sim_block_rest. */
+#define SIM_KERNEL_DECL(sfx)                                                                 \
+    void tsk_sim_block_step_##sfx(const sim_step_params* p, float* block, const float* wind,  \
+                                  size_t wind_stride, const sim_collider* const* cols,        \
+                                  int ncol, float blend, const float* next,                   \
+                                  sim_block_stats* stats);                                    \
+    void tsk_sim_block_rest_##sfx(int32_t K, float* block);
+SIM_KERNEL_DECL(generic)
+#if SIM_HAVE_X86_PATHS
+SIM_KERNEL_DECL(avx2)
+SIM_KERNEL_DECL(avx512)
+#endif
 
 #endif

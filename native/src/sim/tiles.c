@@ -472,7 +472,7 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
                 const float* x = knots + (size_t)b * K * 3;
                 tsk_sim_block_load_lane(K, block, l, x, widths + (size_t)b * K,
                                         sides ? sides + 3 * (size_t)b : NULL);
-                const float len = block[SIM_OFF_L(K) + l];
+                const float len = block[SIM_OFF_LT(K) + l]; /* total rest length */
                 reach = reach > len ? reach : len;
                 for (int c = 0; c < 3; ++c) {
                     lo[c] = lo[c] < x[c] ? lo[c] : x[c];
@@ -572,12 +572,16 @@ static void step_blocks(size_t begin, size_t end, size_t chunk, void* vctx) {
                                        : ctx->wind + 3 * (ctx->first_blade[slot] + b);
                 for (int c = 0; c < 3; ++c) wind[(size_t)c * SIM_W + l] = src[c];
             }
-            for (int32_t k = 1; k < K; ++k)
-                memcpy(wind + (size_t)k * 3 * SIM_W, wind, sizeof(float) * 3 * SIM_W);
             wp = wind;
         }
         const float blend = t->blend_left > 0 ? 1.0f / (float)t->blend_left : 0.0f;
-        tsk_sim_block_step(&ctx->params, block, wp, cols, ncol, blend, &ctx->stats[w]);
+        /* the next block of this chunk, for the kernel to prefetch */
+        const float* next = NULL;
+        if (w + 1 < end)
+            next = sim->tiles[ctx->blk_slot[w + 1]].blocks + (size_t)ctx->blk_index[w + 1] * bf;
+        tsk_sim_block_step(&ctx->params, block, wp,
+                           ctx->layout == TSK_WIND_PER_KNOT ? (size_t)3 * SIM_W : 0, cols, ncol,
+                           blend, next, &ctx->stats[w]);
     }
 }
 

@@ -1,0 +1,878 @@
+/* The blade solver for one block of SIM_W blades, written once and compiled once per
+ * instruction set (blade_kernel_avx512.c, blade_kernel_avx2.c, blade_kernel.c for the portable
+ * path). Verlet integration with damping, gravity (with preload) and wind drag; global and
+ * local shape constraints; length constraints and collisions iterated, then a
+ * follow-the-leader pass that makes lengths exact while keeping knots outside colliders
+ * (Han & Harada 2012, as seed 000 §2 and §4.5 adopt it: collision a hard constraint; length,
+ * bending and twisting soft constraints of an iterative solver).
+ *
+ * The includer defines SIM_KFN(name) (the name with its instruction set's suffix) and one of
+ * SIM_ISA_AVX512 (16 lanes per vector), SIM_ISA_AVX2 (8) or neither (portable, 4). Every value
+ * is a vector of LN lanes (GCC/Clang vector extensions of the machine's own width, so
+ * comparisons and selects stay vector instructions); a block is worked in SIM_W / LN slices,
+ * two at a time, so that the serial root-to-tip chains of the two overlap (one slice alone
+ * leaves the vector units waiting on the chain's latency; wider values make GCC keep them in
+ * memory).
+ * Only IEEE add, sub, mul, div, sqrt, comparisons, min/max as (a > b ? a : b) and exact
+ * conversions are used and -ffp-contract=off forbids fused multiply-add, so every instruction
+ * set computes the same bits (test_sim_kernel_paths_give_identical_bytes). */
+#include "sim/sim_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+#if defined(__GNUC__) && !defined(__clang__)
+/* The vector helpers below are always inlined static functions: no ABI crosses them. */
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+
+/* Lanes per value: one register (16 with AVX-512, 8 with AVX2, 4 portable). */
+#if defined(SIM_ISA_AVX512)
+#ifndef SIM_AVX512_LN
+#define SIM_AVX512_LN 16
+#endif
+#define LN SIM_AVX512_LN
+#define RL 16 /* lanes per register */
+#include <immintrin.h>
+#elif defined(SIM_ISA_AVX2)
+#ifndef SIM_AVX2_LN
+#define SIM_AVX2_LN 8
+#endif
+#define LN SIM_AVX2_LN
+#define RL 8
+#include <immintrin.h>
+#else
+#define LN 4
+#endif
+#define W SIM_W
+#define NSLICE (SIM_W / LN)
+
+typedef float vf __attribute__((vector_size(4 * LN)));
+typedef int32_t vi __attribute__((vector_size(4 * LN)));
+typedef uint32_t vu __attribute__((vector_size(4 * LN)));
+typedef int16_t vs16 __attribute__((vector_size(2 * LN)));
+typedef uint8_t vu8 __attribute__((vector_size(LN)));
+
+#define INL static inline __attribute__((always_inline))
+
+/* Metres around a block's knots (plus its longest segment) within which a collider takes part
+ * in the iterations. */
+#define SIM_CULL_MARGIN 0.03f
+
+INL vf ld(const float* p) {
+    vf v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+INL void st(float* p, vf v) { memcpy(p, &v, sizeof v); }
+INL vf splat(float x) {
+    vf v = {0};
+    return v + x;
+}
+INL vf sel(vi m, vf a, vf b) { return (vf)(((vi)a & m) | ((vi)b & ~m)); }
+
+#if defined(SIM_ISA_AVX512) || defined(SIM_ISA_AVX2)
+/* Comparisons, min, max, square roots and conversions register by register: GCC would split
+   comparisons of values wider than a register into scalars. maxps(a, b) is exactly
+   (a > b ? a : b) and minps(a, b) exactly (a < b ? a : b), as in the portable path. */
+#define NR (LN / RL)
+#define SPLIT(T, x, a) \
+    T x[NR];           \
+    memcpy(x, &(a), sizeof x)
+#define JOIN(T, r, x) \
+    T r;              \
+    memcpy(&r, x, sizeof r)
+#if defined(SIM_ISA_AVX512)
+typedef __m512 reg;
+typedef __m512i ireg;
+#define R_MAX _mm512_max_ps
+#define R_MIN _mm512_min_ps
+#define R_SQRT _mm512_sqrt_ps
+#define R_GT(a, b) _mm512_movm_epi32(_mm512_cmp_ps_mask(a, b, _CMP_GT_OQ))
+#define R_ANY(m) (_mm512_test_epi32_mask(m, m) != 0)
+#define R_LD_HALF(p) _mm512_cvtph_ps(_mm256_loadu_si256((const __m256i*)(p)))
+#define R_ST_HALF(p, v) \
+    _mm256_storeu_si256((__m256i*)(p), _mm512_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT))
+#define R_LD_S16(p) _mm512_cvtepi32_ps(_mm512_cvtepi16_epi32(_mm256_loadu_si256((const __m256i*)(p))))
+#define R_LD_U8(p) _mm512_cvtepi32_ps(_mm512_cvtepu8_epi32(_mm_loadu_si128((const __m128i*)(p))))
+#else
+typedef __m256 reg;
+typedef __m256i ireg;
+#define R_MAX _mm256_max_ps
+#define R_MIN _mm256_min_ps
+#define R_SQRT _mm256_sqrt_ps
+#define R_GT(a, b) _mm256_castps_si256(_mm256_cmp_ps(a, b, _CMP_GT_OQ))
+#define R_ANY(m) (_mm256_movemask_ps(_mm256_castsi256_ps(m)) != 0)
+#define R_LD_HALF(p) _mm256_cvtph_ps(_mm_loadu_si128((const __m128i*)(p)))
+#define R_ST_HALF(p, v) \
+    _mm_storeu_si128((__m128i*)(p), _mm256_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT))
+#define R_LD_S16(p) _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i*)(p))))
+#define R_LD_U8(p) _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i*)(p))))
+#endif
+INL vi gt(vf a, vf b) {
+    SPLIT(reg, x, a);
+    SPLIT(reg, y, b);
+    ireg m[NR];
+    for (int i = 0; i < NR; ++i) m[i] = R_GT(x[i], y[i]);
+    JOIN(vi, r, m);
+    return r;
+}
+INL vf vmax(vf a, vf b) {
+    SPLIT(reg, x, a);
+    SPLIT(reg, y, b);
+    for (int i = 0; i < NR; ++i) x[i] = R_MAX(x[i], y[i]);
+    JOIN(vf, r, x);
+    return r;
+}
+INL vf vmin(vf a, vf b) {
+    SPLIT(reg, x, a);
+    SPLIT(reg, y, b);
+    for (int i = 0; i < NR; ++i) x[i] = R_MIN(x[i], y[i]);
+    JOIN(vf, r, x);
+    return r;
+}
+INL vf vsqrt(vf a) {
+    SPLIT(reg, x, a);
+    for (int i = 0; i < NR; ++i) x[i] = R_SQRT(x[i]);
+    JOIN(vf, r, x);
+    return r;
+}
+INL int any(vi m) {
+    SPLIT(ireg, x, m);
+    int k = 0;
+    for (int i = 0; i < NR; ++i) k |= R_ANY(x[i]);
+    return k;
+}
+INL vf ld_half(const uint16_t* p) {
+    reg x[NR];
+    for (int i = 0; i < NR; ++i) x[i] = R_LD_HALF(p + RL * i);
+    JOIN(vf, r, x);
+    return r;
+}
+INL void st_half(uint16_t* p, vf v) {
+    SPLIT(reg, x, v);
+    for (int i = 0; i < NR; ++i) R_ST_HALF(p + RL * i, x[i]);
+}
+INL vf ld_s16(const int16_t* p) {
+    reg x[NR];
+    for (int i = 0; i < NR; ++i) x[i] = R_LD_S16(p + RL * i);
+    JOIN(vf, r, x);
+    return r;
+}
+INL vf ld_u8(const uint8_t* p) {
+    reg x[NR];
+    for (int i = 0; i < NR; ++i) x[i] = R_LD_U8(p + RL * i);
+    JOIN(vf, r, x);
+    return r;
+}
+#else
+INL vi gt(vf a, vf b) { return a > b; }
+INL vf vmax(vf a, vf b) { return sel(a > b, a, b); }
+INL vf vmin(vf a, vf b) { return sel(a < b, a, b); }
+#if defined(__SSE2__)
+#include <emmintrin.h>
+INL vf vsqrt(vf a) { return (vf)_mm_sqrt_ps((__m128)a); }
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+#include <arm_neon.h>
+INL vf vsqrt(vf a) { return (vf)vsqrtq_f32((float32x4_t)a); }
+#else
+INL vf vsqrt(vf a) {
+    for (int l = 0; l < LN; ++l) a[l] = sqrtf(a[l]); /* correctly rounded, as sqrtps */
+    return a;
+}
+#endif
+INL int any(vi m) {
+    int32_t o = 0;
+    for (int l = 0; l < LN; ++l) o |= m[l];
+    return o != 0;
+}
+typedef uint16_t vh16 __attribute__((vector_size(2 * LN)));
+/* binary16 <-> binary32 on whole vectors, bit for bit as sim_half_to_float and
+   sim_float_to_half (and F16C). */
+INL vf ld_half(const uint16_t* p) {
+    vh16 h16;
+    memcpy(&h16, p, sizeof h16);
+    const vu h = __builtin_convertvector(h16, vu);
+    const vu sign = (h & 0x8000u) << 16, e = (h >> 10) & 0x1fu, m = h & 0x3ffu;
+    const vu normal = sign | ((e + 112u) << 23) | (m << 13);
+    const vu special = sign | 0x7f800000u | (m << 13);                    /* inf, nan */
+    const vu small = sign | (vu)(__builtin_convertvector(m, vf) * 0x1p-24f); /* 0, subnormal */
+    const vi is_small = (vi)(e == 0u), is_special = (vi)(e == 31u);
+    return (vf)(((vu)is_small & small) | ((vu)is_special & special) |
+                (~(vu)(is_small | is_special) & normal));
+}
+INL void st_half(uint16_t* p, vf f) {
+    const vu bits = (vu)f, x = bits & 0x7fffffffu, sign = (bits >> 16) & 0x8000u;
+    const vu mm = x - (112u << 23);
+    const vu normal = (mm + 0xfffu + ((mm >> 13) & 1u)) >> 13;
+    /* below 2^-14: |f| 2^24 rounded to an integer (to nearest even, by adding 2^23) */
+    const vf t = (vf)x * 0x1p24f + 0x1p23f;
+    const vu small = (vu)t - 0x4b000000u;
+    const vu nan = 0x7c00u | ((vu)(x > 0x7f800000u) & 0x200u);
+    const vu is_nan_inf = (vu)(x >= 0x7f800000u), is_over = (vu)(x >= 0x477ff000u) & ~is_nan_inf;
+    const vu is_small = (vu)(x < 0x38800000u);
+    const vu is_normal = ~(is_nan_inf | is_over | is_small);
+    const vu h = sign | (is_normal & normal) | (is_small & small) | (is_over & 0x7c00u) |
+                 (is_nan_inf & nan);
+    const vh16 h16 = __builtin_convertvector(h, vh16);
+    memcpy(p, &h16, sizeof h16);
+}
+INL vf ld_s16(const int16_t* p) {
+    vs16 s;
+    memcpy(&s, p, sizeof s);
+    return __builtin_convertvector(__builtin_convertvector(s, vi), vf);
+}
+INL vf ld_u8(const uint8_t* p) {
+    vu8 s;
+    memcpy(&s, p, sizeof s);
+    return __builtin_convertvector(__builtin_convertvector(s, vi), vf);
+}
+#endif
+INL vi lt(vf a, vf b) { return gt(b, a); }
+INL vi gts(vf a, float b) { return gt(a, splat(b)); }
+INL vi lts(vf a, float b) { return gt(splat(b), a); }
+
+/* 1/sqrt(x) for x > 0 by Newton's method from a bit-level first guess; two steps give a
+ * relative error below 5e-6 (enough to normalise directions), three ~1e-7. x = 0 returns a
+ * large finite number, so x * rsq(x) = 0. */
+INL vf rsq2(vf x) {
+    vu i = (vu)x;
+    i = 0x5f375a86u - (i >> 1);
+    vf y = (vf)i;
+    const vf h = 0.5f * x;
+    y = y * (1.5f - h * y * y);
+    y = y * (1.5f - h * y * y);
+    return y;
+}
+INL vf rsq(vf x) {
+    vf y = rsq2(x);
+    return y * (1.5f - (0.5f * x) * y * y);
+}
+
+typedef struct v3 {
+    vf x, y, z;
+} v3;
+
+/* three rows of a [row][lane] array with rows W floats apart */
+INL v3 ld3(const float* p) { return (v3){ld(p), ld(p + W), ld(p + 2 * W)}; }
+INL void st3(float* p, v3 v) {
+    st(p, v.x);
+    st(p + W, v.y);
+    st(p + 2 * W, v.z);
+}
+INL v3 add3(v3 a, v3 b) { return (v3){a.x + b.x, a.y + b.y, a.z + b.z}; }
+INL v3 sub3(v3 a, v3 b) { return (v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
+INL v3 mul3(vf s, v3 a) { return (v3){s * a.x, s * a.y, s * a.z}; }
+INL vf dot3(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+INL v3 cross3(v3 a, v3 b) {
+    return (v3){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+INL v3 sel3(vi m, v3 a, v3 b) { return (v3){sel(m, a.x, b.x), sel(m, a.y, b.y), sel(m, a.z, b.z)}; }
+/* frame (t, s, n) applied to local coordinates (a, b, c) */
+INL v3 apply3(v3 t, v3 s, v3 n, vf a, vf b, vf c) {
+    return (v3){t.x * a + s.x * b + n.x * c, t.y * a + s.y * b + n.y * c,
+                t.z * a + s.z * b + n.z * c};
+}
+
+/* The pointers into a block. */
+typedef struct blk {
+    float* P;
+    uint16_t* V;
+    const int16_t* D;
+    const uint8_t* WD;
+    const float* lane;
+} blk;
+
+INL blk blk_of(int K, float* block) {
+    char* b = (char*)block;
+    return (blk){block, (uint16_t*)(b + SIM_BOFF_V(K)), (const int16_t*)(b + SIM_BOFF_D(K)),
+                 (const uint8_t*)(b + SIM_BOFF_WD(K)), (const float*)(b + SIM_BOFF_LANE(K))};
+}
+
+/* One segment of the rest pose (sim_rest_segment does the same for one lane): from the rest
+ * frame (t, s, n) of the segment before, segment k's stored vector D gives its length, its unit
+ * direction r in that frame and the coefficient c of the rotation (sim_side_coef); the frame
+ * turns into segment k's own: t' = u = (t, s, n) r, s' = s - c (t + u), n' = t' x s'. */
+typedef struct rest_seg {
+    vf len, il;    /* length and 1 / length */
+    vf rx, ry, rz; /* unit direction in the parent's frame */
+    vf c;          /* r_y / (1 + r_x) */
+} rest_seg;
+
+INL rest_seg rest_segment(const int16_t* Dk, vf ds, v3* t, v3* s, v3* n) {
+    rest_seg g;
+    const vf dx = ld_s16(Dk) * ds, dy = ld_s16(Dk + W) * ds, dz = ld_s16(Dk + 2 * W) * ds;
+    g.len = vsqrt(dx * dx + dy * dy + dz * dz);
+    g.il = 1.0f / g.len;
+    g.rx = g.il * dx, g.ry = g.il * dy, g.rz = g.il * dz;
+    g.c = g.ry / vmax(1.0f + g.rx, splat(1e-6f));
+    const v3 u = apply3(*t, *s, *n, g.rx, g.ry, g.rz);
+    const v3 sw = sub3(*s, mul3(g.c, add3(*t, u)));
+    *t = u, *s = sw, *n = cross3(u, sw);
+    return g;
+}
+
+/* The point of a collider's core (a + t ab, t in [0, 1]) nearest to x; for a sphere, a. */
+INL v3 core_point(v3 x, const sim_collider* col) {
+    const v3 a = {splat(col->a[0]), splat(col->a[1]), splat(col->a[2])};
+    if (col->inv_ab2 == 0.0f) return a;
+    const v3 ab = {splat(col->ab[0]), splat(col->ab[1]), splat(col->ab[2])};
+    const vf t = vmin(vmax(dot3(sub3(x, a), ab) * col->inv_ab2, splat(0.0f)), splat(1.0f));
+    return add3(a, mul3(t, ab));
+}
+
+/* Pushes x out of a collider (capsule core a + t ab, t in [0, 1]; ab = 0 for a sphere) along
+ * the surface normal. A knot exactly on the core goes straight up. */
+INL v3 push_out(v3 x, const sim_collider* col) {
+    const vf r = splat(col->r);
+    const v3 c = core_point(x, col);
+    const v3 d = sub3(x, c);
+    const vf dd = dot3(d, d);
+    const vi inside = lt(dd, r * r);
+    if (!any(inside)) return x; /* most knots of most blocks: no work */
+    const vi centred = lts(dd, 1e-24f);
+    const vf s = r * rsq(vmax(dd, splat(1e-24f)));
+    v3 y = add3(c, mul3(s, d));
+    y = sel3(centred, (v3){c.x, c.y, c.z + r}, y);
+    return sel3(inside, y, x);
+}
+
+void SIM_KFN(tsk_sim_block_rest)(int32_t K, float* block) {
+    const blk b = blk_of(K, block);
+    for (int h = 0; h < NSLICE; ++h) {
+        const int lo = h * LN;
+        float* P = b.P + lo;
+        v3 gt = ld3(b.lane + SIM_LANE_T0 * W + lo), gs = ld3(b.lane + SIM_LANE_S0 * W + lo);
+        v3 gn = cross3(gt, gs);
+        const vf ds = ld(b.lane + SIM_LANE_DS * W + lo);
+        v3 p = ld3(P);
+        for (int k = 1; k < K; ++k) {
+            const rest_seg g = rest_segment(b.D + (size_t)(k - 1) * 3 * W + lo, ds, &gt, &gs, &gn);
+            p = add3(p, mul3(g.len, gt));
+            st3(P + (size_t)k * 3 * W, p);
+            for (int c = 0; c < 3; ++c) memset(b.V + ((size_t)(k - 1) * 3 + c) * W + lo, 0, 2 * LN);
+        }
+    }
+}
+
+/* Slices are worked two at a time (h and h + 1), their root-to-tip chains interleaved. */
+#define PAIR_LO1(h) ((h) + 1 < NSLICE ? ((h) + 1) * LN : (h) * LN)
+
+/* Per step and block, [k][c][lane] (rows of W floats): rest positions, positions at the start
+ * of the step, rest directions in the world (u) and in the parent's frame (r), the rotation
+ * coefficient c of each segment, lengths, 1 / length, 1 / (4 length^2), the global shape
+ * fraction and the drag fraction at each knot. On the stack: 147 KB for 64 knots, of which a
+ * step touches 36 KB at 16 knots. */
+enum { MK = TSK_BLADE_SIM_MAX_KNOTS };
+typedef struct scratch {
+    float rest[MK * 3 * W], xold[MK * 3 * W], ru[MK * 3 * W], rr[MK * 3 * W];
+    float rc[MK * W], len[MK * W], il[MK * W], il2q[MK * W], al[MK * W], kd[MK * W];
+} scratch;
+
+/* What every knot of a step needs. */
+typedef struct kconst {
+    int K;
+    float* P;
+    uint16_t* V;
+    const float* wind;
+    size_t wind_stride;
+    const char* next; /* the next block, prefetched during pass 1; NULL for none */
+    size_t next_lines; /* its 64-byte lines per knot of pass 1 */
+    scratch* S;
+    vf damp, dtv, alc1, alc2;
+    v3 g1, gp;
+} kconst;
+
+/* ---- pass 0, one knot of one slice: the rest pose rebuilt from the stored segments. */
+typedef struct rest_state {
+    v3 t, s, n, rp;
+    vf ds, dragw, ar, kat, arc, max_len;
+} rest_state;
+
+INL void rest_start(rest_state* R, const blk* b, const sim_step_params* p, scratch* S, int lo) {
+    const float* lane = b->lane + lo;
+    R->t = ld3(lane + SIM_LANE_T0 * W), R->s = ld3(lane + SIM_LANE_S0 * W);
+    R->n = cross3(R->t, R->s);
+    R->ds = ld(lane + SIM_LANE_DS * W);
+    R->dragw = p->drag * ld(lane + SIM_LANE_WS * W);
+    R->ar = splat(p->alpha_root);
+    R->kat = (splat(p->alpha_tip) - R->ar) / ld(lane + SIM_LANE_LT * W);
+    R->arc = splat(0.0f);
+    R->rp = ld3(b->P + lo);
+    st3(S->rest + lo, R->rp);
+}
+
+INL void rest_knot(rest_state* R, const blk* b, scratch* S, int k, int lo) {
+    const size_t o3 = (size_t)k * 3 * W + lo, o1 = (size_t)k * W + lo;
+    const rest_seg g = rest_segment(b->D + (size_t)(k - 1) * 3 * W + lo, R->ds, &R->t, &R->s, &R->n);
+    R->rp = add3(R->rp, mul3(g.len, R->t));
+    st3(S->rest + o3, R->rp);
+    st3(S->ru + o3, R->t);
+    st3(S->rr + o3, (v3){g.rx, g.ry, g.rz});
+    st(S->rc + o1, g.c);
+    st(S->len + o1, g.len);
+    st(S->il + o1, g.il);
+    st(S->il2q + o1, 0.25f * (g.il * g.il));
+    /* global shape fraction, linear in arc length; drag fraction kd = wind_drag /
+       linear_density * width * dt, at most 1 */
+    R->arc = R->arc + g.len;
+    st(S->al + o1, R->ar + R->kat * R->arc);
+    st(S->kd + o1, vmin(R->dragw * ld_u8(b->WD + (size_t)(k - 1) * W + lo), splat(1.0f)));
+    R->max_len = vmax(R->max_len, g.len);
+}
+
+/* ---- pass 1, one knot of one slice. Verlet with damping, gravity (minus the preload the rest
+        pose carries) and wind drag; the global shape constraint toward the rest pose; then the
+        local shape constraint of segment k-1 -> k: it is pulled toward its rest direction
+        expressed in the current frame of the segment before it. The preload is -g at rest. Its
+        part along the segment turns with the segment (a blade pressed flat no longer carries
+        its weight along itself); the small part across the segment stays fixed in the world:
+        acc = g - pre (ga t + g - ga u),  ga = u . g,  u the rest direction, t the current one. */
+typedef struct move_state {
+    v3 ft, fs, fn; /* current frame of the segment before */
+    v3 xp;         /* new position of the knot before */
+} move_state;
+
+INL void move_start(move_state* M, const blk* b, scratch* S, int lo) {
+    const float* lane = b->lane + lo;
+    M->ft = ld3(lane + SIM_LANE_T0 * W), M->fs = ld3(lane + SIM_LANE_S0 * W);
+    M->fn = cross3(M->ft, M->fs);
+    M->xp = ld3(b->P + lo);
+    st3(S->xold + lo, M->xp); /* the root */
+}
+
+INL void move_knot(move_state* M, const kconst* C, int k, int lo, int has_wind) {
+    scratch* S = C->S;
+    const size_t o3 = (size_t)k * 3 * W + lo, o1 = (size_t)k * W + lo;
+    const size_t r3 = (size_t)(k - 1) * 3 * W + lo;
+    const vf len = ld(S->len + o1), il = ld(S->il + o1), kd = ld(S->kd + o1);
+    const v3 u = ld3(S->ru + o3);
+    /* current direction of the segment (old positions): the last step ended with every segment
+       at its rest length (follow-the-leader pass), so d / L is a unit vector */
+    const v3 x = ld3(C->P + o3);
+    st3(S->xold + o3, x);
+    const v3 tc = mul3(il, sub3(x, ld3(S->xold + o3 - 3 * W)));
+    /* Verlet: x' = x + damp v + a dt^2 + kd (wind dt - v), v = x - x_prev */
+    const v3 v = {ld_half(C->V + r3), ld_half(C->V + r3 + W), ld_half(C->V + r3 + 2 * W)};
+    const vf ga = dot3(u, C->gp);
+    v3 xn = add3(add3(x, mul3(C->damp - kd, v)), add3(C->g1, mul3(ga, sub3(u, tc))));
+    if (has_wind) xn = add3(xn, mul3(kd * C->dtv, ld3(C->wind + (size_t)k * C->wind_stride + lo)));
+    /* global shape constraint */
+    xn = add3(xn, mul3(ld(S->al + o1), sub3(ld3(S->rest + o3), xn)));
+    /* local shape constraint of segment k-1 -> k: its rest direction in the current frame of
+       the segment before, and that frame turned by the rest rotation */
+    const v3 r = ld3(S->rr + o3);
+    const vf c = ld(S->rc + o1);
+    const v3 pt = apply3(M->ft, M->fs, M->fn, r.x, r.y, r.z);
+    const v3 ps = sub3(M->fs, mul3(c, add3(M->ft, pt)));
+    const v3 e = sub3(add3(M->xp, mul3(len, pt)), xn);
+    if (k == 1) { /* the root does not move */
+        xn = add3(xn, mul3(C->alc1, e));
+    } else {
+        xn = add3(xn, mul3(C->alc2, e));
+        M->xp = sub3(M->xp, mul3(C->alc2, e));
+        st3(C->P + o3 - 3 * W, M->xp);
+    }
+    /* the current frame moves to segment k: the prediction (pt, ps) turned by the smallest
+       rotation taking pt onto the segment's actual direction a. A zero direction keeps the
+       prediction. */
+    const v3 d = sub3(xn, M->xp);
+    const vf dd = dot3(d, d);
+    const vi ok = gts(dd, 1e-30f);
+    const v3 a = sel3(ok, mul3(1.0f / vsqrt(sel(ok, dd, splat(1.0f))), d), pt);
+    const vf den = 1.0f + dot3(pt, a);
+    const vi okd = gts(den, 1e-6f);
+    const vf q = sel(okd, dot3(a, ps) / sel(okd, den, splat(1.0f)), splat(0.0f));
+    M->ft = a;
+    M->fs = sub3(ps, mul3(q, add3(pt, a)));
+    M->fn = cross3(M->ft, M->fs);
+    M->xp = xn;
+}
+
+/* Pass 1 over slices h and h + 1; the first knot (the root stays) and the wind are decided
+   outside the loop. */
+INL void move_sweep(const blk* b, kconst* C, int h, int has_wind) {
+    const int K = C->K, lo0 = h * LN, lo1 = PAIR_LO1(h);
+    move_state A, B;
+    move_start(&A, b, C->S, lo0);
+    if (lo1 != lo0) move_start(&B, b, C->S, lo1);
+    move_knot(&A, C, 1, lo0, has_wind);
+    if (lo1 != lo0) move_knot(&B, C, 1, lo1, has_wind);
+    for (int k = 2; k < K; ++k) {
+        move_knot(&A, C, k, lo0, has_wind);
+        if (lo1 != lo0) move_knot(&B, C, k, lo1, has_wind);
+        if (C->next && h == 0) { /* the next block into L2 while this one computes */
+            const char* q = C->next + (size_t)(k - 2) * C->next_lines * 64;
+            const char* end = C->next + SIM_BLOCK_FLOATS(K) * 4;
+            for (size_t i = 0; i < C->next_lines && q < end; ++i, q += 64) __builtin_prefetch(q, 1, 2);
+        }
+    }
+    st3(b->P + (size_t)(K - 1) * 3 * W + lo0, A.xp);
+    if (lo1 != lo0) st3(b->P + (size_t)(K - 1) * 3 * W + lo1, B.xp);
+}
+
+/* ---- pass 2 without colliders, one iteration: segments relaxed odd then even (segments of
+        one parity share no knot, so their updates are independent), then the ground. Done as
+        one sweep that runs the even segment k-1 right after the odd segment k: every knot is
+        loaded and stored once, and the result is the same as two separate passes. */
+INL void length_segment(v3* xp, v3* x, vf il2q, int first) {
+    const v3 d = sub3(*x, *xp);
+    /* half the exact correction (len - L) / len, to first order in len/L - 1:
+       (len^2 / L^2 - 1) / 4 (il2q = 1 / 4L^2), no square root; bounded for large errors. The
+       follow-the-leader pass makes lengths exact. */
+    const vf f = vmin(vmax(dot3(d, d) * il2q - 0.25f, splat(-0.25f)), splat(0.25f));
+    if (first) { /* the root does not move: the knot takes the whole correction */
+        *x = sub3(*x, mul3(f + f, d));
+    } else {
+        const v3 hd = mul3(f, d);
+        *x = sub3(*x, hd);
+        *xp = add3(*xp, hd);
+    }
+}
+
+/* A knot done with this iteration's length constraints: out of the colliders near the block, in
+   their order, then above the ground. */
+typedef struct near_list {
+    const sim_collider* const* c;
+    int n;
+} near_list;
+
+INL v3 finish_knot(v3 x, vf ground, near_list nl) {
+    for (int ci = 0; ci < nl.n; ++ci) x = push_out(x, nl.c[ci]);
+    x.z = vmax(x.z, ground);
+    return x;
+}
+
+/* The sweep state of one slice: the knot held between steps. */
+typedef struct length_state {
+    v3 hold;
+    int lo;
+} length_state;
+
+INL void length_start(length_state* L, float* P, const float* il2q, int lo) {
+    L->lo = lo;
+    L->hold = ld3(P + 3 * W + lo); /* knot 1 */
+    v3 root = ld3(P + lo);
+    length_segment(&root, &L->hold, ld(il2q + W + lo), 1);
+}
+
+/* odd segment j and even segment j - 1 */
+INL void length_step(length_state* L, float* P, const float* il2q, int j, vf ground,
+                        near_list nl) {
+    const int lo = L->lo;
+    v3 a = ld3(P + (size_t)(j - 1) * 3 * W + lo), c = ld3(P + (size_t)j * 3 * W + lo);
+    length_segment(&a, &c, ld(il2q + (size_t)j * W + lo), 0);
+    length_segment(&L->hold, &a, ld(il2q + (size_t)(j - 1) * W + lo), 0);
+    st3(P + (size_t)(j - 2) * 3 * W + lo, finish_knot(L->hold, ground, nl));
+    st3(P + (size_t)(j - 1) * 3 * W + lo, finish_knot(a, ground, nl));
+    L->hold = c;
+}
+
+INL void length_end(length_state* L, int K, float* P, const float* il2q, int j, vf ground,
+                    near_list nl) {
+    const int lo = L->lo;
+    if (j - 1 < K) { /* an even last segment j - 1 */
+        v3 c = ld3(P + (size_t)(j - 1) * 3 * W + lo);
+        length_segment(&L->hold, &c, ld(il2q + (size_t)(j - 1) * W + lo), 0);
+        st3(P + (size_t)(j - 2) * 3 * W + lo, finish_knot(L->hold, ground, nl));
+        st3(P + (size_t)(j - 1) * 3 * W + lo, finish_knot(c, ground, nl));
+    } else {
+        st3(P + (size_t)(j - 2) * 3 * W + lo, finish_knot(L->hold, ground, nl));
+    }
+}
+
+/* One length iteration over slices lo0 and lo1 (the same slice twice is fine: then only one
+   is done), interleaved so that the two chains overlap. */
+INL void length_iteration2(int K, float* P, const float* il2q, int lo0, int lo1, vf ground,
+                           near_list nl) {
+    length_state A, B;
+    length_start(&A, P, il2q, lo0);
+    if (lo1 != lo0) length_start(&B, P, il2q, lo1);
+    int j = 3;
+    for (; j < K; j += 2) {
+        length_step(&A, P, il2q, j, ground, nl);
+        if (lo1 != lo0) length_step(&B, P, il2q, j, ground, nl);
+    }
+    length_end(&A, K, P, il2q, j, ground, nl);
+    if (lo1 != lo0) length_end(&B, K, P, il2q, j, ground, nl);
+}
+
+/* ---- pass 3, one knot of one slice: follow the leader (Mueller et al. 2012): the segment is
+        set to its rest length exactly; a knot this puts inside a collider goes to the nearest
+        point that is both at the segment's length from the knot before it and on the
+        collider's surface (the circle where the two spheres meet); under the ground, to the
+        nearest point of the circle where that sphere meets the ground plane. The iterations
+        leave small residuals, so this pass moves knots little. The new displacement over the
+        step (the velocity) and the statistics are taken on the way. */
+typedef struct ftl_state {
+    v3 xp;
+    vf md, ms;
+} ftl_state;
+
+INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near, int nnear,
+                  vf ground, int k, int lo) {
+    scratch* S = C->S;
+    const size_t o3 = (size_t)k * 3 * W + lo;
+    const vf len = ld(S->len + (size_t)k * W + lo);
+    const v3 xp = F->xp;
+    v3 x = ld3(C->P + o3);
+    {
+        const v3 d = sub3(x, xp);
+        const vf dd = dot3(d, d);
+        const vi ok = gts(dd, 1e-30f);
+        x = sel3(ok, add3(xp, mul3(len / vsqrt(sel(ok, dd, splat(1.0f))), d)), x);
+    }
+    for (int ci = 0; ci < nnear; ++ci) {
+        const sim_collider* col = near[ci];
+        const vf r = splat(col->r), r2 = r * r;
+        /* a capsule's nearest core point moves with the knot: more rounds refine it */
+        const int rounds = col->inv_ab2 > 0.0f ? 3 : 1;
+        for (int round = 0; round < rounds; ++round) {
+            const v3 c = core_point(x, col);
+            const v3 xd = sub3(x, c);
+            const vi inside = lt(dot3(xd, xd), r2);
+            if (!any(inside)) break; /* no lane inside: nothing to project */
+            /* circle of sphere(xp, len) and sphere(c, r): centre xp + h0 u, radius h */
+            const v3 e = sub3(c, xp);
+            const vf D2 = dot3(e, e);
+            const vf iD = rsq(vmax(D2, splat(1e-24f)));
+            const vf D = D2 * iD;
+            const v3 u = mul3(iD, e);
+            const vf h0 = (D2 + len * len - r2) * 0.5f * iD;
+            const vf h2 = vmax(len * len - h0 * h0, splat(0.0f));
+            const vf hh = h2 * rsq(sel(gts(h2, 1e-30f), h2, splat(1.0f)));
+            const v3 q = sub3(x, xp);
+            const v3 w = sub3(q, mul3(dot3(q, u), u));
+            const vf ww = dot3(w, w);
+            const vi wok = gts(ww, 1e-30f);
+            const vf iw = sel(wok, hh * rsq(sel(wok, ww, splat(1.0f))), splat(0.0f));
+            /* the circle exists when the previous knot is outside (it may lie on the surface,
+               up to rounding), within len + r */
+            const vi ok = inside & gt(D, r * 0.999f) & lt(D, len + r) & wok;
+            const v3 y = add3(add3(xp, mul3(h0, u)), mul3(iw, w));
+            x = sel3(ok, y, x);
+            if (round == rounds - 1) x = push_out(x, col); /* what is left: tiny */
+        }
+    }
+    if (any(lt(x.z, ground))) {
+        const vf hz = xp.z - ground;
+        const vf h2 = vmax(len * len - hz * hz, splat(0.0f));
+        const vf qx = x.x - xp.x, qy = x.y - xp.y;
+        const vf qq = qx * qx + qy * qy;
+        const vi ok = gts(qq, 1e-30f);
+        const vf s = sel(ok, h2 * rsq(sel(gts(h2, 1e-30f), h2, splat(1.0f))) *
+                                 rsq(sel(ok, qq, splat(1.0f))),
+                         splat(0.0f));
+        const vi below = lt(x.z, ground);
+        x = sel3(below, (v3){xp.x + s * qx, xp.y + s * qy, ground}, x);
+    }
+    st3(C->P + o3, x);
+    F->xp = x;
+    /* velocity (displacement over the step) and statistics */
+    const v3 v = sub3(x, ld3(S->xold + o3));
+    uint16_t* Vk = C->V + (size_t)(k - 1) * 3 * W + lo;
+    st_half(Vk, v.x), st_half(Vk + W, v.y), st_half(Vk + 2 * W, v.z);
+    const v3 e = sub3(x, ld3(S->rest + o3));
+    F->md = vmax(F->md, dot3(e, e));
+    F->ms = vmax(F->ms, dot3(v, v));
+}
+
+/* The last length iteration without colliders near, with the follow-the-leader pass running
+   right behind it: each knot is set to its segment's length as soon as the sweep is done with
+   it, while the sweep goes on (the same operations as the two passes one after the other). */
+INL void length_iteration2_ftl(int K, float* P, const float* il2q, int lo0, int lo1, vf ground,
+                               const kconst* C, ftl_state* FA, ftl_state* FB) {
+    const near_list nl = {NULL, 0};
+    length_state A, B;
+    length_start(&A, P, il2q, lo0);
+    if (lo1 != lo0) length_start(&B, P, il2q, lo1);
+    int j = 3;
+    for (; j < K; j += 2) {
+        length_step(&A, P, il2q, j, ground, nl);
+        if (lo1 != lo0) length_step(&B, P, il2q, j, ground, nl);
+        /* knots j - 2 and j - 1 are done */
+        ftl_knot(FA, C, NULL, 0, ground, j - 2, lo0);
+        if (lo1 != lo0) ftl_knot(FB, C, NULL, 0, ground, j - 2, lo1);
+        ftl_knot(FA, C, NULL, 0, ground, j - 1, lo0);
+        if (lo1 != lo0) ftl_knot(FB, C, NULL, 0, ground, j - 1, lo1);
+    }
+    length_end(&A, K, P, il2q, j, ground, nl);
+    if (lo1 != lo0) length_end(&B, K, P, il2q, j, ground, nl);
+    for (int k = j - 2; k < K; ++k) {
+        ftl_knot(FA, C, NULL, 0, ground, k, lo0);
+        if (lo1 != lo0) ftl_knot(FB, C, NULL, 0, ground, k, lo1);
+    }
+}
+
+
+void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const float* wind,
+                                 size_t wind_stride, const sim_collider* const* cols, int ncol,
+                                 float blend, const float* next, sim_block_stats* stats) {
+    const int K = p->K;
+    const blk b = blk_of(K, block);
+    scratch S __attribute__((aligned(64)));
+
+    /* ---- pass 0: the rest pose */
+    vf max_len = splat(0.0f);
+    for (int h = 0; h < NSLICE; h += 2) {
+        const int lo0 = h * LN, lo1 = PAIR_LO1(h);
+        rest_state A, B;
+        rest_start(&A, &b, p, &S, lo0);
+        A.max_len = max_len;
+        if (lo1 != lo0) rest_start(&B, &b, p, &S, lo1), B.max_len = max_len;
+        for (int k = 1; k < K; ++k) {
+            rest_knot(&A, &b, &S, k, lo0);
+            if (lo1 != lo0) rest_knot(&B, &b, &S, k, lo1);
+        }
+        max_len = A.max_len;
+        if (lo1 != lo0) max_len = vmax(max_len, B.max_len);
+    }
+
+    kconst C;
+    C.K = K, C.P = b.P, C.V = b.V, C.wind = wind, C.wind_stride = wind_stride, C.S = &S;
+    C.next = (const char*)next;
+    C.next_lines = K > 2 ? (SIM_BLOCK_FLOATS(K) * 4 / 64 + (size_t)K - 3) / (size_t)(K - 2) : 0;
+    C.damp = splat(p->damp), C.dtv = splat(p->dt);
+    C.alc1 = splat(p->alpha_local), C.alc2 = splat(0.5f * p->alpha_local);
+    /* acceleration times dt^2: (1 - pre) g + pre ga (u - t) with ga = u . g */
+    C.g1 = (v3){splat((1.0f - p->preload) * p->gravity[0] * p->dt2),
+                splat((1.0f - p->preload) * p->gravity[1] * p->dt2),
+                splat((1.0f - p->preload) * p->gravity[2] * p->dt2)};
+    C.gp = (v3){splat(p->preload * p->dt2 * p->gravity[0]),
+                splat(p->preload * p->dt2 * p->gravity[1]),
+                splat(p->preload * p->dt2 * p->gravity[2])};
+
+    /* ---- pass 1: one sweep root to tip per slice */
+    for (int h = 0; h < NSLICE; h += 2) {
+        if (wind)
+            move_sweep(&b, &C, h, 1);
+        else
+            move_sweep(&b, &C, h, 0);
+    }
+
+    /* ---- colliders near the block now: its knots' box grown by SIM_CULL_MARGIN. The iterations
+            and the follow-the-leader pass use these; a last pass below checks every collider
+            that can reach the block, so no knot ends inside any of them. */
+    const sim_collider* near[TSK_BLADE_SIM_MAX_COLLIDERS];
+    int nnear = 0;
+    if (ncol > 0) {
+        float bl[3] = {INFINITY, INFINITY, INFINITY}, bh[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int h = 0; h < NSLICE; ++h) {
+            const float* P = b.P + h * LN;
+            v3 lo = ld3(P), hi = lo;
+            for (int k = 1; k < K; ++k) {
+                const v3 x = ld3(P + (size_t)k * 3 * W);
+                lo = (v3){vmin(lo.x, x.x), vmin(lo.y, x.y), vmin(lo.z, x.z)};
+                hi = (v3){vmax(hi.x, x.x), vmax(hi.y, x.y), vmax(hi.z, x.z)};
+            }
+            for (int l = 0; l < LN; ++l) {
+                bl[0] = bl[0] < lo.x[l] ? bl[0] : lo.x[l], bh[0] = bh[0] > hi.x[l] ? bh[0] : hi.x[l];
+                bl[1] = bl[1] < lo.y[l] ? bl[1] : lo.y[l], bh[1] = bh[1] > hi.y[l] ? bh[1] : hi.y[l];
+                bl[2] = bl[2] < lo.z[l] ? bl[2] : lo.z[l], bh[2] = bh[2] > hi.z[l] ? bh[2] : hi.z[l];
+            }
+        }
+        /* knots move in the passes below by about a segment length at most */
+        float m = 0.0f;
+        for (int l = 0; l < LN; ++l) m = m > max_len[l] ? m : max_len[l];
+        m += SIM_CULL_MARGIN;
+        for (int ci = 0; ci < ncol; ++ci) {
+            const sim_collider* c = cols[ci];
+            int overlap = 1;
+            for (int a = 0; a < 3; ++a) overlap &= c->lo[a] <= bh[a] + m && c->hi[a] >= bl[a] - m;
+            if (overlap) near[nnear++] = c;
+        }
+    }
+
+    const vf ground = splat(p->ground);
+    /* ---- pass 2: length constraints (each segment's two knots move half way; the root never)
+            and collisions, iterated; then pass 3, follow the leader, with the new velocities
+            and the statistics. Without colliders near, pass 3 runs inside the last
+            iteration. */
+    vf md = splat(0.0f), ms = splat(0.0f);
+    for (int h = 0; h < NSLICE; h += 2) {
+        const int lo0 = h * LN, lo1 = PAIR_LO1(h);
+        ftl_state A = {ld3(b.P + lo0), md, ms}, B = {ld3(b.P + lo1), md, ms};
+        if (nnear == 0) {
+            for (int it = 0; it + 1 < p->iterations; ++it)
+                length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, (near_list){near, 0});
+            length_iteration2_ftl(K, b.P, S.il2q, lo0, lo1, ground, &C, &A, &B);
+        } else {
+            for (int it = 0; it < p->iterations; ++it)
+                length_iteration2(K, b.P, S.il2q, lo0, lo1, ground, (near_list){near, nnear});
+            for (int k = 1; k < K; ++k) {
+                ftl_knot(&A, &C, near, nnear, ground, k, lo0);
+                if (lo1 != lo0) ftl_knot(&B, &C, near, nnear, ground, k, lo1);
+            }
+        }
+        md = vmax(A.md, B.md), ms = vmax(A.ms, B.ms);
+    }
+
+    /* ---- last check against every collider that can reach the block (a knot the passes above
+            moved into one they did not consider goes to its surface), then the ground. */
+    int moved = 0;
+    if (ncol > nnear) {
+        for (int h = 0; h < NSLICE; ++h) {
+            float* P = b.P + h * LN;
+            for (int ci = 0; ci < ncol; ++ci) {
+                const sim_collider* col = cols[ci];
+                const vf r2 = splat(col->r * col->r);
+                vi hit = (vi){0};
+                for (int k = 1; k < K; ++k) {
+                    const v3 x = ld3(P + (size_t)k * 3 * W);
+                    const v3 d = sub3(x, core_point(x, col));
+                    hit |= lt(dot3(d, d), r2);
+                }
+                if (!any(hit)) continue;
+                moved = 1;
+                for (int k = 1; k < K; ++k) {
+                    float* pk = P + (size_t)k * 3 * W;
+                    st3(pk, push_out(ld3(pk), col));
+                }
+                for (int k = 1; k < K; ++k) {
+                    float* pz = P + (size_t)k * 3 * W + 2 * W;
+                    st(pz, vmax(ld(pz), ground));
+                }
+            }
+        }
+    }
+
+    /* ---- pass 4, seldom: blend back toward rest (the tile is released soon), or a knot moved
+            by the last check; then velocity and statistics again. Blending moves the position
+            and the previous position alike: the velocity shrinks by (1 - blend). */
+    if (blend > 0.0f || moved) {
+        md = splat(0.0f), ms = splat(0.0f);
+        const vi snap = (vi){0} + (blend >= 1.0f ? -1 : 0);
+        const vf bl = splat(blend);
+        for (int h = 0; h < NSLICE; ++h) {
+            const int lo = h * LN;
+            for (int k = 1; k < K; ++k) {
+                const size_t o3 = (size_t)k * 3 * W + lo;
+                v3 x = ld3(b.P + o3), q = ld3(S.xold + o3);
+                const v3 rs = ld3(S.rest + o3);
+                if (blend > 0.0f) {
+                    x = sel3(snap, rs, add3(x, mul3(bl, sub3(rs, x))));
+                    q = sel3(snap, rs, add3(q, mul3(bl, sub3(rs, q))));
+                    st3(b.P + o3, x);
+                }
+                const v3 v = sub3(x, q);
+                uint16_t* Vk = b.V + (size_t)(k - 1) * 3 * W + lo;
+                st_half(Vk, v.x), st_half(Vk + W, v.y), st_half(Vk + 2 * W, v.z);
+                const v3 e = sub3(x, rs);
+                md = vmax(md, dot3(e, e));
+                ms = vmax(ms, dot3(v, v));
+            }
+        }
+    }
+    float m1 = 0.0f, m2 = 0.0f;
+    for (int l = 0; l < LN; ++l) {
+        m1 = m1 > md[l] ? m1 : md[l];
+        m2 = m2 > ms[l] ? m2 : ms[l];
+    }
+    stats->max_disp2 = m1;
+    stats->max_step2 = m2;
+}
+
+#undef LN
+#undef W
+#undef NSLICE
+#undef INL
