@@ -122,6 +122,41 @@ def test_smooth_tree_uses_opensubdiv_counts():
 
 
 @test
+def test_tree_mesh_edges_are_those_blender_derives():
+    """The tree's edges come from the native library (meshes.set_faces); Blender, given the
+    same faces without edges, derives the same set, and validate() finds nothing to fix."""
+    fresh()
+    obj = add("black_tupelo")
+    mesh = obj.data
+    nl = len(mesh.loops)
+    corners = np.empty(nl, np.int32)
+    mesh.loops.foreach_get("vertex_index", corners)
+    ours = np.empty(len(mesh.edges) * 2, np.int32)
+    mesh.edges.foreach_get("vertices", ours)
+    ref = bpy.data.meshes.new("reference")
+    ref.vertices.add(len(mesh.vertices))
+    ref.loops.add(nl)
+    ref.loops.foreach_set("vertex_index", corners)
+    ref.polygons.add(len(mesh.polygons))
+    ref.polygons.foreach_set("loop_start", np.arange(0, nl, 4, dtype=np.int32))
+    ref.polygons.foreach_set("loop_total", np.full(len(mesh.polygons), 4, np.int32))
+    ref.update(calc_edges=True)
+    theirs = np.empty(len(ref.edges) * 2, np.int32)
+    ref.edges.foreach_get("vertices", theirs)
+    as_set = lambda e: {tuple(sorted(p)) for p in e.reshape(-1, 2).tolist()}  # noqa: E731
+    assert len(ours) == len(theirs) and as_set(ours) == as_set(theirs)
+    # every corner's edge joins it to the next corner of its face
+    ce = np.empty(nl, np.int32)
+    mesh.loops.foreach_get("edge_index", ce)
+    nxt = corners.reshape(-1, 4)[:, [1, 2, 3, 0]].ravel()
+    e = ours.reshape(-1, 2)[ce]
+    assert np.all(((e[:, 0] == corners) & (e[:, 1] == nxt))
+                  | ((e[:, 1] == corners) & (e[:, 0] == nxt)))
+    assert mesh.validate(verbose=False) is False
+    bpy.data.meshes.remove(ref)
+
+
+@test
 def test_presets_save_apply_remove():
     fresh()
     obj = add("weeping_willow", seed=4)

@@ -5,7 +5,7 @@ the only Python loop is over chunk objects (tens of them), never over blades."""
 import bpy
 import numpy as np
 
-from .. import compat
+from .. import meshes
 
 
 def chunk_object_name(meadow_name, index):
@@ -18,11 +18,7 @@ def _mesh_from_arrays(name, positions, tris, uvs, blade_rand, normals=None):
     nv, nt = len(positions), len(tris)
     mesh.vertices.add(nv)
     mesh.vertices.foreach_set("co", np.ascontiguousarray(positions, np.float32).ravel())
-    mesh.loops.add(nt * 3)
-    mesh.loops.foreach_set("vertex_index", compat.mesh_indices(tris))
-    mesh.polygons.add(nt)
-    mesh.polygons.foreach_set("loop_start", compat.mesh_indices(np.arange(0, nt * 3, 3)))
-    mesh.polygons.foreach_set("loop_total", compat.mesh_indices(np.full(nt, 3)))
+    meshes.set_faces(mesh, np.asarray(tris).reshape(-1, 3))
     uv_layer = mesh.uv_layers.new(name="UVMap")
     uv_layer.data.foreach_set("uv", np.ascontiguousarray(uvs[tris.ravel()], np.float32).ravel())
     rnd = mesh.attributes.new("tsk_blade_rand", "FLOAT", "POINT")

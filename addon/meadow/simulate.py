@@ -17,7 +17,7 @@ very same steps and gets the same bytes."""
 import bpy
 import numpy as np
 
-from .. import compat, handlers, native
+from .. import compat, handlers, meshes, native
 from ..wind import runtime as wind_runtime
 from . import build, material
 
@@ -330,12 +330,8 @@ def ribbon_topology(mesh, blades, k):
     t = tris.reshape(-1, 6)
     quads = np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], t[:, 2], t[:, 5]], axis=1)).ravel()
     mesh.vertices.add(blades * 2 * k)
-    mesh.loops.add(quads.size)
-    mesh.loops.foreach_set("vertex_index", compat.mesh_indices(quads))
+    meshes.set_faces(mesh, quads.reshape(-1, 4))
     nq = quads.size // 4
-    mesh.polygons.add(nq)
-    mesh.polygons.foreach_set("loop_start", compat.mesh_indices(np.arange(0, quads.size, 4)))
-    mesh.polygons.foreach_set("loop_total", compat.mesh_indices(np.full(nq, 4)))
     mesh.polygons.foreach_set("use_smooth", np.ones(nq, bool))
     v = np.repeat(np.arange(k, dtype=np.float32) / (k - 1), 2)
     mesh.attributes.new("tsk_v", "FLOAT", "POINT").data.foreach_set("value", np.tile(v, blades))

@@ -10,7 +10,7 @@ import json
 import bpy
 import numpy as np
 
-from .. import compat, native
+from .. import meshes, native
 from ..wind import runtime as wind_runtime
 from . import materials, params
 
@@ -88,11 +88,7 @@ def write(obj, data):
     mesh.vertices.add(len(verts))
     mesh.vertices.foreach_set("co", np.ascontiguousarray(verts, np.float32).ravel())
     nq = len(quads)
-    mesh.loops.add(nq * 4)
-    mesh.loops.foreach_set("vertex_index", compat.mesh_indices(quads))
-    mesh.polygons.add(nq)
-    mesh.polygons.foreach_set("loop_start", compat.mesh_indices(np.arange(0, nq * 4, 4)))
-    mesh.polygons.foreach_set("loop_total", compat.mesh_indices(np.full(nq, 4)))
+    meshes.set_faces(mesh, quads)
     index = np.zeros(nq, np.int32)
     if data["leaf_quads"]:
         index[nq - data["leaf_quads"]:] = 1

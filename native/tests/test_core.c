@@ -5,6 +5,7 @@
 #include "tussock/core.h"
 
 #include <stdint.h>
+#include <string.h>
 
 TEST(test_error_names_argument) {
     tsk_status s = tsk_error_arg(TSK_ERR_ARGUMENT, "near", "must be positive, got %g", -1.0);
@@ -242,6 +243,78 @@ TEST(test_vec3_lengths_and_nonfinite_rejected) {
     CHECK_STATUS(tsk_vec3_lengths(xyz, 2, out), TSK_ERR_ARGUMENT, "vector 1");
 }
 
+/* Reference for tsk_mesh_edges: distinct unordered pairs in first-appearance order, by a
+ * quadratic search (small meshes only). */
+static size_t naive_edges(const int32_t* corners, size_t nf, int fs, int32_t* edges,
+                          int32_t* ce) {
+    size_t ne = 0;
+    for (size_t c = 0; c < nf * (size_t)fs; ++c) {
+        const int32_t a = corners[c], b = corners[c / fs * fs + (c % fs + 1) % fs];
+        size_t e = 0;
+        while (e < ne && !((edges[2 * e] == a && edges[2 * e + 1] == b) ||
+                           (edges[2 * e] == b && edges[2 * e + 1] == a)))
+            ++e;
+        if (e == ne) {
+            edges[2 * ne] = a;
+            edges[2 * ne + 1] = b;
+            ++ne;
+        }
+        ce[c] = (int32_t)e;
+    }
+    return ne;
+}
+
+TEST(test_mesh_edges_match_the_reference_and_count_a_tube) {
+    /* a tube of R rings of S vertices: S*R ring edges and S*(R-1) along it */
+    enum { S = 7, R = 9, NF = S * (R - 1) };
+    static int32_t quads[NF * 4], edges[NF * 8], ce[NF * 4], redges[NF * 8], rce[NF * 4];
+    for (int r = 0; r < R - 1; ++r)
+        for (int k = 0; k < S; ++k) {
+            int32_t* q = quads + 4 * (r * S + k);
+            q[0] = r * S + k;
+            q[1] = r * S + (k + 1) % S;
+            q[2] = q[1] + S;
+            q[3] = q[0] + S;
+        }
+    size_t ne = 0;
+    CHECK(tsk_mesh_edges(quads, NF, 4, S * R, edges, ce, &ne) == TSK_OK);
+    CHECK(ne == (size_t)(S * R + S * (R - 1)));
+    CHECK(naive_edges(quads, NF, 4, redges, rce) == ne);
+    CHECK(memcmp(edges, redges, ne * 2 * sizeof(int32_t)) == 0);
+    CHECK(memcmp(ce, rce, sizeof ce) == 0);
+    /* random triangles over few vertices: many shared edges, both directions */
+    enum { NT = 400, NV = 40 };
+    static int32_t tris[NT * 3], e2[NT * 6], c2[NT * 3], r2[NT * 6], rc2[NT * 3];
+    for (int t = 0; t < NT; ++t) {
+        int32_t a = (int32_t)(tsk_hash4(5, (uint64_t)t, 0, 0) % NV);
+        int32_t b = (int32_t)(tsk_hash4(5, (uint64_t)t, 1, 0) % NV);
+        int32_t c = (int32_t)(tsk_hash4(5, (uint64_t)t, 2, 0) % NV);
+        if (b == a) b = (a + 1) % NV;
+        if (c == a || c == b) c = (b + 1) % NV == a ? (b + 2) % NV : (b + 1) % NV;
+        tris[3 * t] = a, tris[3 * t + 1] = b, tris[3 * t + 2] = c;
+    }
+    CHECK(tsk_mesh_edges(tris, NT, 3, NV, e2, c2, &ne) == TSK_OK);
+    CHECK(ne == naive_edges(tris, NT, 3, r2, rc2) && ne < NT * 3);
+    CHECK(memcmp(e2, r2, ne * 2 * sizeof(int32_t)) == 0);
+    CHECK(memcmp(c2, rc2, sizeof c2) == 0);
+    /* every corner's edge joins it to the next corner */
+    int ok = 1;
+    for (int c = 0; c < NT * 3; ++c) {
+        const int32_t a = tris[c], b = tris[c / 3 * 3 + (c % 3 + 1) % 3], e = c2[c];
+        ok &= (e2[2 * e] == a && e2[2 * e + 1] == b) || (e2[2 * e] == b && e2[2 * e + 1] == a);
+    }
+    CHECK(ok);
+    CHECK(tsk_allocated_bytes() == 0);
+    /* bad input */
+    int32_t bad[4] = {0, 1, 2, 9};
+    CHECK_STATUS(tsk_mesh_edges(bad, 1, 4, 4, edges, ce, &ne), TSK_ERR_ARGUMENT, "vertex 9");
+    int32_t rep[4] = {0, 1, 1, 2};
+    CHECK_STATUS(tsk_mesh_edges(rep, 1, 4, 4, edges, ce, &ne), TSK_ERR_ARGUMENT, "zero-length");
+    CHECK_STATUS(tsk_mesh_edges(quads, 1, 2, 4, edges, ce, &ne), TSK_ERR_ARGUMENT, "face_size");
+    CHECK_STATUS(tsk_mesh_edges(quads, 1, 4, S * R, NULL, ce, &ne), TSK_ERR_ARGUMENT, "edges");
+    CHECK(tsk_mesh_edges(NULL, 0, 4, 0, NULL, NULL, &ne) == TSK_OK && ne == 0);
+}
+
 TEST(test_version_is_semver) {
     int a, b, c;
     CHECK(sscanf(tsk_version(), "%d.%d.%d", &a, &b, &c) == 3);
@@ -276,6 +349,7 @@ TEST(test_memory_budget_is_half_of_physical_memory_and_refuses_more) {
 }
 
 TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_more),
+          TEST_ENTRY(test_mesh_edges_match_the_reference_and_count_a_tube),
           TEST_ENTRY(test_error_names_argument), TEST_ENTRY(test_error_long_message_truncates),
           TEST_ENTRY(test_alloc_is_aligned_and_counted), TEST_ENTRY(test_calloc_overflow_is_refused),
           TEST_ENTRY(test_allocator_hooks_are_used), TEST_ENTRY(test_hash_matches_definition),

@@ -119,6 +119,17 @@ size_t tsk_chunk_count(size_t count, size_t grain);
 /// out[i] = |xyz[3i..3i+2]| for i in [0, count). Non-finite input yields TSK_ERR_ARGUMENT.
 tsk_status tsk_vec3_lengths(const float* xyz, size_t count, float* out);
 
+/// Edges of a mesh of `face_count` faces of `face_size` corners each (corner c of face f is
+/// corners[f * face_size + c], a vertex in [0, vertex_count)). Writes each distinct edge once,
+/// in the order of the first corner that draws it, as that corner's vertex and the next one
+/// (edges: 2 per edge, room for 2 * face_count * face_size), the edge of every corner
+/// (corner_edges: face_count * face_size) and *edge_count. An out-of-range vertex or a face
+/// that repeats a vertex in a row gives TSK_ERR_ARGUMENT. This is what Blender derives in
+/// Mesh.update() when a mesh comes without edges.
+tsk_status tsk_mesh_edges(const int32_t* corners, size_t face_count, int face_size,
+                          int32_t vertex_count, int32_t* edges, int32_t* corner_edges,
+                          size_t* edge_count);
+
 /* ---- version ------------------------------------------------------------------------- */
 
 /// Library version "MAJOR.MINOR.PATCH" (from manifest.toml at build time).

@@ -1,4 +1,5 @@
-/* Binding of the core: version, threads, deterministic random numbers, vector lengths. */
+/* Binding of the core: version, threads, deterministic random numbers, vector lengths, mesh
+ * edges. */
 #include "binding.h"
 
 static PyObject* py_version(PyObject* self, PyObject* args) {
@@ -66,6 +67,48 @@ static PyObject* py_vec3_lengths(PyObject* self, PyObject* args) {
     Py_RETURN_NONE;
 }
 
+static PyObject* py_mesh_edges(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *corners_obj, *edges_obj, *ce_obj;
+    int face_size, vertex_count;
+    if (!PyArg_ParseTuple(args, "OiiOO:mesh_edges", &corners_obj, &face_size, &vertex_count,
+                          &edges_obj, &ce_obj))
+        return NULL;
+    if (face_size < 3 || face_size > 64) {
+        PyErr_Format(PyExc_ValueError, "face_size: %d is not in 3..64", face_size);
+        return NULL;
+    }
+    Py_buffer corners, edges, ce;
+    if (!tsk_py_buffer(corners_obj, "corners", TSK_PY_I32, -1, 0, &corners)) return NULL;
+    const Py_ssize_t n = tsk_py_count(&corners);
+    if (n % face_size != 0) {
+        PyBuffer_Release(&corners);
+        PyErr_Format(PyExc_ValueError, "corners: %zd is not a multiple of face_size %d", n,
+                     face_size);
+        return NULL;
+    }
+    if (!tsk_py_buffer(edges_obj, "edges", TSK_PY_I32, 2 * n, 1, &edges)) {
+        PyBuffer_Release(&corners);
+        return NULL;
+    }
+    if (!tsk_py_buffer(ce_obj, "corner_edges", TSK_PY_I32, n, 1, &ce)) {
+        PyBuffer_Release(&corners);
+        PyBuffer_Release(&edges);
+        return NULL;
+    }
+    size_t count = 0;
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_mesh_edges(corners.buf, (size_t)(n / face_size), face_size, vertex_count, edges.buf,
+                       ce.buf, &count);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&corners);
+    PyBuffer_Release(&edges);
+    PyBuffer_Release(&ce);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    return PyLong_FromSize_t(count);
+}
+
 static PyObject* py_allocated_bytes(PyObject* self, PyObject* args) {
     (void)self;
     (void)args;
@@ -100,6 +143,10 @@ PyMethodDef tsk_py_core_methods[] = {
      "rand_fill(seed, stream, out): out[i] = uniform [0,1) of (seed, stream, i); out float32."},
     {"vec3_lengths", py_vec3_lengths, METH_VARARGS,
      "vec3_lengths(xyz, out): out[i] = |xyz[i]|; xyz float32 (3n), out float32 (n)."},
+    {"mesh_edges", py_mesh_edges, METH_VARARGS,
+     "mesh_edges(corners, face_size, vertex_count, edges, corner_edges) -> int: the distinct "
+     "edges of faces of face_size corners (int32), in first-use order; edges int32 (room for "
+     "2 per corner), corner_edges int32 (one per corner)."},
     {"allocated_bytes", py_allocated_bytes, METH_NOARGS,
      "allocated_bytes() -> int: bytes held by the native library."},
     {NULL, NULL, 0, NULL},
