@@ -781,6 +781,17 @@ TEST(test_sim_huge_colliders_and_values_are_refused_not_nan) {
     int finite = 1;
     for (int i = 0; i < N * K16 * 3; ++i) finite &= isfinite(out[i]) != 0;
     CHECK_MSG(finite, "a knot is not finite after stepping with the largest collider and wind");
+    /* blades deep inside a capsule of 200 km (fuzz_sim): pushed out 200 km in one step, a
+       displacement beyond binary16's range; it is clamped, so nothing becomes NaN */
+    tsk_blade_sim_destroy(sim);
+    make_row(K16, N, 0.0f, 0.05f, 0.0f, knots, widths, sides);
+    sim = one_tile_sim(big_tile_def(), N, knots, widths, sides);
+    c = (tsk_blade_collider){TSK_COLLIDER_CAPSULE, 2e5f, {5.8e5f, 0.0f, 0.1f}, {0.0f, 0.0f, 0.1f}};
+    CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+    for (int i = 0; i < 3; ++i) CHECK(tsk_blade_sim_step(sim, 1.0f / 48, NULL, TSK_WIND_NONE) == TSK_OK);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    for (int i = 0; i < N * K16 * 3; ++i) finite &= isfinite(out[i]) != 0;
+    CHECK_MSG(finite, "a knot is not finite after a push of 200 km");
     wind[0] = 2 * TSK_BLADE_SIM_MAX_WIND;
     CHECK_STATUS(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT, "wind");
     wind[0] = FLT_MAX;

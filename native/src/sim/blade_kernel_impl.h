@@ -262,6 +262,21 @@ INL void st3(float* p, v3 v) {
 }
 INL v3 add3(v3 a, v3 b) { return (v3){a.x + b.x, a.y + b.y, a.z + b.z}; }
 INL v3 sub3(v3 a, v3 b) { return (v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
+
+/* Stores a knot's displacement over the step (its Verlet velocity) as binary16. Each
+ * component is clamped to +-SIM_MAX_STEP_DISP first: binary16 ends at 65504, and a knot thrown
+ * that far in one step (a collider of 200 km pushing it out, found by fuzz_sim) would store
+ * inf, and inf - inf makes every later position NaN. (vmin/vmax give the same bytes in every
+ * build, NaN included.) */
+#define SIM_MAX_STEP_DISP 1000.0f
+INL vf clamp_disp(vf d) {
+    return vmin(vmax(d, splat(-SIM_MAX_STEP_DISP)), splat(SIM_MAX_STEP_DISP));
+}
+INL void st_velocity(uint16_t* Vk, v3 v) {
+    st_half(Vk, clamp_disp(v.x));
+    st_half(Vk + W, clamp_disp(v.y));
+    st_half(Vk + 2 * W, clamp_disp(v.z));
+}
 INL v3 mul3(vf s, v3 a) { return (v3){s * a.x, s * a.y, s * a.z}; }
 INL vf dot3(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 INL v3 cross3(v3 a, v3 b) {
@@ -670,8 +685,7 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
     F->xp = x;
     /* velocity (displacement over the step) and statistics */
     const v3 v = sub3(x, ld3(S->xold + o3));
-    uint16_t* Vk = C->V + (size_t)(k - 1) * 3 * W + lo;
-    st_half(Vk, v.x), st_half(Vk + W, v.y), st_half(Vk + 2 * W, v.z);
+    st_velocity(C->V + (size_t)(k - 1) * 3 * W + lo, v);
     const v3 e = sub3(x, ld3(S->rest + o3));
     F->md = vmax(F->md, dot3(e, e));
     F->ms = vmax(F->ms, dot3(v, v));
@@ -855,8 +869,7 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
                     st3(b.P + o3, x);
                 }
                 const v3 v = sub3(x, q);
-                uint16_t* Vk = b.V + (size_t)(k - 1) * 3 * W + lo;
-                st_half(Vk, v.x), st_half(Vk + W, v.y), st_half(Vk + 2 * W, v.z);
+                st_velocity(b.V + (size_t)(k - 1) * 3 * W + lo, v);
                 const v3 e = sub3(x, rs);
                 md = vmax(md, dot3(e, e));
                 ms = vmax(ms, dot3(v, v));
