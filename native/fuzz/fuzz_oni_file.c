@@ -3,9 +3,9 @@
  * OpenNI2's own player); up to three frames are read, the read contract checked, then a
  * seek and another read. A crash of OpenNI2's player must come back as a status: this
  * process must not crash, hang or leak, and no reader process may be left behind (its
- * children are looked up by name: the sanitizers keep a symbolizer process of their own). Slow by
- * nature (a process per input, the player's own thread); fuzz_oni covers the checking of
- * the reader's answers at full speed. Coverage is that of this process only. */
+ * children are looked up by name: the sanitizers keep a symbolizer process of their own).
+ * Slow by nature (a process per input, the player's own thread); fuzz_oni covers the
+ * checking of the reader's answers at full speed. Coverage is that of this process only. */
 #include "fuzz.h"
 
 #include "tussock/capture.h"

@@ -78,8 +78,8 @@ static void reap(tsk_oni_proxy* p, double grace, char* how, size_t cap) {
 /* Marks the conversation broken and sets the error: the reader's fate if it is known. */
 static tsk_status fail(tsk_oni_proxy* p, const char* path, const char* what) {
     char how[160];
-    if (p->pid > 0) kill(p->pid, SIGKILL);
-    reap(p, 2.0, how, sizeof how);
+    reap(p, 2.0, how, sizeof how); /* a crashing reader is given time to end; a hung one is
+                                      stopped ("did not answer") */
     if (how[0])
         snprintf(p->broken_why, sizeof p->broken_why,
                  "OpenNI2's recording reader %s while %s '%s': the recording is damaged or not "
