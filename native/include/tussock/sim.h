@@ -36,6 +36,9 @@ extern "C" {
 /// Largest |component| of gravity (m/s^2) and of wind velocities (m/s); TSK_ERR_ARGUMENT above.
 #define TSK_BLADE_SIM_MAX_ACCEL 1.0e4f
 #define TSK_BLADE_SIM_MAX_WIND 1.0e4f
+/// Largest wind_drag / linear_density, 1/(m s): the drag fraction per step (that times width
+/// and dt) is capped at 1 far below it; beyond, it overflows. TSK_ERR_ARGUMENT above.
+#define TSK_BLADE_SIM_MAX_DRAG 1.0e30
 
 /* ---- definition ---------------------------------------------------------------------------- */
 
@@ -67,7 +70,8 @@ typedef struct tsk_blade_sim_def {
     float damping;            ///< 1/s, >= 0 (default 4): velocity decays as exp(-damping t)
     float wind_drag;          ///< kg/(m^2 s), >= 0 (default 0.2): linear air drag per unit blade
                               ///< area per unit relative speed
-    float linear_density;     ///< kg/m, > 0 (default 1e-3): mass per metre of blade
+    float linear_density;     ///< kg/m, > 0 (default 1e-3): mass per metre of blade;
+                              ///< wind_drag / linear_density <= TSK_BLADE_SIM_MAX_DRAG
 
     /* constraints (Han & Harada 2012) */
     float global_stiffness_root; ///< 1/s, >= 0 (default 30): pull toward the rest pose at the root
