@@ -178,7 +178,8 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
 /// Advances every active tile by dt seconds (0 < dt <= 1): Verlet integration with damping,
 /// gravity and wind drag; global and local shape constraints; `iterations` rounds of length
 /// constraints and collisions; collisions and ground last, so after the step no knot lies inside
-/// a collider (grown by collision_margin) or below the ground (for colliders that do not
+/// a collider (grown by collision_margin) or below the ground (roots are pinned where they were
+/// provided, wherever that is) (for colliders that do not
 /// overlap each other). Then tiles that have been quiet and untouched for rest_frames steps blend
 /// back to rest over blend_frames steps and are released (memory freed). `wind` as `layout`
 /// says; non-finite wind or a component beyond TSK_BLADE_SIM_MAX_WIND returns TSK_ERR_ARGUMENT
