@@ -827,6 +827,35 @@ TEST(test_sim_huge_colliders_and_values_are_refused_not_nan) {
     CHECK(sim == NULL);
 }
 
+/* fuzz_sim: wind_drag 3.4e38 (finite, >= 0, so accepted) made the per-step drag inf, and
+ * inf times the zero width of a blade's tip is NaN: the blade became NaN. The ratio
+ * wind_drag / linear_density is bounded now; at the bound, zero-width tips stay finite. */
+TEST(test_sim_huge_wind_drag_is_refused_and_the_largest_stays_finite) {
+    tsk_blade_sim_def def = big_tile_def();
+    tsk_blade_sim* sim = NULL;
+    def.wind_drag = FLT_MAX;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "wind_drag");
+    def.wind_drag = 0.2f;
+    def.linear_density = FLT_MIN; /* 0.2 / 1.2e-38: beyond the bound too */
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "wind_drag");
+    CHECK(sim == NULL);
+    enum { N = 4 };
+    static float knots[N * K16 * 3], widths[N * K16], sides[N * 3], out[N * K16 * 3];
+    make_row(K16, N, 0.0f, 0.05f, 0.0f, knots, widths, sides); /* tip widths are 0 */
+    CHECK(widths[K16 - 1] == 0.0f);
+    def = big_tile_def();
+    def.wind_drag = 1e27f;
+    def.linear_density = 1e-3f; /* ratio 1e30: the largest accepted */
+    sim = one_tile_sim(def, N, knots, widths, sides);
+    const float wind[3] = {5.0f, 0.0f, 0.0f};
+    for (int i = 0; i < 4; ++i) CHECK(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
+    int finite = 1;
+    for (int i = 0; i < N * K16 * 3; ++i) finite &= isfinite(out[i]) != 0;
+    CHECK_MSG(finite, "a knot is not finite with the largest accepted drag");
+    tsk_blade_sim_destroy(sim);
+}
+
 /* The per-tile state counts against the memory budget: a tile that would take the state past
  * it is refused with a message, stays pending, and nothing is held for it. */
 TEST(test_sim_tile_over_memory_budget_is_refused) {
@@ -873,4 +902,5 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_clone_resumes_with_identical_bytes),
           TEST_ENTRY(test_sim_bad_input_names_the_argument),
           TEST_ENTRY(test_sim_huge_colliders_and_values_are_refused_not_nan),
-          TEST_ENTRY(test_sim_tile_over_memory_budget_is_refused))
+          TEST_ENTRY(test_sim_tile_over_memory_budget_is_refused),
+          TEST_ENTRY(test_sim_huge_wind_drag_is_refused_and_the_largest_stays_finite))

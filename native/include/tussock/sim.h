@@ -36,6 +36,9 @@ extern "C" {
 /// Largest |component| of gravity (m/s^2) and of wind velocities (m/s); TSK_ERR_ARGUMENT above.
 #define TSK_BLADE_SIM_MAX_ACCEL 1.0e4f
 #define TSK_BLADE_SIM_MAX_WIND 1.0e4f
+/// Largest wind_drag / linear_density, 1/(m s): the drag fraction per step (that times width
+/// and dt) is capped at 1 far below it; beyond, it overflows. TSK_ERR_ARGUMENT above.
+#define TSK_BLADE_SIM_MAX_DRAG 1.0e30
 
 /* ---- definition ---------------------------------------------------------------------------- */
 
@@ -67,7 +70,8 @@ typedef struct tsk_blade_sim_def {
     float damping;            ///< 1/s, >= 0 (default 4): velocity decays as exp(-damping t)
     float wind_drag;          ///< kg/(m^2 s), >= 0 (default 0.2): linear air drag per unit blade
                               ///< area per unit relative speed
-    float linear_density;     ///< kg/m, > 0 (default 1e-3): mass per metre of blade
+    float linear_density;     ///< kg/m, > 0 (default 1e-3): mass per metre of blade;
+                              ///< wind_drag / linear_density <= TSK_BLADE_SIM_MAX_DRAG
 
     /* constraints (Han & Harada 2012) */
     float global_stiffness_root; ///< 1/s, >= 0 (default 30): pull toward the rest pose at the root
@@ -182,7 +186,8 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
 /// Advances every active tile by dt seconds (0 < dt <= 1): Verlet integration with damping,
 /// gravity and wind drag; global and local shape constraints; `iterations` rounds of length
 /// constraints and collisions; collisions and ground last, so after the step no knot lies inside
-/// a collider (grown by collision_margin) or below the ground (for colliders that do not
+/// a collider (grown by collision_margin) or below the ground (roots are pinned where they were
+/// provided, wherever that is) (for colliders that do not
 /// overlap each other). Then tiles that have been quiet and untouched for rest_frames steps blend
 /// back to rest over blend_frames steps and are released (memory freed). `wind` as `layout`
 /// says; non-finite wind or a component beyond TSK_BLADE_SIM_MAX_WIND returns TSK_ERR_ARGUMENT

@@ -77,6 +77,13 @@ tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def) {
     CHECK_NONNEG(damping);
     CHECK_NONNEG(wind_drag);
     CHECK_POSITIVE(linear_density);
+    /* the drag rate per metre of width; beyond, drag * dt overflows to inf and a knot of zero
+       width gets inf * 0 = NaN (fuzz_sim: wind_drag 3.4e38) */
+    if (!((double)def->wind_drag / def->linear_density <= TSK_BLADE_SIM_MAX_DRAG))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "wind_drag",
+                             "wind_drag / linear_density must be at most %g, got %g",
+                             (double)TSK_BLADE_SIM_MAX_DRAG,
+                             (double)def->wind_drag / def->linear_density);
     CHECK_NONNEG(global_stiffness_root);
     CHECK_NONNEG(global_stiffness_tip);
     CHECK_NONNEG(local_stiffness);
