@@ -8,6 +8,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* cos of the sharpest turn allowed between two consecutive rest segments: 170 degrees */
+#define SIM_MAX_FOLD_COS (-0.98480775301220802)
+
 struct tsk_blade_sim {
     tsk_blade_sim_def def;
     int32_t K;
@@ -436,6 +439,20 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
                 if (!(d0 * d0 + d1 * d1 + d2 * d2 > 1e-18))
                     return tsk_error_arg(TSK_ERR_ARGUMENT, "knots",
                                          "blade %d segment %d has zero length", b, k - 1);
+                if (k > 1) { /* the rest frames are carried from segment to segment: a blade
+                                folding back on itself has no defined frame at the fold */
+                    const double e0 = (double)x[3 * k - 3] - x[3 * k - 6],
+                                 e1 = (double)x[3 * k - 2] - x[3 * k - 5],
+                                 e2 = (double)x[3 * k - 1] - x[3 * k - 4];
+                    const double dot = d0 * e0 + d1 * e1 + d2 * e2;
+                    const double nn =
+                        sqrt((d0 * d0 + d1 * d1 + d2 * d2) * (e0 * e0 + e1 * e1 + e2 * e2));
+                    if (dot < SIM_MAX_FOLD_COS * nn)
+                        return tsk_error_arg(TSK_ERR_ARGUMENT, "knots",
+                                             "blade %d folds back on itself at knot %d (more "
+                                             "than 170 degrees between its segments)",
+                                             b, k - 1);
+                }
             }
         }
         if (sides && !finite3(sides + 3 * (size_t)b))
