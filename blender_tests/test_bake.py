@@ -121,10 +121,14 @@ def test_split_bake_equals_single_bake_and_renders_without_tussock():
     assert 0.02 < (alpha > 0.5).mean() < 0.9, (alpha > 0.5).mean()  # the tree is in the picture
 
 
-def assert_killed_bake_resumes(ref, killed, timeout):
-    """A bake of `killed` (a copy of `ref`, whose bake is complete) killed with SIGKILL after
-    3 of its 24 frame files, then baked again, ends with the bytes of `ref`'s cache."""
-    folder = os.path.join(os.path.dirname(killed), "tussock_cache")
+def assert_killed_bake_resumes(ref, killed_dir, timeout):
+    """`ref` is baked completely; a copy of it in `killed_dir` is baked, killed with SIGKILL
+    after 3 of its 24 frame files, then baked again: it ends with the bytes of `ref`'s cache."""
+    killed = os.path.join(killed_dir, "scene.blend")
+    os.makedirs(killed_dir, exist_ok=True)
+    shutil.copyfile(ref, killed)
+    blender(ref, "bpy.ops.tussock.bake()")
+    folder = os.path.join(killed_dir, "tussock_cache")
 
     def frame_files():
         return [f for _, _, fs in os.walk(folder) for f in fs if f.endswith(".tskf")]
@@ -140,11 +144,7 @@ def assert_killed_bake_resumes(ref, killed, timeout):
 @test
 def test_killed_bake_resumes_to_the_same_cache():
     ref = make_scene(os.path.join(TMP, "ref"), frames=24, preset="black_tupelo")
-    killed = os.path.join(TMP, "killed", "scene.blend")
-    os.makedirs(os.path.dirname(killed), exist_ok=True)
-    shutil.copyfile(ref, killed)
-    blender(ref, "bpy.ops.tussock.bake()")
-    assert_killed_bake_resumes(ref, killed, timeout=120)
+    assert_killed_bake_resumes(ref, os.path.join(TMP, "killed"), timeout=120)
 
 
 @test
@@ -345,11 +345,7 @@ def test_meadow_split_bake_equals_single_bake_and_renders_without_tussock():
 @test
 def test_meadow_killed_bake_resumes_to_the_same_cache():
     ref = make_meadow_scene(os.path.join(TMP, "meadow_ref"), frames=24)
-    killed = os.path.join(TMP, "meadow_killed", "scene.blend")
-    os.makedirs(os.path.dirname(killed), exist_ok=True)
-    shutil.copyfile(ref, killed)
-    blender(ref, "bpy.ops.tussock.bake()")
-    assert_killed_bake_resumes(ref, killed, timeout=180)
+    assert_killed_bake_resumes(ref, os.path.join(TMP, "meadow_killed"), timeout=180)
 
 
 @test
