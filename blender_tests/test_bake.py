@@ -31,6 +31,27 @@ TMP = os.environ.get("TSK_TEST_TMP", "/tmp")
 FRAMES = 8
 
 
+def save_small_render_scene(scene, folder, cam_location, cam_rotation):
+    """Adds a camera and a sun, sets a 64x48 one-sample Cycles render with a fixed seed, and
+    saves the scene as folder/scene.blend; returns its path."""
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = cam_location, cam_rotation
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.use_denoising = False
+    scene.cycles.seed = 0
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    scene.render.resolution_percentage = 100
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    scene.collection.objects.link(sun)
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, "scene.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    return path
+
+
 def make_scene(folder, frames=FRAMES, preset="quaking_aspen"):
     """A saved .blend with a swaying tree and a small Cycles camera; returns its path."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -44,23 +65,8 @@ def make_scene(folder, frames=FRAMES, preset="quaking_aspen"):
     wave = w.waves.add()
     wave.amplitude, wave.wavelength, wave.speed = 3.0, 5.0, 6.0
     assert bpy.ops.tussock.add_tree(preset=preset, seed=2, leaves=False) == {"FINISHED"}
-    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
-    scene.collection.objects.link(cam)
-    cam.location, cam.rotation_euler = (0.0, -25.0, 6.0), (1.45, 0.0, 0.0)
-    scene.camera = cam
-    scene.render.engine = "CYCLES"
-    scene.cycles.samples = 1
-    scene.cycles.use_denoising = False
-    scene.cycles.seed = 0
-    scene.render.resolution_x, scene.render.resolution_y = 64, 48
-    scene.render.resolution_percentage = 100
     scene.render.film_transparent = True  # alpha shows where the tree is
-    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
-    scene.collection.objects.link(sun)
-    os.makedirs(folder, exist_ok=True)
-    path = os.path.join(folder, "scene.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=path)
-    return path
+    return save_small_render_scene(scene, folder, (0.0, -25.0, 6.0), (1.45, 0.0, 0.0))
 
 
 
@@ -232,22 +238,7 @@ def make_meadow_scene(folder, frames=FRAMES):
     coll.objects.link(ball)
     meadow.tussock_meadow.colliders = coll
     meadow.tussock_meadow.use_simulation = True
-    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
-    scene.collection.objects.link(cam)
-    cam.location, cam.rotation_euler = (0.0, -1.6, 0.9), (1.05, 0.0, 0.0)
-    scene.camera = cam
-    scene.render.engine = "CYCLES"
-    scene.cycles.samples = 1
-    scene.cycles.use_denoising = False
-    scene.cycles.seed = 0
-    scene.render.resolution_x, scene.render.resolution_y = 64, 48
-    scene.render.resolution_percentage = 100
-    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
-    scene.collection.objects.link(sun)
-    os.makedirs(folder, exist_ok=True)
-    path = os.path.join(folder, "scene.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=path)
-    return path
+    return save_small_render_scene(scene, folder, (0.0, -1.6, 0.9), (1.05, 0.0, 0.0))
 
 
 def ribbon_positions(obj):
