@@ -85,8 +85,14 @@ build_fuzz() {
 # Release build (e.g. the refine rod model, TSK_BEND_MAX_WORK), and the sanitizers make it
 # several times slower.
 run_fuzzers() { # seconds [name...]
-  local secs="$1" f name log rc execs t0 t1 want
+  local secs="$1" f name log rc execs t0 t1 want runs=()
   shift
+  # TSK_FUZZ_RUNS=N also stops each target after N executions (the reliability bar is
+  # 10 million executions or one hour, whichever comes first).
+  if [ -n "${TSK_FUZZ_RUNS:-}" ]; then
+    case "$TSK_FUZZ_RUNS" in *[!0-9]*) die "TSK_FUZZ_RUNS must be a whole number" ;; esac
+    runs=(-runs="$TSK_FUZZ_RUNS")
+  fi
   mkdir -p "$BUILD/fuzz/artifacts" "$BUILD/fuzz/logs"
   for f in "$BUILD/fuzz"/fuzz_*; do
     [ -x "$f" ] || continue
@@ -102,7 +108,7 @@ run_fuzzers() { # seconds [name...]
     rc=0
     ASAN_OPTIONS="detect_leaks=1:halt_on_error=1" UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
       LSAN_OPTIONS="suppressions=$ROOT/native/fuzz/lsan.supp:print_suppressions=0" \
-      nice -n 19 "$f" -max_total_time="$secs" -timeout=300 -rss_limit_mb=2048 \
+      nice -n 19 "$f" -max_total_time="$secs" "${runs[@]}" -timeout=300 -rss_limit_mb=2048 \
       -print_final_stats=1 -artifact_prefix="$BUILD/fuzz/artifacts/$name-" \
       "$BUILD/fuzz/corpus/$name" "$ROOT/native/fuzz/corpus/$name" >"$log" 2>&1 || rc=$?
     t1=$(date +%s)
