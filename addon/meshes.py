@@ -10,16 +10,22 @@ import numpy as np
 from . import compat, native
 
 
-def set_faces(mesh, faces):
+def set_faces(mesh, faces, edges=None):
     """Adds `faces` ((F, k) vertex indices, k >= 3, into the mesh's existing vertices) with
-    their loops and edges to an empty-topology mesh. Call mesh.update() afterwards."""
+    their loops and edges to an empty-topology mesh. Call mesh.update() afterwards. `edges`:
+    the faces' edges when the caller knows them, as (edge count, int32 vertex pairs with
+    room for 2 F k, int32 edge of each corner), e.g. a tree's closed-form edges
+    (tree_mesh_edges); else they are derived here (tsk_mesh_edges)."""
     lib = native.require()
     faces = np.ascontiguousarray(faces, np.int32)
     nf, k = faces.shape
     n = nf * k
-    edges = np.empty(2 * n, np.int32)
-    corner_edges = np.empty(n, np.int32)
-    ne = lib.mesh_edges(faces.ravel(), k, len(mesh.vertices), edges, corner_edges)
+    if edges is not None:
+        ne, edges, corner_edges = edges
+    else:
+        edges = np.empty(2 * n, np.int32)
+        corner_edges = np.empty(n, np.int32)
+        ne = lib.mesh_edges(faces.ravel(), k, len(mesh.vertices), edges, corner_edges)
     mesh.edges.add(ne)
     mesh.edges.foreach_set("vertices", compat.mesh_indices(edges[:2 * ne]))
     mesh.loops.add(n)

@@ -60,6 +60,33 @@ def test_every_preset_grows_with_native_counts():
 
 
 @test
+def test_leaves_off_and_on_again_keep_materials_right():
+    """A tree without leaves is all bark (material 0, smooth, and no material_index layer to
+    carry); turning leaves on and off rebuilds the mesh and its materials each time."""
+    fresh()
+    obj = add("black_tupelo", seed=3)
+    leaves = obj["tussock_leaves"]
+    assert leaves > 0
+
+    def materials():
+        m = np.empty(len(obj.data.polygons), np.int32)
+        obj.data.polygons.foreach_get("material_index", m)
+        smooth = np.empty(len(obj.data.polygons), bool)
+        obj.data.polygons.foreach_get("use_smooth", smooth)
+        return m, smooth
+
+    m, smooth = materials()
+    assert int((m == 1).sum()) == leaves and np.array_equal(smooth, m == 0)
+    obj.tussock_tree.leaves = False
+    m, smooth = materials()
+    assert obj["tussock_leaves"] == 0 and not m.any() and smooth.all()
+    assert obj.data.attributes.get("material_index") is None
+    obj.tussock_tree.leaves = True
+    m, smooth = materials()
+    assert int((m == 1).sum()) == leaves and np.array_equal(smooth, m == 0)
+
+
+@test
 def test_same_seed_same_mesh_other_seed_differs():
     fresh()
     a = co(add(seed=5))

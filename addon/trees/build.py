@@ -44,11 +44,14 @@ def compute_from(d, smooth_levels, key=""):
     faces = np.empty(nq * 4, np.int32)
     uvs = np.empty(nq * 8, np.float32)
     lib.tree_mesh_topology(tree, faces, uvs, leaves=True)
+    edges, corner_edges = np.empty(nq * 8, np.int32), np.empty(nq * 4, np.int32)
+    ne = lib.tree_mesh_edges(tree, edges, corner_edges, leaves=True)
     positions = np.empty(nv * 3, np.float32)
     lib.tree_mesh_deform(tree, positions, leaves=True)
     leaf_quads = counts["leaves"]
     data = dict(key=key, tree=tree, counts=counts, faces=faces.reshape(-1, 4),
-                uvs=uvs, positions=positions, leaf_quads=leaf_quads, smooth=None)
+                uvs=uvs, positions=positions, leaf_quads=leaf_quads, smooth=None,
+                edges=(ne, edges, corner_edges))
     tips = np.empty(counts["branches"] * 3, np.float32)
     lib.tree_tips(tree, tips)
     data["rest_tips"] = tips.reshape(-1, 3)
@@ -64,10 +67,11 @@ def compute_from(d, smooth_levels, key=""):
 
 
 def _mesh_arrays(data, positions):
-    """(vertex positions (V, 3), quads (Q, 4), uvs per corner or None) for the mesh, with
-    the smoothed branches when the tree is smooth."""
+    """(vertex positions (V, 3), quads (Q, 4), uvs per corner or None, edges for
+    meshes.set_faces or None) for the mesh, with the smoothed branches when the tree is
+    smooth."""
     if data["smooth"] is None:
-        return positions.reshape(-1, 3), data["faces"], data["uvs"]
+        return positions.reshape(-1, 3), data["faces"], data["uvs"], data["edges"]
     lib = native.require()
     s = data["smooth"]
     cage = np.ascontiguousarray(positions[:s["cage_vertices"] * 3])
@@ -77,30 +81,34 @@ def _mesh_arrays(data, positions):
     leaf_faces = data["faces"][s["cage_quads"]:] - s["cage_vertices"] + s["vertices"]
     verts = np.concatenate([refined.reshape(-1, 3), leaves_pos])
     quads = np.concatenate([s["faces"], leaf_faces])
-    return verts, quads, None
+    return verts, quads, None, None
 
 
-def write(obj, data):
-    """Replaces the object's mesh with the tree's (materials: bark 0, leaves 1)."""
-    verts, quads, uvs = _mesh_arrays(data, data["positions"])
+def write(obj, data, positions=None):
+    """Replaces the object's mesh with the tree's (materials: bark 0, leaves 1), its vertices
+    at `positions` (a pose from posed_vertices) or else at rest."""
+    verts, quads, uvs, edges = _mesh_arrays(data, data["positions"])
+    if positions is not None:
+        verts = positions
     mesh = obj.data
     mesh.clear_geometry()
     mesh.vertices.add(len(verts))
     mesh.vertices.foreach_set("co", np.ascontiguousarray(verts, np.float32).ravel())
     nq = len(quads)
-    meshes.set_faces(mesh, quads)
+    meshes.set_faces(mesh, quads, edges)
     index = np.zeros(nq, np.int32)
     if data["leaf_quads"]:
         index[nq - data["leaf_quads"]:] = 1
-    # the generic attribute (Blender >= 3.4) takes the array in one copy; the polygon
-    # property goes face by face
-    attr = mesh.attributes.get("material_index")
-    if attr is None:
-        attr = mesh.attributes.new("material_index", "INT", "FACE")
-    attr.data.foreach_set("value", index)
+        # the generic attribute (Blender >= 3.4) takes the array in one copy; the polygon
+        # property goes face by face. Without leaves every face is bark, material 0, which
+        # is what a mesh without the attribute means: no layer to fill and copy.
+        attr = mesh.attributes.get("material_index")
+        if attr is None:
+            attr = mesh.attributes.new("material_index", "INT", "FACE")
+        attr.data.foreach_set("value", index)
     mesh.polygons.foreach_set("use_smooth", index == 0)
     if uvs is not None:
-        layer = mesh.uv_layers.new(name="UVMap")
+        layer = mesh.uv_layers.new(name="UVMap", do_init=False)  # all set just below
         layer.data.foreach_set("uv", uvs)
     mesh.update()
     if len(mesh.materials) == 0:
@@ -114,8 +122,7 @@ def write(obj, data):
 
 def rebuild(obj):
     data = compute(obj.tussock_tree)
-    write(obj, data)
-    pose(obj, bpy.context.scene, bpy.context.scene.frame_current)
+    write_posed(obj, data, bpy.context.scene, bpy.context.scene.frame_current)
 
 
 def _data(obj):
@@ -146,28 +153,39 @@ def posed_vertices(data, matrix_world, strength, wind_sample, out=None):
         lib.tree_wind_step(tree, force.ravel(), mode=1, strength=float(strength))
     positions = out if out is not None else np.empty(len(data["positions"]), np.float32)
     lib.tree_mesh_deform(tree, positions, leaves=True)
-    verts, _, _ = _mesh_arrays(data, positions)
-    return verts
+    return _mesh_arrays(data, positions)[0]
 
 
-def pose(obj, scene, frame):
-    """Bends the tree by the scene's wind at `frame` and writes the vertex positions."""
+def _posed(obj, data, scene, frame, matrix_world):
     s = obj.tussock_tree
-    data = _data(obj)
     # one buffer per tree, reused every frame (no fresh pages to fault in)
     buffer = data.get("pose_buffer")
     if buffer is None:
         buffer = data["pose_buffer"] = np.empty(len(data["positions"]), np.float32)
-    verts = posed_vertices(data, obj.matrix_world, s.wind_strength,
-                           lambda xyz: wind_runtime.sample(scene, frame, xyz), out=buffer)
+    return posed_vertices(data, matrix_world, s.wind_strength,
+                          lambda xyz: wind_runtime.sample(scene, frame, xyz), out=buffer)
+
+
+def pose(obj, scene, frame):
+    """Bends the tree by the scene's wind at `frame` and writes the vertex positions."""
+    data = _data(obj)
+    verts = _posed(obj, data, scene, frame, obj.matrix_world)
     mesh = obj.data
     if len(mesh.vertices) != len(verts):
-        write(obj, data)
-        mesh = obj.data
+        write(obj, data, verts)
+        return
     mesh.vertices.foreach_set("co", verts.ravel() if verts.dtype == np.float32
                               and verts.flags.c_contiguous else
                               np.ascontiguousarray(verts, np.float32).ravel())
     mesh.update()
+
+
+def write_posed(obj, data, scene, frame):
+    """Writes the tree's mesh already bent by the wind at `frame`: one deform and one copy
+    of the vertices, not a rest mesh then a pose. The world matrix is the object's own
+    transform (matrix_basis: a new or rebuilt object may not be evaluated yet)."""
+    m = obj.matrix_world if obj.parent is not None else obj.matrix_basis
+    write(obj, data, _posed(obj, data, scene, frame, m))
 
 
 def forget(name=None):

@@ -37,9 +37,8 @@ class TUSSOCK_OT_add_tree(bpy.types.Operator):
             raise
         obj.location = context.scene.cursor.location
         context.collection.objects.link(obj)
-        build.write(obj, data)
+        build.write_posed(obj, data, context.scene, context.scene.frame_current)
         s.is_tree = True
-        build.pose(obj, context.scene, context.scene.frame_current)
         for o in context.selected_objects:
             o.select_set(False)
         obj.select_set(True)

@@ -615,6 +615,63 @@ TEST(test_mesh_topology_faces_outward_and_uvs) {
     tsk_tree_destroy(t);
 }
 
+/* The closed-form edges of the tree mesh are exactly the edges tsk_mesh_edges derives from
+ * its faces (as Blender would): as many, each corner's edge joins that corner and the next,
+ * and every edge is some corner's. Over presets with leaves and uneven meshing. */
+TEST(test_mesh_edges_closed_form_equal_derived_edges) {
+    const char* names[] = {"quaking_aspen", "ca_black_oak", "weeping_willow"};
+    for (int p = 0; p < 3; ++p) {
+        tsk_tree_def def;
+        CHECK(tsk_tree_preset(names[p], &def) == TSK_OK);
+        def.leaves = p == 1 ? 0 : 5;
+        if (def.levels > 3) def.levels = 3;
+        tsk_tree* t = NULL;
+        CHECK(tsk_tree_create(&def, &t) == TSK_OK);
+        if (!t) return;
+        tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
+        m.along[1] = 3 + p, m.around[0] = 7, m.around[2] = 3;
+        size_t nv = 0, nf = 0;
+        CHECK(tsk_tree_mesh_count(t, &m, &nv, &nf) == TSK_OK);
+        const size_t n = 4 * nf;
+        int32_t* faces = malloc(n * sizeof(int32_t));
+        int32_t* e1 = malloc(2 * n * sizeof(int32_t));
+        int32_t* c1 = malloc(n * sizeof(int32_t));
+        int32_t* e2 = malloc(2 * n * sizeof(int32_t));
+        int32_t* c2 = malloc(n * sizeof(int32_t));
+        uint8_t* used = calloc(n + 1, 1);
+        size_t ne1 = 0, ne2 = 0;
+        CHECK(tsk_tree_mesh_topology(t, &m, faces, NULL) == TSK_OK);
+        CHECK(tsk_tree_mesh_edges(t, &m, e1, c1, &ne1) == TSK_OK);
+        CHECK(tsk_mesh_edges(faces, nf, 4, (int32_t)nv, e2, c2, &ne2) == TSK_OK);
+        CHECK_MSG(ne1 == ne2 && ne1 > 0, "%s: %zu closed-form edges, %zu derived", names[p], ne1,
+                  ne2);
+        size_t bad = 0;
+        for (size_t c = 0; c < n && ne1 == ne2; ++c) {
+            const int32_t a = faces[c], b = faces[c % 4 == 3 ? c - 3 : c + 1];
+            const int32_t e = c1[c];
+            if (e < 0 || (size_t)e >= ne1) {
+                ++bad;
+                continue;
+            }
+            used[e] = 1;
+            const int32_t x = e1[2 * e], y = e1[2 * e + 1];
+            bad += !((x == a && y == b) || (x == b && y == a));
+        }
+        size_t unused = 0;
+        for (size_t e = 0; e < ne1; ++e) unused += !used[e];
+        CHECK_MSG(bad == 0 && unused == 0, "%s: %zu corners with a wrong edge, %zu edges unused",
+                  names[p], bad, unused);
+        /* misuse is refused, not written through */
+        size_t count = 99;
+        CHECK(tsk_tree_mesh_edges(t, &m, NULL, c1, &count) == TSK_ERR_ARGUMENT && count == 0);
+        CHECK(tsk_tree_mesh_edges(t, &m, e1, c1, NULL) == TSK_ERR_ARGUMENT);
+        m.around[1] = 2;
+        CHECK(tsk_tree_mesh_edges(t, &m, e1, c1, &count) == TSK_ERR_ARGUMENT);
+        free(faces), free(e1), free(c1), free(e2), free(c2), free(used);
+        tsk_tree_destroy(t);
+    }
+}
+
 /* The 4-vertex SSE deformer and the one-vertex path give the same bytes. */
 TEST(test_mesh_simd_path_equals_scalar_path) {
     tsk_tree_def def;
@@ -1164,6 +1221,7 @@ TEST_MAIN(TEST_ENTRY(test_tree_and_mesh_over_memory_budget_are_refused),
           TEST_ENTRY(test_deformer_normals_unit_perpendicular_outward),
           TEST_ENTRY(test_deformer_bent_branch_follows_bezier),
           TEST_ENTRY(test_mesh_topology_faces_outward_and_uvs),
+          TEST_ENTRY(test_mesh_edges_closed_form_equal_derived_edges),
           TEST_ENTRY(test_mesh_simd_path_equals_scalar_path),
           TEST_ENTRY(test_wind_zero_force_keeps_rest_pose_exactly),
           TEST_ENTRY(test_wind_bend_matches_eq_16_17),

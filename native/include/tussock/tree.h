@@ -213,6 +213,15 @@ tsk_status tsk_tree_mesh_count(const tsk_tree* tree, const tsk_tree_mesh_def* me
 tsk_status tsk_tree_mesh_topology(const tsk_tree* tree, const tsk_tree_mesh_def* mesh,
                                   int32_t* faces, float* corner_uvs);
 
+/// The edges of the cage topology, for handing the mesh to Blender complete: for each branch
+/// its rings' edges then the edges along it, then four per leaf card. Writes 2 vertex indices
+/// per edge (edges: room for 2 * 4 * quads), the edge of every corner of the faces of
+/// tsk_tree_mesh_topology (corner_edges: 4 * quads; the edge from that corner to the next)
+/// and *edge_count. The same edges as tsk_mesh_edges derives from the faces, in closed form
+/// (a tube of A quads along and C around has (2A + 1) C edges), so no hashing.
+tsk_status tsk_tree_mesh_edges(const tsk_tree* tree, const tsk_tree_mesh_def* mesh,
+                               int32_t* edges, int32_t* corner_edges, size_t* edge_count);
+
 /// Deforms the cage for the current pose: positions and unit normals (3 floats per vertex
 /// each; normals may be NULL). Seed eq. 1–10.
 tsk_status tsk_tree_mesh_deform(const tsk_tree* tree, const tsk_tree_mesh_def* mesh,

@@ -482,6 +482,35 @@ static PyObject* py_tree_mesh_topology(PyObject* self, PyObject* args, PyObject*
     Py_RETURN_NONE;
 }
 
+static PyObject* py_tree_mesh_edges(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    static char* kwlist[] = {"tree", "edges", "corner_edges", "along", "around", "leaves", NULL};
+    PyObject *cap, *edges_obj, *ce_obj, *along = Py_None, *around = Py_None;
+    int leaves = 1;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOO|OOp:tree_mesh_edges", kwlist, &cap,
+                                     &edges_obj, &ce_obj, &along, &around, &leaves))
+        return NULL;
+    tsk_tree* t = get_tree(cap);
+    tsk_tree_mesh_def m;
+    if (t == NULL || !parse_mesh(along, around, leaves, &m)) return NULL;
+    size_t nv = 0, nf = 0, count = 0;
+    tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    tsk_py_views v = {.n = 0};
+    void *edges, *ce;
+    if (!tsk_py_views_get(&v, edges_obj, "edges", TSK_PY_I32, 8 * (Py_ssize_t)nf, 1, 0, &edges) ||
+        !tsk_py_views_get(&v, ce_obj, "corner_edges", TSK_PY_I32, 4 * (Py_ssize_t)nf, 1, 0, &ce)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_tree_mesh_edges(t, &m, edges, ce, &count);
+    Py_END_ALLOW_THREADS
+    tsk_py_views_release(&v);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    return PyLong_FromSize_t(count);
+}
+
 static PyObject* py_tree_mesh_deform(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
     static char* kwlist[] = {"tree", "positions", "normals", "along", "around", "leaves", NULL};
@@ -653,6 +682,11 @@ PyMethodDef tsk_py_tree_methods[] = {
      METH_VARARGS | METH_KEYWORDS,
      "tree_mesh_topology(tree, faces, uvs=None, along=None, around=None, leaves=True): faces "
      "int32 4q, uvs float32 8q (per corner)."},
+    {"tree_mesh_edges", (PyCFunction)(void (*)(void))py_tree_mesh_edges,
+     METH_VARARGS | METH_KEYWORDS,
+     "tree_mesh_edges(tree, edges, corner_edges, along=None, around=None, leaves=True) -> "
+     "edge count: edges int32 8q (2 per edge, the first 2 * count written), corner_edges "
+     "int32 4q; the edges of tree_mesh_topology's faces in closed form."},
     {"tree_mesh_deform", (PyCFunction)(void (*)(void))py_tree_mesh_deform,
      METH_VARARGS | METH_KEYWORDS,
      "tree_mesh_deform(tree, positions, normals=None, along=None, around=None, leaves=True): "

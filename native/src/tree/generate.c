@@ -51,6 +51,11 @@ typedef struct gen {
     float split_error[TSK_TREE_MAX_LEVELS];
     /* a tsk_tree shell used to pose stems with the shared pose function */
     struct tsk_tree pose_shell;
+    /* the Sloan frames of the last parent a stem was placed on, and the points and end
+     * orientation they were built from (siblings are placed one after another) */
+    float frames_src[15];
+    sloan_frames frames;
+    int has_frames;
 } gen;
 
 static float rnd(const gen* g, int level, size_t idx, int purpose, size_t j) {
@@ -189,6 +194,20 @@ static int shape_stem(const gen* g, const gstem* s, size_t idx, float L, v3 orig
     return inside;
 }
 
+/* The rest points of stem p and their Sloan frames, built once for a run of siblings: the
+ * cache is keyed by the points themselves, so it can never be stale. */
+static const sloan_frames* stem_frames(gen* g, const gstem* p, v3* Pp) {
+    tree_load_points(p->P, 0, Pp);
+    if (!g->has_frames || memcmp(g->frames_src, p->P, 12 * sizeof(float)) != 0 ||
+        memcmp(g->frames_src + 12, p->O, 3 * sizeof(float)) != 0) {
+        sloan_build(Pp, v3_make(p->O[0], p->O[1], p->O[2]), &g->frames);
+        memcpy(g->frames_src, p->P, 12 * sizeof(float));
+        memcpy(g->frames_src + 12, p->O, 3 * sizeof(float));
+        g->has_frames = 1;
+    }
+    return &g->frames;
+}
+
 /* Attaches stem s (index idx) to its parent, shapes it, prunes it, stores its local points
  * and poses it with the shared pose function. */
 static void place_stem(gen* g, size_t idx) {
@@ -199,11 +218,8 @@ static void place_stem(gen* g, size_t idx) {
         U = v3_make(0, 0, 1);
         V = v3_make(1, 0, 0);
     } else {
-        const gstem* p = &g->s[s->parent];
         v3 Pp[4];
-        tree_load_points(p->P, 0, Pp);
-        sloan_frames f;
-        sloan_build(Pp, v3_make(p->O[0], p->O[1], p->O[2]), &f);
+        const sloan_frames f = *stem_frames(g, &g->s[s->parent], Pp);
         tree_attach_frame(Pp, &f, s->v, cosf(s->theta), sinf(s->theta), &origin, &U, &V);
     }
     const float ca = cosf(s->alpha), sa = sinf(s->alpha); /* same as the tree's trig */
@@ -248,11 +264,7 @@ static void place_stem(gen* g, size_t idx) {
     v3 Pp[4] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
     sloan_frames fp;
     memset(&fp, 0, sizeof fp);
-    if (s->parent >= 0) {
-        const gstem* p = &g->s[s->parent];
-        tree_load_points(p->P, 0, Pp);
-        sloan_build(Pp, v3_make(p->O[0], p->O[1], p->O[2]), &fp);
-    }
+    if (s->parent >= 0) fp = *stem_frames(g, &g->s[s->parent], Pp);
     v3 Pout[4], Oout;
     tree_pose_branch(t, 0, Pp, &fp, v3_make(0, 0, 0), 1.8f, 0.0f, Pout, &Oout);
     tree_store_points(s->P, 0, Pout);

@@ -253,6 +253,68 @@ tsk_status tsk_tree_mesh_topology(const tsk_tree* t, const tsk_tree_mesh_def* m,
     return TSK_OK;
 }
 
+tsk_status tsk_tree_mesh_edges(const tsk_tree* t, const tsk_tree_mesh_def* m, int32_t* edges,
+                               int32_t* corner_edges, size_t* edge_count) {
+    if (edge_count == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "edge_count", "is NULL");
+    *edge_count = 0;
+    tsk_status s = check_mesh_args(t, m);
+    if (s != TSK_OK) return s;
+    size_t nv = 0, nf = 0;
+    s = mesh_sizes(t, m, &nv, &nf);
+    if (s != TSK_OK) return s;
+    if (nf == 0) return TSK_OK;
+    if (edges == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "edges", "is NULL");
+    if (corner_edges == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_edges", "is NULL");
+    size_t vbase = 0, ebase = 0, f = 0;
+    for (size_t i = 0; i < t->n; ++i) {
+        const int l = t->level[i];
+        const size_t A = (size_t)m->along[l], C = (size_t)m->around[l];
+        /* ring edge (j, k): ring j's vertex k to k + 1, index ebase + j C + k (j = 0..A);
+         * edge along (j, k): ring j's vertex k to ring j + 1's, after the (A + 1) C rings */
+        const size_t along0 = ebase + (A + 1) * C;
+        for (size_t j = 0; j <= A; ++j)
+            for (size_t k = 0; k < C; ++k) {
+                int32_t* e = edges + 2 * (ebase + j * C + k);
+                e[0] = (int32_t)(vbase + j * C + k);
+                e[1] = (int32_t)(vbase + j * C + (k + 1) % C);
+            }
+        for (size_t j = 0; j < A; ++j)
+            for (size_t k = 0; k < C; ++k) {
+                int32_t* e = edges + 2 * (along0 + j * C + k);
+                e[0] = (int32_t)(vbase + j * C + k);
+                e[1] = (int32_t)(vbase + (j + 1) * C + k);
+            }
+        /* the corners of quad (j, k) as tsk_tree_mesh_topology writes them: (j, k) ->
+         * (j, k+1) -> (j+1, k+1) -> (j+1, k) */
+        for (size_t j = 0; j < A; ++j)
+            for (size_t k = 0; k < C; ++k, ++f) {
+                const size_t k1 = (k + 1) % C;
+                int32_t* ce = corner_edges + 4 * f;
+                ce[0] = (int32_t)(ebase + j * C + k);
+                ce[1] = (int32_t)(along0 + j * C + k1);
+                ce[2] = (int32_t)(ebase + (j + 1) * C + k);
+                ce[3] = (int32_t)(along0 + j * C + k);
+            }
+        vbase += (A + 1) * C;
+        ebase += (2 * A + 1) * C;
+    }
+    if (m->leaves) {
+        /* card corners b, b+3, b+2, b+1 (tsk_tree_mesh_topology): one edge per side */
+        for (size_t j = 0; j < t->leaf_n; ++j, ++f) {
+            const int32_t b = (int32_t)(vbase + 4 * j);
+            const int32_t q[4] = {b, b + 3, b + 2, b + 1};
+            for (int c = 0; c < 4; ++c) {
+                edges[2 * (ebase + (size_t)c)] = q[c];
+                edges[2 * (ebase + (size_t)c) + 1] = q[(c + 1) % 4];
+                corner_edges[4 * f + (size_t)c] = (int32_t)(ebase + (size_t)c);
+            }
+            ebase += 4;
+        }
+    }
+    *edge_count = ebase;
+    return TSK_OK;
+}
+
 typedef struct deform_ctx {
     const tsk_tree* t;
     const tsk_tree_mesh_def* m;
