@@ -100,7 +100,7 @@ class TreeJob:
             todo.append(f)
         if not todo:
             return
-        data = tree_build.compute_from(self.definition, self.smooth)
+        data = tree_build.compute_from(self.definition, self.smooth, rest=False)
         wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
                                     lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)))
         for f in todo:

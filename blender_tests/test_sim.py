@@ -145,14 +145,9 @@ def test_blades_recover_after_the_ball_has_passed():
 
 
 def ribbons(meadow):
-    """Positions of the simulated blades' ribbons in the dynamic mesh, as bytes; the rest
-    of the mesh (room for more blades) must be all zero."""
-    blades = bpy.data.objects[f"{meadow.name} blades"].data
-    v = np.empty(len(blades.vertices) * 3, np.float32)
-    blades.vertices.foreach_get("co", v)
-    n = meadow["tussock_active_blades"] * 2 * simulate._cache[meadow.name].runner.K * 3
-    assert not v[n:].any()
-    return v[:n].tobytes()
+    """Positions of the simulated blades' ribbons in the dynamic meshes, as bytes; the rest
+    of each chunk's mesh (room for more blades) must be all zero."""
+    return simulate.active_ribbons(meadow).tobytes()
 
 
 def play(scene, meadow, frames):
@@ -193,6 +188,51 @@ def test_jumps_resume_from_snapshots_with_the_bytes_of_a_straight_run():
         assert "sim" in str(exc)
     else:
         raise AssertionError("blade_sim_clone accepted a string")
+
+
+@test
+def test_blades_shared_among_chunk_objects_give_the_same_ribbons():
+    """The simulated blades are shared evenly among simulate.CHUNKS objects (children of the
+    first, shown and rendered as it is): the same frames give the same ribbons as with one
+    object, and chunks no longer needed are emptied. The objects are made when simulation
+    is switched on, so Bullet's ball rolls the same path as with no simulation at all."""
+    scene, meadow, ball = rolling_ball_scene()
+    first = bpy.data.objects[f"{meadow.name} blades"]
+    extras = simulate.extra_chunks(meadow)
+    assert simulate.CHUNKS >= 2 and len(extras) == simulate.CHUNKS - 1
+    assert all(o.parent == first and o.get("tussock_simulated_blades") is None for o in extras)
+    path = []
+    knots, co = {}, {}
+    for f in range(1, 25):
+        scene.frame_set(f)
+        knots[f], co[f] = blade_knots(meadow).tobytes(), ribbons(meadow)
+        path.append(tuple(ball.matrix_world.translation))
+    nb = meadow["tussock_active_blades"]
+    assert nb >= 2 * simulate.CHUNKS
+    assert all(len(o.data.vertices) >= 2 * 16 * (nb // simulate.CHUNKS) for o in extras)
+    first.hide_render = True
+    scene.frame_set(23)
+    assert all(o.hide_render for o in extras)
+    first.hide_render = False
+    chunks = simulate.CHUNKS
+    simulate.CHUNKS = 1
+    try:
+        simulate.forget()
+        again_knots, again = play(scene, meadow, list(range(1, 25)))
+        assert again_knots == knots and again == co
+        assert all(len(o.data.vertices) == 0 for o in extras)  # unused: nothing to evaluate
+    finally:
+        simulate.CHUNKS = chunks
+        simulate.forget()
+    # the ball's path with no simulation at all, from a fresh scene
+    scene, meadow, ball = rolling_ball_scene()
+    meadow.tussock_meadow.use_simulation = False
+    alone = []
+    for f in range(1, 25):
+        scene.frame_set(f)
+        alone.append(tuple(ball.matrix_world.translation))
+    assert alone == path, next((f, a, b) for f, (a, b) in enumerate(zip(alone, path), 1)
+                               if a != b)
 
 
 @test

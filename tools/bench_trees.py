@@ -29,7 +29,7 @@ import numpy as np
 ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 SAPLING_DIR = None  # found when the add-on is enabled
 SPECIES = ("quaking_aspen", "weeping_willow", "douglas_fir", "small_pine", "white_birch")
-REPEATS = 3
+REPEATS = 5
 
 
 def wanted(prefix):

@@ -115,6 +115,7 @@ def apply_layout(meadow, child, tiles, layout, k, instance_tile, digest):
     mesh["tussock_layout"] = "baked:" + digest
     if "tussock_capacity" in mesh:
         del mesh["tussock_capacity"]
+    simulate.empty_extra_chunks(meadow)  # live chunks beyond the first hold no baked blade
     simulate.set_hidden(meadow, np.isin(instance_tile, tiles))
 
 

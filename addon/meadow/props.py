@@ -23,6 +23,8 @@ def _rebuild(self, context):
 def _reset_simulation(self, context):
     from . import simulate
     simulate.forget(self.id_data.name)
+    if self.is_meadow and self.use_simulation:
+        simulate.ensure_chunks(self.id_data)  # now, not in the middle of playback
 
 
 DENSITY_ITEMS = [

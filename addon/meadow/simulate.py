@@ -28,6 +28,12 @@ CAPACITY_BLOCK = 1024  # the dynamic mesh has room for a whole number of blocks 
                        # it grows by half at least and shrinks only below a quarter full, so
                        # that its topology (rebuilding it costs Blender about as much as five
                        # frames) changes seldom while tiles come and go
+CHUNKS = 4  # dynamic-mesh objects the simulated blades are shared among, evenly: Blender
+            # evaluates separate objects on separate threads, and re-evaluating one
+            # 655,000-vertex mesh per frame was most of a frame (docs/performance.md,
+            # blade_playback). They are made together, when simulation is switched on:
+            # adding an object mid-playback resets Blender's rigid-body cache, which changes
+            # the path of a ball that Bullet rolls.
 NO_COLLIDERS = np.zeros((0, 8), np.float32)
 _cache = {}  # meadow object name -> Playback
 suspended = False  # True while the bake plays frames only to read collider positions
@@ -209,8 +215,9 @@ class Playback:
         self.stale = False  # the solver's state used colliders that have changed since
         self.restored_from = None  # frame the last jump back resumed from (tests, panel)
         self.written = None  # active tiles last written into the dynamic mesh (bytes)
-        self.pos = None
-        self.ribbon = None  # (widths, sides) of the written tiles
+        self.pos = None  # chunk index -> its vertex positions
+        self.ribbon = None  # (widths, sides) of the written tiles, one row per blade
+        self.rand = None  # colour value of each written blade
         self.hidden = None  # per instance: is its tile simulated
         self.baked_hidden = None  # (bake layout digest, per instance: is its tile baked)
 
@@ -339,7 +346,7 @@ def ribbon_topology(mesh, blades, k):
     grass = material.grass_material()  # (brought up to date if an older Tussock made it)
     if len(mesh.materials) == 0:
         mesh.materials.append(grass)
-    mesh.update(calc_edges=True)
+    mesh.update()
 
 
 def set_blade_rand(mesh, rand, k):
@@ -362,7 +369,8 @@ def set_hidden(obj, hidden):
 
 
 def blades_object(obj):
-    """The meadow's dynamic mesh of simulated blades (created once)."""
+    """The meadow's dynamic mesh of simulated blades (created once): its first chunk, the
+    one a bake writes."""
     name = f"{obj.name} blades"
     child = bpy.data.objects.get(name)
     if child is None:
@@ -374,41 +382,149 @@ def blades_object(obj):
     return child
 
 
-def write(obj, pb):
-    """Writes the simulated blades into the meadow's dynamic mesh and hides the instances
-    of their tiles. Per frame only vertex positions change; the topology, the per-blade
-    colour and the hidden instances change only when the set of active tiles does. Unused
-    blade slots collapse to zero-area quads."""
+def chunk_object(obj, i):
+    """Chunk i of the meadow's simulated blades: 0 is blades_object(); the others are
+    children of the first (the outliner groups them; the first stays at the origin), shown
+    and rendered as it is."""
+    first = blades_object(obj)
+    if i == 0:
+        return first
+    name = f"{obj.name} blades {i + 1}"
+    child = bpy.data.objects.get(name)
+    if child is None:
+        child = bpy.data.objects.new(name, bpy.data.meshes.new(name))
+        for coll in first.users_collection:
+            coll.objects.link(child)
+        child.parent = first
+        child["tussock_blades_chunk"] = i
+    child["tussock_meadow_name"] = obj.name
+    for prop in ("hide_render", "hide_viewport"):
+        if getattr(child, prop) != getattr(first, prop):
+            setattr(child, prop, getattr(first, prop))
+    return child
+
+
+def ensure_chunks(obj):
+    """Makes every chunk object of the meadow now (see CHUNKS: not during playback)."""
+    for i in range(CHUNKS):
+        chunk_object(obj, i)
+
+
+def extra_chunks(obj):
+    """The meadow's chunk objects after the first, in order."""
+    found = []
+    i = 1
+    while (child := bpy.data.objects.get(f"{obj.name} blades {i + 1}")) is not None:
+        found.append(child)
+        i += 1
+    return found
+
+
+def _empty(child):
+    if len(child.data.vertices):
+        child.data.clear_geometry()
+        child.data.update()
+    for key in ("tussock_layout", "tussock_capacity"):
+        child.data.pop(key, None)
+
+
+def empty_extra_chunks(obj):
+    """Leaves only the first chunk with blades (a bake's layout lives there alone)."""
+    for child in extra_chunks(obj):
+        _empty(child)
+
+
+def chunk_ranges(nb):
+    """The active blades of each chunk, as ranges: CHUNKS nearly equal parts in order."""
+    return [range(i * nb // CHUNKS, (i + 1) * nb // CHUNKS) for i in range(CHUNKS)]
+
+
+def chunk_positions(obj):
+    """Vertex positions of the simulated blades, all chunks in order (float32, 3 per
+    vertex; each chunk's unused room at the end of its part)."""
+    parts = []
+    for child in [bpy.data.objects.get(f"{obj.name} blades")] + extra_chunks(obj):
+        if child is None:
+            continue
+        a = np.empty(len(child.data.vertices) * 3, np.float32)
+        child.data.vertices.foreach_get("co", a)
+        parts.append(a)
+    return parts
+
+
+def active_ribbons(obj):
+    """Ribbon vertex positions of the active simulated blades, in the solver's order across
+    the chunks (float32, 2 * K * 3 per blade); each chunk's spare room must be zero."""
+    pb = _cache.get(obj.name)
+    nb = int(obj.get("tussock_active_blades", 0))
+    if pb is None or nb == 0:
+        return np.zeros(0, np.float32)
+    per = 2 * pb.runner.K * 3
+    parts = chunk_positions(obj)
+    out = []
+    for i, part in enumerate(chunk_ranges(nb)):
+        v = parts[i] if i < len(parts) else np.zeros(0, np.float32)
+        n = len(part) * per
+        if len(v) < n or v[n:].any():
+            raise AssertionError(f"chunk {i + 1} does not hold exactly its {len(part)} blades")
+        out.append(v[:n])
+    return np.concatenate(out)
+
+
+def _write_chunk(child, pb, i, blades, k, knots, rand, ribbon, layout_changed):
+    """Writes blades [blades.start, blades.stop) of the active ones into chunk `child`."""
     lib = native.require()
-    r = pb.runner
-    k = r.K
-    tiles, counts = r.active()
-    nb = int(counts.sum())
-    child = blades_object(obj)
     mesh = child.data
+    nb = blades.stop - blades.start
     capacity = mesh.get("tussock_capacity") or 0
     if not capacity or nb > capacity or nb < capacity // 4:
         want = max(nb, capacity * 3 // 2) if nb > capacity else nb  # grow by half at least
         capacity = max(1, -(-want // CAPACITY_BLOCK)) * CAPACITY_BLOCK
-    layout = tiles.tobytes()
     fresh = (mesh.get("tussock_layout") != "live" or mesh.get("tussock_capacity") != capacity
              or len(mesh.vertices) != capacity * 2 * k)
     if fresh:
         ribbon_topology(mesh, capacity, k)
         mesh["tussock_layout"] = "live"
         mesh["tussock_capacity"] = capacity
-    if fresh or pb.written != layout:
-        set_blade_rand(mesh, r.per_blade(tiles, 2), k)
+    pos = pb.pos.get(i)
+    if fresh or layout_changed or pos is None or len(pos) != capacity * 2 * k * 3:
+        set_blade_rand(mesh, rand[blades.start:blades.stop], k)
+        pos = pb.pos[i] = np.zeros(capacity * 2 * k * 3, np.float32)
+    if nb:
+        a, b = blades.start, blades.stop
+        lib.blades_expand(knots[a * k * 3:b * k * 3], ribbon[0][a:b].ravel(),
+                          ribbon[1][a:b].ravel(), k, pos[:nb * 2 * k * 3], None, None)
+    mesh.vertices.foreach_set("co", pos)
+    mesh.update()
+
+
+def write(obj, pb):
+    """Writes the simulated blades into the meadow's dynamic meshes and hides the instances
+    of their tiles. The blades are shared evenly among CHUNKS objects, which Blender
+    evaluates in parallel. Per frame only vertex positions change; a chunk's
+    topology, the per-blade colour and the hidden instances change only when the set of
+    active tiles does. Unused blade slots collapse to zero-area quads."""
+    r = pb.runner
+    k = r.K
+    tiles, counts = r.active()
+    nb = int(counts.sum())
+    layout = tiles.tobytes()
+    layout_changed = pb.written != layout
+    if layout_changed:
         pb.written = layout
         pb.hidden = np.isin(pb.instance_tile, tiles)
-        pb.pos = np.zeros(capacity * 2 * k * 3, np.float32)
-        pb.ribbon = (r.per_blade(tiles, 0), r.per_blade(tiles, 1))
+        pb.rand = r.per_blade(tiles, 2)
+        pb.ribbon = tuple(np.ascontiguousarray(r.per_blade(tiles, w).reshape(nb, -1))
+                          if nb else r.per_blade(tiles, w) for w in (0, 1))
+    if pb.pos is None:
+        pb.pos = {}
     set_hidden(obj, pb.hidden)  # (checked every frame: rebuilding the meadow clears it)
-    if nb:
-        lib.blades_expand(r.knots(), pb.ribbon[0], pb.ribbon[1], k, pb.pos[:nb * 2 * k * 3],
-                          None, None)
-    mesh.vertices.foreach_set("co", pb.pos)
-    mesh.update()
+    knots = r.knots() if nb else None
+    for i, blades in enumerate(chunk_ranges(nb)):
+        _write_chunk(chunk_object(obj, i), pb, i, blades, k, knots, pb.rand, pb.ribbon,
+                     layout_changed)
+    for child in extra_chunks(obj)[CHUNKS - 1:]:  # chunks of a larger CHUNKS: unused
+        _empty(child)
     obj["tussock_active_tiles"] = len(tiles)
     obj["tussock_active_blades"] = nb
 

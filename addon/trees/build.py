@@ -30,13 +30,15 @@ def _key(d, settings):
 
 
 def compute(settings):
-    """Native work for a tree: generate, mesh topology, rest pose. No Blender data touched."""
+    """Native work for a tree: generate, mesh topology. No Blender data touched. The rest
+    pose is left to rest_positions(): Blender gets the tree posed (write_posed)."""
     d = definition(settings)
-    return compute_from(d, settings.smooth_levels, _key(d, settings))
+    return compute_from(d, settings.smooth_levels, _key(d, settings), rest=False)
 
 
-def compute_from(d, smooth_levels, key=""):
-    """compute() from plain values (usable off the main thread)."""
+def compute_from(d, smooth_levels, key="", rest=True):
+    """compute() from plain values (usable off the main thread); `rest`: deform the rest
+    pose into data["positions"] now (else on demand, rest_positions())."""
     lib = native.require()
     tree = lib.tree_create(d)
     counts = lib.tree_counts(tree)
@@ -47,11 +49,12 @@ def compute_from(d, smooth_levels, key=""):
     edges, corner_edges = np.empty(nq * 8, np.int32), np.empty(nq * 4, np.int32)
     ne = lib.tree_mesh_edges(tree, edges, corner_edges, leaves=True)
     positions = np.empty(nv * 3, np.float32)
-    lib.tree_mesh_deform(tree, positions, leaves=True)
+    if rest:
+        lib.tree_mesh_deform(tree, positions, leaves=True)
     leaf_quads = counts["leaves"]
     data = dict(key=key, tree=tree, counts=counts, faces=faces.reshape(-1, 4),
                 uvs=uvs, positions=positions, leaf_quads=leaf_quads, smooth=None,
-                edges=(ne, edges, corner_edges))
+                edges=(ne, edges, corner_edges), rest_ready=rest)
     tips = np.empty(counts["branches"] * 3, np.float32)
     lib.tree_tips(tree, tips)
     data["rest_tips"] = tips.reshape(-1, 3)
@@ -66,30 +69,44 @@ def compute_from(d, smooth_levels, key=""):
     return data
 
 
-def _mesh_arrays(data, positions):
-    """(vertex positions (V, 3), quads (Q, 4), uvs per corner or None, edges for
-    meshes.set_faces or None) for the mesh, with the smoothed branches when the tree is
-    smooth."""
+def rest_positions(data):
+    """The tree's rest pose, cage vertices (float32, 3 per vertex), deformed on first use."""
+    if not data["rest_ready"]:
+        lib = native.require()
+        lib.tree_reset(data["tree"])
+        lib.tree_mesh_deform(data["tree"], data["positions"], leaves=True)
+        data["rest_ready"] = True
+    return data["positions"]
+
+
+def _topology(data):
+    """(quads (Q, 4), uvs per corner or None, edges for meshes.set_faces or None) of the
+    mesh, with the smoothed branches when the tree is smooth."""
     if data["smooth"] is None:
-        return positions.reshape(-1, 3), data["faces"], data["uvs"], data["edges"]
+        return data["faces"], data["uvs"], data["edges"]
+    s = data["smooth"]
+    leaf_faces = data["faces"][s["cage_quads"]:] - s["cage_vertices"] + s["vertices"]
+    return np.concatenate([s["faces"], leaf_faces]), None, None
+
+
+def _vertices(data, positions):
+    """Mesh vertex positions (V, 3) for cage `positions`, refined when the tree is smooth."""
+    if data["smooth"] is None:
+        return positions.reshape(-1, 3)
     lib = native.require()
     s = data["smooth"]
     cage = np.ascontiguousarray(positions[:s["cage_vertices"] * 3])
     refined = np.empty(s["vertices"] * 3, np.float32)
     lib.subdiv_apply(s["handle"], cage, refined)
     leaves_pos = positions[s["cage_vertices"] * 3:].reshape(-1, 3)
-    leaf_faces = data["faces"][s["cage_quads"]:] - s["cage_vertices"] + s["vertices"]
-    verts = np.concatenate([refined.reshape(-1, 3), leaves_pos])
-    quads = np.concatenate([s["faces"], leaf_faces])
-    return verts, quads, None, None
+    return np.concatenate([refined.reshape(-1, 3), leaves_pos])
 
 
 def write(obj, data, positions=None):
     """Replaces the object's mesh with the tree's (materials: bark 0, leaves 1), its vertices
-    at `positions` (a pose from posed_vertices) or else at rest."""
-    verts, quads, uvs, edges = _mesh_arrays(data, data["positions"])
-    if positions is not None:
-        verts = positions
+    at `positions` (mesh vertices from posed_vertices) or else at rest."""
+    quads, uvs, edges = _topology(data)
+    verts = positions if positions is not None else _vertices(data, rest_positions(data))
     mesh = obj.data
     mesh.clear_geometry()
     mesh.vertices.add(len(verts))
@@ -153,7 +170,7 @@ def posed_vertices(data, matrix_world, strength, wind_sample, out=None):
         lib.tree_wind_step(tree, force.ravel(), mode=1, strength=float(strength))
     positions = out if out is not None else np.empty(len(data["positions"]), np.float32)
     lib.tree_mesh_deform(tree, positions, leaves=True)
-    return _mesh_arrays(data, positions)[0]
+    return _vertices(data, positions)
 
 
 def _posed(obj, data, scene, frame, matrix_world):
