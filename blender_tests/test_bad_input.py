@@ -498,9 +498,10 @@ def test_simulation_bad_settings_are_reported_and_change_nothing():
             (prop, getattr(s, prop))
         expect_sim_error(scene, meadow, needle)
         setattr(s, prop, old)
-    # the time step: two steps per frame at fps / fps_base; 0.1 fps gives 5 s steps
-    scene.render.fps, scene.render.fps_base = 1, 10.0
-    expect_sim_error(scene, meadow, "dt")
+    # the time step: at least two steps per frame, none longer than 1/20 s; below 1/12 fps
+    # a frame would take more than 240 steps, refused with the lowest usable rate
+    scene.render.fps, scene.render.fps_base = 1, 20.0
+    expect_sim_error(scene, meadow, "use at least 0.0833 fps")
     scene.render.fps, scene.render.fps_base = 24, 1.0
     # colliders: huge (beyond 1000 km) or NaN-sized objects
     ball.scale = (1e30, 1e30, 1e30)

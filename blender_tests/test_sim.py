@@ -294,4 +294,20 @@ def test_bad_simulation_settings_are_reported():
     assert meadow.tussock_meadow.last_error == ""
 
 
+@test
+def test_slow_motion_frame_rates_take_more_steps_not_an_error():
+    """Two solver steps per frame at ordinary rates, more when a step would exceed 1/20 s
+    (a 5 fps time-lapse takes 4), and the blades still bend under the ball."""
+    assert [simulate.steps_per_frame(f) for f in (60.0, 24.0, 10.0, 5.0, 1.0)] == [2, 2, 2, 4, 20]
+    scene, meadow, ball = rolling_ball_scene()
+    scene.render.fps = 5
+    for f in (1, 2, 3):
+        scene.frame_set(f)
+        assert meadow.tussock_meadow.last_error == "", meadow.tussock_meadow.last_error
+    assert meadow["tussock_active_blades"] > 0
+    assert np.isfinite(blade_knots(meadow)).all()
+    rest = rest_knots(meadow)
+    assert np.abs(blade_knots(meadow).reshape(rest.shape) - rest).max() > 1e-3  # bent
+
+
 harness.main()

@@ -14,6 +14,8 @@ is dropped and they are taken half as often, so they keep covering the whole tim
 The simulation itself (Runner) holds no Blender data, so the bake worker thread runs the
 very same steps and gets the same bytes."""
 
+import math
+
 import bpy
 import numpy as np
 
@@ -21,7 +23,9 @@ from .. import compat, handlers, meshes, native
 from ..wind import runtime as wind_runtime
 from . import build, material
 
-STEPS_PER_FRAME = 2
+STEPS_PER_FRAME = 2  # solver steps per frame, more at low frame rates (steps_per_frame)
+MAX_STEP_SECONDS = 1.0 / 20.0  # a step is never longer
+MAX_STEPS_PER_FRAME = 240  # below 1/12 fps a frame would take more: refused with a message
 SNAPSHOT_EVERY = 10  # frames between snapshots of the solver state (counted from frame_start)
 SNAPSHOT_BUDGET = 256 << 20  # bytes of snapshots kept per meadow
 CAPACITY_BLOCK = 1024  # the dynamic mesh has room for a whole number of blocks of blades;
@@ -79,6 +83,21 @@ def colliders(scene, coll, depsgraph=None):
             d = axes[:, order[2]] / half[order[2]] * max(half[order[2]] - r, 0.0)
             rows.append((1, r, *(centre - d), *(centre + d)))
     return np.array(rows, np.float32).reshape(-1, 8)
+
+
+def steps_per_frame(fps):
+    """Solver steps for one frame at `fps`: STEPS_PER_FRAME, or more so that no step is
+    longer than MAX_STEP_SECONDS (a slow-motion or time-lapse frame rate). A ValueError with
+    the lowest usable rate when a frame would need more than MAX_STEPS_PER_FRAME."""
+    if not (fps > 0.0 and math.isfinite(fps)):
+        raise ValueError(f"the scene's frame rate ({fps:g} fps) must be a positive number")
+    steps = max(STEPS_PER_FRAME, math.ceil(1.0 / (fps * MAX_STEP_SECONDS) - 1e-9))
+    if steps > MAX_STEPS_PER_FRAME:
+        lowest = 1.0 / (MAX_STEPS_PER_FRAME * MAX_STEP_SECONDS)
+        raise ValueError(f"the scene's frame rate, {fps:g} fps, is too low to simulate blades "
+                         f"(a frame would take {steps} solver steps); use at least "
+                         f"{lowest:.3g} fps (Output Properties > Frame Rate)")
+    return steps
 
 
 class Runner:
@@ -162,14 +181,15 @@ class Runner:
         return np.zeros((0, 3) if what == 3 else 0, np.float32)
 
     def step(self, frame, rows, fps, wind_at):
+        steps = steps_per_frame(fps)
         """Steps from frame - 1 to `frame` with the collider rows of `frame` and the wind
         wind_at(frame, xyz (n, 3)) -> (n, 3) m/s."""
         lib, sim = self.lib, self.sim
         lib.blade_sim_set_colliders(sim, np.ascontiguousarray(rows, np.float32).ravel())
         self._provide_pending()
-        dt = 1.0 / fps / STEPS_PER_FRAME
+        dt = 1.0 / fps / steps
         wind, layout, n = self._wind(frame, wind_at)
-        for _ in range(STEPS_PER_FRAME):
+        for _ in range(steps):
             if lib.blade_sim_info(sim)["active_blades"] != n:  # a step released a tile
                 wind, layout, n = self._wind(frame, wind_at)
             lib.blade_sim_step(sim, dt, wind, layout)
