@@ -50,7 +50,7 @@ static int scene_make(scene* sc, int32_t tiles, int32_t objects) {
     d.tiles_x = side, d.tiles_y = side;
     d.knot_count = KNOTS;
     d.iterations = 4;
-    d.rest_frames = 1 << 30; /* keep every tile active for the benchmark */
+    d.rest_frames = d.settle_frames = 1 << 30; /* keep every tile active for the benchmark */
     if (tsk_blade_sim_create(&d, &sc->sim) != TSK_OK) return 0;
     static float knots[BLADES_PER_TILE * KNOTS * 3], widths[BLADES_PER_TILE * KNOTS],
         sides[BLADES_PER_TILE * 3];

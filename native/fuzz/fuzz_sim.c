@@ -47,6 +47,8 @@ static void fuzz_def(fz* r, tsk_blade_sim_def* d) {
     d->rest_speed = fz_float(r, d->rest_speed);
     d->rest_frames = fz_int(r, (fz_u8(r) & 1) ? 2 : d->rest_frames);
     d->blend_frames = fz_int(r, (fz_u8(r) & 1) ? 1 : d->blend_frames);
+    d->settle_frames = fz_int(r, (fz_u8(r) & 1) ? 3 : d->settle_frames);
+    d->settle_blend_frames = fz_int(r, (fz_u8(r) & 1) ? 2 : d->settle_blend_frames);
 }
 
 /* A point over the grid: tile (i, j) picked by the bytes, a fraction inside it. */
@@ -109,7 +111,7 @@ static void dump_def(const tsk_blade_sim_def* d) {
     fprintf(stderr,
             "def: origin %g %g %g tile %g tiles %d x %d K %d gravity %g %g %g preload %g "
             "damping %g drag %g density %g stiff %g %g local %g it %d ground %g margin %g "
-            "act %g maxh %g rest %g %g frames %d %d\n",
+            "act %g maxh %g rest %g %g frames %d %d settle %d %d\n",
             (double)d->origin[0], (double)d->origin[1], (double)d->origin[2],
             (double)d->tile_size, d->tiles_x, d->tiles_y, d->knot_count, (double)d->gravity[0],
             (double)d->gravity[1], (double)d->gravity[2], (double)d->gravity_preload,
@@ -118,7 +120,7 @@ static void dump_def(const tsk_blade_sim_def* d) {
             (double)d->local_stiffness, d->iterations, (double)d->ground_height,
             (double)d->collision_margin, (double)d->activation_margin,
             (double)d->max_blade_height, (double)d->rest_distance, (double)d->rest_speed,
-            d->rest_frames, d->blend_frames);
+            d->rest_frames, d->blend_frames, d->settle_frames, d->settle_blend_frames);
 }
 
 static void check_state(const tsk_blade_sim* sim, const tsk_blade_sim_def* d) {

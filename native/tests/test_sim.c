@@ -92,7 +92,7 @@ static tsk_blade_sim_def big_tile_def(void) {
     def.tile_size = 4.0f;
     def.tiles_x = def.tiles_y = 1;
     def.collision_margin = 0.0f;
-    def.rest_frames = 1000000; /* never release during these tests */
+    def.rest_frames = def.settle_frames = 1000000; /* never release during these tests */
     return def;
 }
 
@@ -367,7 +367,7 @@ static void run_scene(int threads, float* out, size_t* out_count) {
     CHECK(tsk_set_threads(threads) == TSK_OK);
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
     def.tiles_x = def.tiles_y = 6;
-    def.rest_frames = 1000000;
+    def.rest_frames = def.settle_frames = 1000000;
     tsk_blade_sim* sim = NULL;
     CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
     enum { NB = 40 };
@@ -551,6 +551,78 @@ TEST(test_sim_tile_activates_then_releases_and_frees_memory) {
     free(last);
     tsk_blade_sim_destroy(sim);
     CHECK(tsk_allocated_bytes() == before);
+}
+
+/* In a steady breeze a touched tile never gets quiet (its blades stay bent more than
+ * rest_distance), yet once untouched for settle_frames steps it blends back to rest over
+ * settle_blend_frames steps, without a jump, and is freed: the simulated set does not only
+ * grow as colliders pass through a windy meadow. */
+TEST(test_sim_tile_in_steady_wind_settles_and_is_freed) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.tiles_x = def.tiles_y = 4;
+    def.settle_frames = 120;
+    def.settle_blend_frames = 40;
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    if (!sim) return;
+    const size_t baseline = tsk_allocated_bytes();
+    tsk_blade_collider c = {TSK_COLLIDER_SPHERE, 0.1f, {0.75f, 0.75f, 0.2f}, {0, 0, 0}};
+    CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+    CHECK(tsk_blade_sim_pending_count(sim) == 1);
+    enum { NB = 32 };
+    static float knots[NB * K16 * 3], rest[NB * K16 * 3], widths[NB * K16], sides[NB * 3];
+    static float now[NB * K16 * 3], prev[NB * K16 * 3];
+    const int32_t tile = 1 * 4 + 1;
+    tile_blades(&def, tile, NB, knots, widths, sides);
+    memcpy(rest, knots, sizeof rest);
+    CHECK(tsk_blade_sim_provide_tile(sim, tile, NB, knots, widths, sides) == TSK_OK);
+    const float wind[3] = {6.0f, 0.0f, 0.0f};
+    const float dt = 1.0f / 48.0f;
+    for (int s = 0; s < 20; ++s) CHECK(tsk_blade_sim_step(sim, dt, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    CHECK(tsk_blade_sim_set_colliders(sim, NULL, 0) == TSK_OK);
+    int released_at = -1, blend_began = -1;
+    double bent = 0.0, jump = 0.0, wind_step = 0.0, last_gap = 1.0;
+    tsk_blade_sim_info info;
+    CHECK(tsk_blade_sim_get_tile_knots(sim, tile, prev) == TSK_OK);
+    for (int s = 0; s < 400 && released_at < 0; ++s) {
+        CHECK(tsk_blade_sim_step(sim, dt, wind, TSK_WIND_UNIFORM) == TSK_OK);
+        CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
+        if (info.active_tiles == 0) {
+            released_at = s;
+            break;
+        }
+        CHECK(tsk_blade_sim_get_tile_knots(sim, tile, now) == TSK_OK);
+        double gap = 0.0, step = 0.0;
+        for (int i = 0; i < NB * K16 * 3; ++i) {
+            gap = fmax(gap, fabs(now[i] - rest[i]));
+            step = fmax(step, fabs(now[i] - prev[i]));
+        }
+        if (info.blending_tiles > 0) {
+            if (blend_began < 0) blend_began = s;
+            jump = fmax(jump, step);
+        } else if (s > 60) {
+            bent = fmax(bent, gap);          /* settled in the wind, still untouched */
+            wind_step = fmax(wind_step, step);
+        }
+        last_gap = gap;
+        memcpy(prev, now, sizeof prev);
+    }
+    CHECK_MSG(bent > 5.0 * def.rest_distance, "the wind bent the blades only %g m", bent);
+    CHECK_MSG(blend_began >= def.settle_frames - 1 && blend_began <= def.settle_frames + 1,
+              "blend began after %d untouched steps", blend_began);
+    CHECK_MSG(released_at == blend_began + def.settle_blend_frames,
+              "released at step %d, blend began at %d", released_at, blend_began);
+    /* linear blend: no step moves a knot much more than 1/40 of the bend (plus the wind's own
+     * motion), and the last blended state is at rest */
+    CHECK_MSG(jump < bent / def.settle_blend_frames * 2.0 + wind_step + 1e-4,
+              "a knot jumped %g m in one blended step (bend %g m)", jump, bent);
+    CHECK_MSG(last_gap < 1e-3, "released %g m from rest", last_gap);
+    CHECK(info.state_bytes == 0 && tsk_allocated_bytes() == baseline);
+    /* touched again later: simulated again, from rest */
+    c.a[2] = 0.2f;
+    CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+    CHECK(tsk_blade_sim_pending_count(sim) == 1);
+    tsk_blade_sim_destroy(sim);
 }
 
 TEST(test_sim_touched_tile_never_releases) {
@@ -915,6 +987,7 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_wind_per_blade_equals_wind_per_knot),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),
+          TEST_ENTRY(test_sim_tile_in_steady_wind_settles_and_is_freed),
           TEST_ENTRY(test_sim_clone_resumes_with_identical_bytes),
           TEST_ENTRY(test_sim_bad_input_names_the_argument),
           TEST_ENTRY(test_sim_huge_colliders_and_values_are_refused_not_nan),

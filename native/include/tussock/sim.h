@@ -99,6 +99,11 @@ typedef struct tsk_blade_sim_def {
     int32_t rest_frames;      ///< >= 1 (default 30): quiet steps, untouched, before blending back
     int32_t blend_frames;     ///< >= 1 (default 8): steps over which a quiet tile blends linearly
                               ///< back to its exact rest pose; then it is released and freed
+    int32_t settle_frames;    ///< >= 1 (default 120): untouched steps after which a tile blends back
+                              ///< even if it never gets quiet (wind keeps its blades bent or
+                              ///< moving, so the simulated set would otherwise only grow) ...
+    int32_t settle_blend_frames; ///< >= 1 (default 48): ... over this many steps, longer than
+                              ///< blend_frames: the blades may be far from rest
 } tsk_blade_sim_def;
 
 /// Defaults as documented on each field.

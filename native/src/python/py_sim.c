@@ -54,6 +54,8 @@ static const field k_fields[] = {
     FLD(rest_speed, F_FLOAT),
     FLD(rest_frames, F_INT),
     FLD(blend_frames, F_INT),
+    FLD(settle_frames, F_INT),
+    FLD(settle_blend_frames, F_INT),
 };
 #define N_FIELDS (sizeof k_fields / sizeof k_fields[0])
 

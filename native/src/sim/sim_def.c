@@ -27,6 +27,8 @@ tsk_blade_sim_def tsk_default_blade_sim_def(void) {
     d.rest_speed = 0.02f;
     d.rest_frames = 30;
     d.blend_frames = 8;
+    d.settle_frames = 120;
+    d.settle_blend_frames = 48;
     return d;
 }
 
@@ -106,5 +108,11 @@ tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def) {
         return tsk_error_arg(TSK_ERR_ARGUMENT, "rest_frames", "must be >= 1, got %d", def->rest_frames);
     if (def->blend_frames < 1)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "blend_frames", "must be >= 1, got %d", def->blend_frames);
+    if (def->settle_frames < 1)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "settle_frames", "must be >= 1, got %d",
+                             def->settle_frames);
+    if (def->settle_blend_frames < 1)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "settle_blend_frames", "must be >= 1, got %d",
+                             def->settle_blend_frames);
     return TSK_OK;
 }

@@ -58,7 +58,9 @@ typedef struct sim_tile {
     int32_t blade_count;
     int32_t block_count;
     int32_t quiet_frames; /* consecutive quiet, untouched steps */
+    int32_t untouched;    /* consecutive untouched steps, quiet or not */
     int32_t blend_left;   /* > 0: blending back to rest, steps left */
+    int32_t blend_total;  /* steps of the blend under way */
     int32_t touched;      /* touched by a collider (or activate_tile) since the last step */
     float* blocks;        /* block_count blocks (NULL when empty) */
     float* bounds;        /* 6 floats per block: reach box lo xyz, hi xyz */

@@ -5,6 +5,7 @@
 #include "sim/sim_internal.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -352,6 +353,7 @@ tsk_status tsk_blade_sim_activate_tile(tsk_blade_sim* sim, int32_t tile) {
         sim->tiles[slot].touched |= 2;
         sim->tiles[slot].blend_left = 0;
         sim->tiles[slot].quiet_frames = 0;
+        sim->tiles[slot].untouched = 0;
         return TSK_OK;
     }
     if (!insert_i32(&sim->forced, &sim->forced_count, tile)) return TSK_ERR_MEMORY;
@@ -591,6 +593,13 @@ static void step_blocks(size_t begin, size_t end, size_t chunk, void* vctx) {
             }
             wp = wind;
         }
+        if (wp != NULL && t->blend_left > 0) {
+            /* a blending tile feels the wind fade out with the blend, so that its blades come
+             * to rest smoothly rather than being pulled back by the wind until the last step */
+            const float fade = (float)(t->blend_left - 1) / (float)t->blend_total;
+            const size_t nw = (size_t)(ctx->layout == TSK_WIND_PER_KNOT ? K : 1) * 3 * SIM_W;
+            for (size_t i = 0; i < nw; ++i) wind[i] *= fade;
+        }
         const float blend = t->blend_left > 0 ? 1.0f / (float)t->blend_left : 0.0f;
         /* the next block of this chunk, for the kernel to prefetch */
         const float* next = NULL;
@@ -781,12 +790,18 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
             int release = 0;
             if (t->touched) {
                 t->quiet_frames = 0;
+                t->untouched = 0;
                 t->blend_left = 0;
             } else if (t->blend_left > 0) {
                 release = --t->blend_left == 0;
             } else {
                 t->quiet_frames = (md < rd2 && ms < rs2) ? t->quiet_frames + 1 : 0;
-                if (t->quiet_frames >= d->rest_frames) t->blend_left = d->blend_frames;
+                t->untouched += t->untouched < INT32_MAX;
+                if (t->quiet_frames >= d->rest_frames)
+                    t->blend_left = d->blend_frames;
+                else if (t->untouched >= d->settle_frames) /* wind keeps it from resting */
+                    t->blend_left = d->settle_blend_frames;
+                t->blend_total = t->blend_left;
             }
             t->touched &= 1; /* a forced touch lasts one step */
             if (release) release_tile(sim, i);
