@@ -779,6 +779,12 @@ TEST(test_sim_bad_input_names_the_argument) {
     def = tsk_default_blade_sim_def();
     def.iterations = 0;
     CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "iterations");
+    def = tsk_default_blade_sim_def();
+    def.settle_frames = 0;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "settle_frames");
+    def = tsk_default_blade_sim_def();
+    def.settle_blend_frames = -3;
+    CHECK_STATUS(tsk_blade_sim_create(&def, &sim), TSK_ERR_ARGUMENT, "settle_blend_frames");
     CHECK(sim == NULL);
     CHECK_STATUS(tsk_blade_sim_create(NULL, &sim), TSK_ERR_ARGUMENT, "def");
 
