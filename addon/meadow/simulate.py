@@ -388,17 +388,24 @@ def set_hidden(obj, hidden):
         obj.data.update()
 
 
+def _mesh_object(name, meadow, collections):
+    """The mesh object `name`, made (in `collections`) if missing; marked as the meadow's."""
+    child = bpy.data.objects.get(name)
+    made = child is None
+    if made:
+        child = bpy.data.objects.new(name, bpy.data.meshes.new(name))
+        for coll in collections:
+            coll.objects.link(child)
+    child["tussock_meadow_name"] = meadow.name
+    return child, made
+
+
 def blades_object(obj):
     """The meadow's dynamic mesh of simulated blades (created once): its first chunk, the
     one a bake writes."""
-    name = f"{obj.name} blades"
-    child = bpy.data.objects.get(name)
-    if child is None:
-        child = bpy.data.objects.new(name, bpy.data.meshes.new(name))
-        for coll in obj.users_collection:
-            coll.objects.link(child)
+    child, made = _mesh_object(f"{obj.name} blades", obj, obj.users_collection)
+    if made:
         child["tussock_simulated_blades"] = True
-    child["tussock_meadow_name"] = obj.name
     return child
 
 
@@ -409,15 +416,10 @@ def chunk_object(obj, i):
     first = blades_object(obj)
     if i == 0:
         return first
-    name = f"{obj.name} blades {i + 1}"
-    child = bpy.data.objects.get(name)
-    if child is None:
-        child = bpy.data.objects.new(name, bpy.data.meshes.new(name))
-        for coll in first.users_collection:
-            coll.objects.link(child)
+    child, made = _mesh_object(f"{obj.name} blades {i + 1}", obj, first.users_collection)
+    if made:
         child.parent = first
         child["tussock_blades_chunk"] = i
-    child["tussock_meadow_name"] = obj.name
     for prop in ("hide_render", "hide_viewport"):
         if getattr(child, prop) != getattr(first, prop):
             setattr(child, prop, getattr(first, prop))

@@ -436,6 +436,20 @@ static int parse_mesh(PyObject* along, PyObject* around, int leaves, tsk_tree_me
     return 1;
 }
 
+/* The tree and mesh settings of a tree_mesh_* call and the mesh's sizes; NULL with a Python
+ * error set. */
+static tsk_tree* mesh_call(PyObject* cap, PyObject* along, PyObject* around, int leaves,
+                           tsk_tree_mesh_def* m, size_t* nv, size_t* nf) {
+    tsk_tree* t = get_tree(cap);
+    if (t == NULL || !parse_mesh(along, around, leaves, m)) return NULL;
+    tsk_status s = tsk_tree_mesh_count(t, m, nv, nf);
+    if (s != TSK_OK) {
+        tsk_py_raise(s);
+        return NULL;
+    }
+    return t;
+}
+
 static PyObject* py_tree_mesh_count(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
     static char* kwlist[] = {"tree", "along", "around", "leaves", NULL};
@@ -444,12 +458,9 @@ static PyObject* py_tree_mesh_count(PyObject* self, PyObject* args, PyObject* kw
     if (!PyArg_ParseTupleAndKeywords(args, kw, "O|OOp:tree_mesh_count", kwlist, &cap, &along,
                                      &around, &leaves))
         return NULL;
-    tsk_tree* t = get_tree(cap);
     tsk_tree_mesh_def m;
-    if (t == NULL || !parse_mesh(along, around, leaves, &m)) return NULL;
     size_t nv = 0, nf = 0;
-    tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
-    if (s != TSK_OK) return tsk_py_raise(s);
+    if (mesh_call(cap, along, around, leaves, &m, &nv, &nf) == NULL) return NULL;
     return Py_BuildValue("(nn)", (Py_ssize_t)nv, (Py_ssize_t)nf);
 }
 
@@ -461,12 +472,11 @@ static PyObject* py_tree_mesh_topology(PyObject* self, PyObject* args, PyObject*
     if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|OOOp:tree_mesh_topology", kwlist, &cap,
                                      &faces_obj, &uv_obj, &along, &around, &leaves))
         return NULL;
-    tsk_tree* t = get_tree(cap);
     tsk_tree_mesh_def m;
-    if (t == NULL || !parse_mesh(along, around, leaves, &m)) return NULL;
     size_t nv = 0, nf = 0;
-    tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
-    if (s != TSK_OK) return tsk_py_raise(s);
+    tsk_tree* t = mesh_call(cap, along, around, leaves, &m, &nv, &nf);
+    if (t == NULL) return NULL;
+    tsk_status s;
     tsk_py_views v = {.n = 0};
     void *faces, *uv;
     if (!tsk_py_views_get(&v, faces_obj, "faces", TSK_PY_I32, 4 * (Py_ssize_t)nf, 1, 0, &faces) ||
@@ -490,12 +500,11 @@ static PyObject* py_tree_mesh_edges(PyObject* self, PyObject* args, PyObject* kw
     if (!PyArg_ParseTupleAndKeywords(args, kw, "OOO|OOp:tree_mesh_edges", kwlist, &cap,
                                      &edges_obj, &ce_obj, &along, &around, &leaves))
         return NULL;
-    tsk_tree* t = get_tree(cap);
     tsk_tree_mesh_def m;
-    if (t == NULL || !parse_mesh(along, around, leaves, &m)) return NULL;
     size_t nv = 0, nf = 0, count = 0;
-    tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
-    if (s != TSK_OK) return tsk_py_raise(s);
+    tsk_tree* t = mesh_call(cap, along, around, leaves, &m, &nv, &nf);
+    if (t == NULL) return NULL;
+    tsk_status s;
     tsk_py_views v = {.n = 0};
     void *edges, *ce;
     if (!tsk_py_views_get(&v, edges_obj, "edges", TSK_PY_I32, 8 * (Py_ssize_t)nf, 1, 0, &edges) ||
@@ -519,12 +528,11 @@ static PyObject* py_tree_mesh_deform(PyObject* self, PyObject* args, PyObject* k
     if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|OOOp:tree_mesh_deform", kwlist, &cap, &pos_obj,
                                      &nrm_obj, &along, &around, &leaves))
         return NULL;
-    tsk_tree* t = get_tree(cap);
     tsk_tree_mesh_def m;
-    if (t == NULL || !parse_mesh(along, around, leaves, &m)) return NULL;
     size_t nv = 0, nf = 0;
-    tsk_status s = tsk_tree_mesh_count(t, &m, &nv, &nf);
-    if (s != TSK_OK) return tsk_py_raise(s);
+    tsk_tree* t = mesh_call(cap, along, around, leaves, &m, &nv, &nf);
+    if (t == NULL) return NULL;
+    tsk_status s;
     tsk_py_views v = {.n = 0};
     void *pos, *nrm;
     if (!tsk_py_views_get(&v, pos_obj, "positions", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 0, &pos) ||
