@@ -3,8 +3,9 @@
  * (max_branches at most 2000 and max_leaves at most 4000 unless the fuzzed value itself is
  * invalid: cost only), read branches and leaves, take wind steps with fuzzed forces in both
  * modes, measure the attachment gap, and mesh it with a fuzzed tsk_tree_mesh_def (sizes
- * capped at 12: cost), checking that every face index is a vertex and every position is
- * finite; small cages are also smoothed once. */
+ * capped at 12: cost), checking that every face index is a vertex, that the closed-form
+ * edges join each corner to the next and every position is finite; small cages are also
+ * smoothed once. */
 #include "fuzz.h"
 #include "tussock/tree.h"
 
@@ -143,6 +144,22 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (tsk_tree_mesh_topology(t, &md, faces, cuv) != TSK_OK) abort();
         for (size_t i = 0; i < nf * 4; ++i)
             if (faces[i] < 0 || (size_t)faces[i] >= nv) abort();
+        /* the closed-form edges: each corner's edge joins it to the next corner */
+        int32_t* edges = malloc((nf + 1) * 8 * sizeof *edges);
+        int32_t* corner_edges = malloc((nf + 1) * 4 * sizeof *corner_edges);
+        size_t ne = 0;
+        if (tsk_tree_mesh_edges(t, &md, edges, corner_edges, &ne) != TSK_OK) abort();
+        if (ne > nf * 4) abort();
+        for (size_t c = 0; c < nf * 4; ++c) {
+            const int32_t e = corner_edges[c];
+            if (e < 0 || (size_t)e >= ne) abort();
+            const int32_t a = faces[c], b = faces[c % 4 == 3 ? c - 3 : c + 1];
+            if (!((edges[2 * e] == a && edges[2 * e + 1] == b) ||
+                  (edges[2 * e] == b && edges[2 * e + 1] == a)))
+                abort();
+        }
+        free(edges);
+        free(corner_edges);
         if (tsk_tree_mesh_deform(t, &md, pos, nor) != TSK_OK) abort();
         for (size_t i = 0; i < nv * 3; ++i)
             if (!isfinite(pos[i])) abort();
