@@ -376,16 +376,27 @@ def set_blade_rand(mesh, rand, k):
     mesh.attributes["tsk_blade_rand"].data.foreach_set("value", vrand)
 
 
+_hidden_written = {}  # meadow mesh name -> (points serial, the hidden array written)
+
+
 def set_hidden(obj, hidden):
-    """Sets the meadow's point attribute tsk_hidden (instances not drawn) if it differs."""
-    attr = obj.data.attributes.get("tsk_hidden")
+    """Sets the meadow's point attribute tsk_hidden (instances not drawn) if it differs.
+    The same array already written into the same points (chunks.write_points counts them
+    in tussock_points_serial) is not read back: that was a copy of every point per frame."""
+    mesh = obj.data
+    serial = mesh.get("tussock_points_serial")
+    last = _hidden_written.get(mesh.name)
+    if serial is not None and last is not None and last[0] == serial and last[1] is hidden:
+        return
+    attr = mesh.attributes.get("tsk_hidden")
     if attr is None or len(attr.data) != len(hidden):
         return
     current = np.empty(len(hidden), bool)
     attr.data.foreach_get("value", current)
     if not np.array_equal(current, hidden):
         attr.data.foreach_set("value", np.ascontiguousarray(hidden, bool))
-        obj.data.update()
+        mesh.update()
+    _hidden_written[mesh.name] = (serial, hidden)
 
 
 def _mesh_object(name, meadow, collections):
@@ -574,6 +585,7 @@ def on_frame(scene, depsgraph=None):
 
 
 def forget(name=None):
+    _hidden_written.clear()
     if name is None:
         _cache.clear()
     else:
@@ -594,6 +606,13 @@ def _on_load(*_args):
 classes = ()
 
 
+@bpy.app.handlers.persistent
+def _on_undo(*_args):
+    _hidden_written.clear()  # undo may bring back an older tsk_hidden with the same serial
+
+
 def register_extra():
     handlers.add("frame_change_post", _on_frame_change)
     handlers.add("load_post", _on_load)
+    handlers.add("undo_post", _on_undo)
+    handlers.add("redo_post", _on_undo)
