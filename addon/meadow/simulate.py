@@ -399,22 +399,24 @@ def set_hidden(obj, hidden):
     _hidden_written[mesh.name] = (serial, hidden)
 
 
-def _mesh_object(name, meadow, collections):
-    """The mesh object `name`, made (in `collections`) if missing; marked as the meadow's."""
+def _mesh_object(name, meadow, beside):
+    """The mesh object `name`, made if missing in the collections of object `beside`;
+    marked as the meadow's. (users_collection walks every collection: only when made.)"""
     child = bpy.data.objects.get(name)
     made = child is None
     if made:
         child = bpy.data.objects.new(name, bpy.data.meshes.new(name))
-        for coll in collections:
+        for coll in beside.users_collection:
             coll.objects.link(child)
-    child["tussock_meadow_name"] = meadow.name
+    if child.get("tussock_meadow_name") != meadow.name:
+        child["tussock_meadow_name"] = meadow.name
     return child, made
 
 
 def blades_object(obj):
     """The meadow's dynamic mesh of simulated blades (created once): its first chunk, the
     one a bake writes."""
-    child, made = _mesh_object(f"{obj.name} blades", obj, obj.users_collection)
+    child, made = _mesh_object(f"{obj.name} blades", obj, obj)
     if made:
         child["tussock_simulated_blades"] = True
     return child
@@ -427,7 +429,7 @@ def chunk_object(obj, i):
     first = blades_object(obj)
     if i == 0:
         return first
-    child, made = _mesh_object(f"{obj.name} blades {i + 1}", obj, first.users_collection)
+    child, made = _mesh_object(f"{obj.name} blades {i + 1}", obj, first)
     if made:
         child.parent = first
         child["tussock_blades_chunk"] = i
