@@ -117,6 +117,26 @@ def test_nan_input_reports_index():
 
 
 @test
+def test_tree_mesh_edges_buffers_are_checked():
+    """tree_mesh_edges writes 2 edges' worth per corner at most and one edge per corner:
+    buffers of another size, type or a read-only one are refused by name."""
+    tree = lib.tree_create(lib.tree_preset("quaking_aspen"))
+    _, nq = lib.tree_mesh_count(tree, leaves=True)
+    ok_e, ok_c = np.empty(nq * 8, np.int32), np.empty(nq * 4, np.int32)
+    assert 0 < lib.tree_mesh_edges(tree, ok_e, ok_c, leaves=True) <= nq * 4
+    expect_error(lambda: lib.tree_mesh_edges(tree, np.empty(nq * 8 - 1, np.int32), ok_c),
+                 "edges: must have exactly")
+    expect_error(lambda: lib.tree_mesh_edges(tree, ok_e, np.empty(nq * 4, np.float32)),
+                 "corner_edges: must have dtype int32")
+    ro = np.empty(nq * 4, np.int32)
+    ro.setflags(write=False)
+    expect_error(lambda: lib.tree_mesh_edges(tree, ok_e, ro), "corner_edges: must be writable")
+    expect_error(lambda: lib.tree_mesh_edges(tree, ok_e, ok_c, around=[2, 3, 3, 3]),
+                 "around")
+    expect_error(lambda: lib.tree_mesh_edges("a tree", ok_e, ok_c), "tree")
+
+
+@test
 def test_blender_keeps_running_after_errors():
     import bpy
     for _ in range(100):
