@@ -1,7 +1,8 @@
 /* Tree benchmarks (DESIGN.md): tree_wind_262k and tree_wind_65k, million branch updates per
  * second of the seed 001 wind step (eq. 15–17, attach-to-parent); tree_mesh, million deformed
- * vertices (with normals) per second of the seed 001 deformer; plus generation time per
- * preset and the OpenSubdiv stencil application. Medians over repeats. */
+ * vertices (with normals) per second of the seed 001 deformer; tree_mesh_edges, the mesh's
+ * edges in closed form against derived from its faces; plus generation time per preset and
+ * the OpenSubdiv stencil application. Medians over repeats. */
 #define _POSIX_C_SOURCE 200809L /* clock_gettime in bench.h */
 #include "bench.h"
 #include "tussock/tree.h"
@@ -237,10 +238,47 @@ static void bench_generate(int repeats) {
     }
 }
 
+/* tree_mesh_edges: the edges of a tree mesh (black tupelo, branches and leaves) in closed form
+ * (tsk_tree_mesh_edges) against deriving them from its faces (tsk_mesh_edges, the way Blender
+ * would), in the same run. */
+static void bench_mesh_edges(int repeats) {
+    tsk_tree_def d;
+    tsk_tree_preset("black_tupelo", &d);
+    tsk_tree* t = NULL;
+    if (tsk_tree_create(&d, &t) != TSK_OK) {
+        fprintf(stderr, "tree_mesh_edges: %s\n", tsk_last_error());
+        return;
+    }
+    tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
+    size_t nv = 0, nf = 0, ne = 0;
+    tsk_tree_mesh_count(t, &m, &nv, &nf);
+    int32_t* faces = malloc(4 * nf * sizeof(int32_t));
+    int32_t* edges = malloc(8 * nf * sizeof(int32_t));
+    int32_t* ce = malloc(4 * nf * sizeof(int32_t));
+    tsk_tree_mesh_topology(t, &m, faces, NULL);
+    double closed[64], derived[64];
+    for (int r = 0; r < repeats; ++r) {
+        double t0 = bench_now_s();
+        tsk_tree_mesh_edges(t, &m, edges, ce, &ne);
+        closed[r] = bench_now_s() - t0;
+        t0 = bench_now_s();
+        tsk_mesh_edges(faces, nf, 4, (int32_t)nv, edges, ce, &ne);
+        derived[r] = bench_now_s() - t0;
+    }
+    char params[256];
+    snprintf(params, sizeof params,
+             "\"preset\": \"black_tupelo\", \"quads\": %zu, \"edges\": %zu, "
+             "\"derived_ms\": %.3f", nf, ne, bench_median(derived, repeats) * 1e3);
+    bench_emit("tree_mesh_edges", bench_median(closed, repeats) * 1e3, "ms", params, NULL);
+    free(faces), free(edges), free(ce);
+    tsk_tree_destroy(t);
+}
+
 int main(int argc, char** argv) {
     if (bench_wanted(argc, argv, "tree_wind_262k")) bench_wind("tree_wind_262k", 262144, 64, 21);
     if (bench_wanted(argc, argv, "tree_wind_65k")) bench_wind("tree_wind_65k", 65536, 32, 31);
     if (bench_wanted(argc, argv, "tree_mesh")) bench_mesh(15);
+    if (bench_wanted(argc, argv, "tree_mesh_edges")) bench_mesh_edges(15);
     if (bench_wanted(argc, argv, "tree_frame") || bench_wanted(argc, argv, "tree_wind_gap"))
         bench_frame(15);
     if (bench_wanted(argc, argv, "tree_generate")) bench_generate(5);
