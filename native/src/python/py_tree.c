@@ -464,88 +464,77 @@ static PyObject* py_tree_mesh_count(PyObject* self, PyObject* args, PyObject* kw
     return Py_BuildValue("(nn)", (Py_ssize_t)nv, (Py_ssize_t)nf);
 }
 
-static PyObject* py_tree_mesh_topology(PyObject* self, PyObject* args, PyObject* kw) {
-    (void)self;
-    static char* kwlist[] = {"tree", "faces", "uvs", "along", "around", "leaves", NULL};
-    PyObject *cap, *faces_obj, *uv_obj = Py_None, *along = Py_None, *around = Py_None;
-    int leaves = 1;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|OOOp:tree_mesh_topology", kwlist, &cap,
-                                     &faces_obj, &uv_obj, &along, &around, &leaves))
-        return NULL;
-    tsk_tree_mesh_def m;
-    size_t nv = 0, nf = 0;
-    tsk_tree* t = mesh_call(cap, along, around, leaves, &m, &nv, &nf);
-    if (t == NULL) return NULL;
-    tsk_status s;
-    tsk_py_views v = {.n = 0};
-    void *faces, *uv;
-    if (!tsk_py_views_get(&v, faces_obj, "faces", TSK_PY_I32, 4 * (Py_ssize_t)nf, 1, 0, &faces) ||
-        !tsk_py_views_get(&v, uv_obj, "uvs", TSK_PY_F32, 8 * (Py_ssize_t)nf, 1, 1, &uv)) {
-        tsk_py_views_release(&v);
-        return NULL;
-    }
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_tree_mesh_topology(t, &m, faces, uv);
-    Py_END_ALLOW_THREADS
-    tsk_py_views_release(&v);
-    if (s != TSK_OK) return tsk_py_raise(s);
-    Py_RETURN_NONE;
-}
+/* tree_mesh_topology, tree_mesh_edges and tree_mesh_deform: a tree, two arrays sized by the
+ * mesh and the meshing arguments. */
+typedef enum { MESH_TOPOLOGY, MESH_EDGES, MESH_DEFORM } mesh_kind;
+typedef struct mesh_op {
+    mesh_kind kind;
+    const char* format;
+    char* kwlist[7];
+    tsk_py_dtype dtype[2];
+    Py_ssize_t per_vertex[2], per_face[2]; /* elements per vertex and per quad */
+    int optional[2];
+} mesh_op;
 
-static PyObject* py_tree_mesh_edges(PyObject* self, PyObject* args, PyObject* kw) {
-    (void)self;
-    static char* kwlist[] = {"tree", "edges", "corner_edges", "along", "around", "leaves", NULL};
-    PyObject *cap, *edges_obj, *ce_obj, *along = Py_None, *around = Py_None;
+static const mesh_op mesh_ops[] = {
+    {MESH_TOPOLOGY, "OO|OOOp:tree_mesh_topology",
+     {"tree", "faces", "uvs", "along", "around", "leaves", NULL}, {TSK_PY_I32, TSK_PY_F32},
+     {0, 0}, {4, 8}, {0, 1}},
+    {MESH_EDGES, "OOO|OOp:tree_mesh_edges",
+     {"tree", "edges", "corner_edges", "along", "around", "leaves", NULL},
+     {TSK_PY_I32, TSK_PY_I32}, {0, 0}, {8, 4}, {0, 0}},
+    {MESH_DEFORM, "OO|OOOp:tree_mesh_deform",
+     {"tree", "positions", "normals", "along", "around", "leaves", NULL},
+     {TSK_PY_F32, TSK_PY_F32}, {3, 3}, {0, 0}, {0, 1}},
+};
+
+static PyObject* tree_mesh_arrays(PyObject* args, PyObject* kw, const mesh_op* op) {
+    PyObject *cap, *obj[2] = {Py_None, Py_None}, *along = Py_None, *around = Py_None;
     int leaves = 1;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOO|OOp:tree_mesh_edges", kwlist, &cap,
-                                     &edges_obj, &ce_obj, &along, &around, &leaves))
+    if (!PyArg_ParseTupleAndKeywords(args, kw, op->format, (char**)op->kwlist, &cap, &obj[0],
+                                     &obj[1], &along, &around, &leaves))
         return NULL;
     tsk_tree_mesh_def m;
     size_t nv = 0, nf = 0, count = 0;
     tsk_tree* t = mesh_call(cap, along, around, leaves, &m, &nv, &nf);
     if (t == NULL) return NULL;
-    tsk_status s;
     tsk_py_views v = {.n = 0};
-    void *edges, *ce;
-    if (!tsk_py_views_get(&v, edges_obj, "edges", TSK_PY_I32, 8 * (Py_ssize_t)nf, 1, 0, &edges) ||
-        !tsk_py_views_get(&v, ce_obj, "corner_edges", TSK_PY_I32, 4 * (Py_ssize_t)nf, 1, 0, &ce)) {
-        tsk_py_views_release(&v);
-        return NULL;
+    void* a[2];
+    for (int i = 0; i < 2; ++i) {
+        const Py_ssize_t n = op->per_vertex[i] * (Py_ssize_t)nv + op->per_face[i] * (Py_ssize_t)nf;
+        if (!tsk_py_views_get(&v, obj[i], op->kwlist[1 + i], op->dtype[i], n, 1, op->optional[i],
+                              &a[i])) {
+            tsk_py_views_release(&v);
+            return NULL;
+        }
     }
+    tsk_status s;
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_tree_mesh_edges(t, &m, edges, ce, &count);
+    switch (op->kind) {
+    case MESH_TOPOLOGY: s = tsk_tree_mesh_topology(t, &m, a[0], a[1]); break;
+    case MESH_EDGES: s = tsk_tree_mesh_edges(t, &m, a[0], a[1], &count); break;
+    default: s = tsk_tree_mesh_deform(t, &m, a[0], a[1]); break;
+    }
     Py_END_ALLOW_THREADS
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
-    return PyLong_FromSize_t(count);
+    if (op->kind == MESH_EDGES) return PyLong_FromSize_t(count);
+    Py_RETURN_NONE;
+}
+
+static PyObject* py_tree_mesh_topology(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    return tree_mesh_arrays(args, kw, &mesh_ops[MESH_TOPOLOGY]);
+}
+
+static PyObject* py_tree_mesh_edges(PyObject* self, PyObject* args, PyObject* kw) {
+    (void)self;
+    return tree_mesh_arrays(args, kw, &mesh_ops[MESH_EDGES]);
 }
 
 static PyObject* py_tree_mesh_deform(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* kwlist[] = {"tree", "positions", "normals", "along", "around", "leaves", NULL};
-    PyObject *cap, *pos_obj, *nrm_obj = Py_None, *along = Py_None, *around = Py_None;
-    int leaves = 1;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|OOOp:tree_mesh_deform", kwlist, &cap, &pos_obj,
-                                     &nrm_obj, &along, &around, &leaves))
-        return NULL;
-    tsk_tree_mesh_def m;
-    size_t nv = 0, nf = 0;
-    tsk_tree* t = mesh_call(cap, along, around, leaves, &m, &nv, &nf);
-    if (t == NULL) return NULL;
-    tsk_status s;
-    tsk_py_views v = {.n = 0};
-    void *pos, *nrm;
-    if (!tsk_py_views_get(&v, pos_obj, "positions", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 0, &pos) ||
-        !tsk_py_views_get(&v, nrm_obj, "normals", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1, &nrm)) {
-        tsk_py_views_release(&v);
-        return NULL;
-    }
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_tree_mesh_deform(t, &m, pos, nrm);
-    Py_END_ALLOW_THREADS
-    tsk_py_views_release(&v);
-    if (s != TSK_OK) return tsk_py_raise(s);
-    Py_RETURN_NONE;
+    return tree_mesh_arrays(args, kw, &mesh_ops[MESH_DEFORM]);
 }
 
 static PyObject* py_subdiv_create(PyObject* self, PyObject* args) {
