@@ -488,6 +488,8 @@ def test_simulation_bad_settings_are_reported_and_change_nothing():
         ("sim_iterations", -7, "iterations"),
         ("sim_iterations", 1000, "iterations"),
         ("sim_iterations", 2 ** 31 - 1, "iterations"),
+        ("sim_settle_time", NAN, "Settle after"),
+        ("sim_settle_time", -1.0, "Settle after"),
     ]:
         old = getattr(s, prop)
         if value != value:

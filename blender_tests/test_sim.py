@@ -295,6 +295,28 @@ def test_bad_simulation_settings_are_reported():
 
 
 @test
+def test_settle_time_frees_tiles_that_wind_keeps_moving():
+    """In the scene's steady breeze a tile the ball has left never gets still; with a short
+    Settle after it is released behind the ball while the ball rolls on, with a long one the
+    simulated tiles only accumulate."""
+    counts = {}
+    for settle in (0.25, 600.0):
+        scene, meadow, ball = rolling_ball_scene()
+        assert scene.tussock_wind.base_speed > 0.0
+        meadow.tussock_meadow.sim_settle_time = settle
+        seen = []
+        for f in range(1, 49):
+            scene.frame_set(f)
+            assert meadow.tussock_meadow.last_error == "", meadow.tussock_meadow.last_error
+            seen.append(meadow["tussock_active_tiles"])
+        counts[settle] = seen
+    short, long = counts[0.25], counts[600.0]
+    assert all(b >= a for a, b in zip(long, long[1:])), long  # never released
+    assert max(short) > 0 and short[-1] < max(short), short     # released behind the ball
+    assert short[-1] < long[-1], (short[-1], long[-1])
+
+
+@test
 def test_slow_motion_frame_rates_take_more_steps_not_an_error():
     """Two solver steps per frame at ordinary rates, more when a step would exceed 1/20 s
     (a 5 fps time-lapse takes 4), and the blades still bend under the ball."""

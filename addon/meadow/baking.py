@@ -185,7 +185,7 @@ class MeadowJob:
         meadow = build.make_meadow(s, origin, size)
         info = lib.meadow_info(meadow)
         self.K = lib.patch_info(patch)["knot_count"]
-        definition = simulate.sim_definition(s, info, self.K)
+        definition = simulate.sim_definition(s, info, self.K, self.fps)
         blade_rand = np.empty(lib.patch_info(patch)["blade_count"], np.float32)
         lib.rand_fill(s.seed, build.BLADE_RAND_STREAM, blade_rand)
         self.instance_tile = np.empty(info["chunk_instances"], np.int32)

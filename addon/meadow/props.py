@@ -93,6 +93,12 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
                                                  min=0.0, max=100000.0, update=_reset_simulation,
                                                  description="1/s: how strongly each segment "
                                                  "keeps its bend relative to its parent")
+    sim_settle_time: bpy.props.FloatProperty(name="Settle after", default=2.5, min=0.05,
+                                             max=600.0, unit="TIME_ABSOLUTE",
+                                             update=_reset_simulation,
+                                             description="Seconds after the last touch when a "
+                                             "tile that wind keeps moving slides back to rest "
+                                             "and stops being simulated")
 
 
 classes = (TussockMeadowSettings,)

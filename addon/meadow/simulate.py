@@ -48,11 +48,22 @@ def sim_settings(s):
                 global_stiffness_root=s.sim_stiffness, local_stiffness=s.sim_local_stiffness)
 
 
-def sim_definition(s, info, knot_count):
-    """The native solver definition of a meadow (settings `s`, meadow layout `info`)."""
+def settle_steps(s, fps):
+    """Solver steps of the meadow's Settle after time at `fps` (tsk_blade_sim_def's
+    settle_frames)."""
+    t = s.sim_settle_time
+    if not (t > 0.0 and math.isfinite(t)):
+        raise ValueError(f"Settle after: must be a positive number of seconds, got {t:g}")
+    return min(2 ** 31 - 1, max(1, round(t * fps * steps_per_frame(fps))))
+
+
+def sim_definition(s, info, knot_count, fps):
+    """The native solver definition of a meadow (settings `s`, meadow layout `info`) at
+    `fps` frames per second."""
     return dict(origin=tuple(info["origin"]), tile_size=info["tile_size"],
                 tiles_x=info["tiles_x"], tiles_y=info["tiles_y"], knot_count=knot_count,
-                ground_height=info["origin"][2], **sim_settings(s))
+                ground_height=info["origin"][2], settle_frames=settle_steps(s, fps),
+                **sim_settings(s))
 
 
 def colliders(scene, coll, depsgraph=None):
@@ -225,7 +236,8 @@ class Playback:
         blade_rand = np.empty(lib.patch_info(patch)["blade_count"], np.float32)
         lib.rand_fill(s.seed, build.BLADE_RAND_STREAM, blade_rand)
         k = lib.patch_info(patch)["knot_count"]
-        self.runner = Runner(patch, meadow, sim_definition(s, info, k), blade_rand)
+        self.runner = Runner(patch, meadow,
+                             sim_definition(s, info, k, wind_runtime.fps_of(scene)), blade_rand)
         self.key = key
         self.frame_start = scene.frame_start
         self.colliders = {}  # frame -> collider rows recorded when it was played
@@ -307,14 +319,15 @@ class Playback:
 
 def layout_key(obj, scene):
     """What a meadow's simulated blades depend on besides colliders and wind: patch, area,
-    layout and density settings, solver settings and the first frame."""
+    layout and density settings, solver settings, the first frame and the frame rate."""
     s = obj.tussock_meadow
     origin, size = build.area_of(obj, s)
     image = s.density_image.name if s.density_image is not None else None
     return repr((build.patch_key(s), origin, size, sorted(sim_settings(s).items()),
                  s.density, round(s.noise_scale, 6), s.noise_octaves,
                  round(s.noise_threshold, 6), image, s.blades_per_tile, s.chunk_blades,
-                 scene.frame_start, STEPS_PER_FRAME))
+                 scene.frame_start, STEPS_PER_FRAME, s.sim_settle_time,
+                 wind_runtime.fps_of(scene)))
 
 
 def _playback(obj, scene):

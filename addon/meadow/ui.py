@@ -53,6 +53,7 @@ class TUSSOCK_PT_meadow(SubPanel, bpy.types.Panel):
             col.prop(s, "sim_damping")
             col.prop(s, "sim_stiffness")
             col.prop(s, "sim_local_stiffness")
+            col.prop(s, "sim_settle_time")
             box.label(text=f"{obj.get('tussock_active_tiles', 0)} tiles, "
                            f"{obj.get('tussock_active_blades', 0):,} blades simulated")
 
