@@ -295,6 +295,31 @@ def test_bad_simulation_settings_are_reported():
 
 
 @test
+def test_someone_elses_object_with_a_chunk_name_is_never_overwritten():
+    """An object of the artist's that happens to be named like a chunk of the simulated
+    blades: the meadow reports it and leaves it alone; renamed, the simulation runs."""
+    scene, meadow, ball = rolling_ball_scene()
+    meadow.tussock_meadow.use_simulation = False
+    for name in [f"{meadow.name} blades {i}" for i in (2, 3, 4)]:
+        if name in bpy.data.objects:
+            bpy.data.objects.remove(bpy.data.objects[name])
+    bpy.ops.mesh.primitive_cube_add(location=(5.0, 5.0, 0.0))
+    cube = bpy.context.active_object
+    cube.name = f"{meadow.name} blades 3"
+    before = [tuple(v.co) for v in cube.data.vertices]
+    meadow.tussock_meadow.use_simulation = True
+    assert "rename it" in meadow.tussock_meadow.last_error, meadow.tussock_meadow.last_error
+    for f in (1, 2, 3):
+        scene.frame_set(f)
+        assert "rename it" in meadow.tussock_meadow.last_error
+    assert [tuple(v.co) for v in cube.data.vertices] == before and cube.parent is None
+    cube.name = "My cube"
+    scene.frame_set(4)
+    assert meadow.tussock_meadow.last_error == "" and meadow["tussock_active_blades"] > 0
+    assert [tuple(v.co) for v in cube.data.vertices] == before
+
+
+@test
 def test_settle_time_frees_tiles_that_wind_keeps_moving():
     """In the scene's steady breeze a tile the ball has left never gets still; with a short
     Settle after it is released behind the ball while the ball rolls on, with a long one the

@@ -23,8 +23,11 @@ def _rebuild(self, context):
 def _reset_simulation(self, context):
     from . import simulate
     simulate.forget(self.id_data.name)
-    if self.is_meadow and self.use_simulation:
-        simulate.ensure_chunks(self.id_data)  # now, not in the middle of playback
+    if self.is_meadow and self.use_simulation and native.available():
+        try:
+            simulate.ensure_chunks(self.id_data)  # now, not in the middle of playback
+        except ValueError as exc:  # an update callback cannot report: the panel shows it
+            self.last_error = str(exc)
 
 
 DENSITY_ITEMS = [

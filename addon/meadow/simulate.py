@@ -421,8 +421,11 @@ def _mesh_object(name, meadow, beside):
         child = bpy.data.objects.new(name, bpy.data.meshes.new(name))
         for coll in beside.users_collection:
             coll.objects.link(child)
-    if child.get("tussock_meadow_name") != meadow.name:
         child["tussock_meadow_name"] = meadow.name
+    elif child.type != "MESH" or child.get("tussock_meadow_name") != meadow.name:
+        # someone else's object: never overwrite it
+        raise ValueError(f"an object named '{name}' that is not this meadow's simulated "
+                         f"blades is in the way: rename it")
     return child, made
 
 
