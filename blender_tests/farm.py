@@ -13,6 +13,25 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(
 import blender_env  # noqa: E402
 
 
+def bake_refused_in(cache_parent, needle, unmount=False, after=None):
+    """Bakes with the cache in `cache_parent`/tussock_cache: the bake is refused with a
+    message containing `needle` (the scene unchanged is the operator's own promise, checked
+    by expect_cancel). `after()` runs before the cache folder is given back; `unmount`
+    unmounts `cache_parent` (a tmpfs) at the end."""
+    import bpy
+    from harness import expect_cancel
+    from tussock import bake
+    bake.CACHE_DIR_OVERRIDE = os.path.join(cache_parent, "tussock_cache")
+    try:
+        expect_cancel(bpy.ops.tussock.bake, needle)
+        if after is not None:
+            after()
+    finally:
+        bake.CACHE_DIR_OVERRIDE = None
+        if unmount:
+            subprocess.run(["umount", cache_parent])
+
+
 def blender(blend, expr, addon=True):
     """Runs background Blender on a .blend with a python expression (a farm worker)."""
     return blender_env.run_worker(blend, expr, addon)

@@ -7,7 +7,6 @@ meadow's bake brings its live simulation back."""
 
 import os
 import shutil
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -17,7 +16,7 @@ from harness import expect_cancel, test  # noqa: E402
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-from farm import assert_same_caches, bake_killed, blender, cache_files, mount_tmpfs  # noqa: E402,F401
+from farm import assert_same_caches, bake_killed, bake_refused_in, blender, cache_files, mount_tmpfs  # noqa: E402,F401,E501
 
 harness.enable_addon()
 from tussock import bake, native  # noqa: E402
@@ -407,29 +406,15 @@ def test_full_disk_and_read_only_folder_are_reported():
             pass  # the .blend itself may not fit; then save it outside and point the cache in
         if not bpy.data.filepath.startswith(full):
             bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "scene_full.blend"))
-            bake.CACHE_DIR_OVERRIDE = os.path.join(full, "tussock_cache")
-        try:
-            expect_cancel(bpy.ops.tussock.bake, "No space left")
-        finally:
-            bake.CACHE_DIR_OVERRIDE = None
-            subprocess.run(["umount", full])
+            bake_refused_in(full, "No space left", unmount=True)
         assert mount_tmpfs(ro, "ro,size=64k")
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "scene_ro.blend"))
-        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
-        try:
-            expect_cancel(bpy.ops.tussock.bake, "Read-only file system")
-        finally:
-            bake.CACHE_DIR_OVERRIDE = None
-            subprocess.run(["umount", ro])
+        bake_refused_in(ro, "Read-only file system", unmount=True)
     else:  # not root: a folder without write permission, and a file-size quota
         os.makedirs(ro, exist_ok=True)
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "scene_ro.blend"))
         os.chmod(ro, 0o555)
-        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
-        try:
-            expect_cancel(bpy.ops.tussock.bake, "Permission denied")
-        finally:
-            bake.CACHE_DIR_OVERRIDE = None
+        bake_refused_in(ro, "Permission denied")
 
 
 harness.main()

@@ -21,7 +21,7 @@ from harness import expect_cancel, test  # noqa: E402
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-from farm import assert_same_caches, bake_killed, blender, cache_files, mount_tmpfs  # noqa: E402,F401
+from farm import assert_same_caches, bake_killed, bake_refused_in, blender, cache_files, mount_tmpfs  # noqa: E402,F401,E501
 
 harness.enable_addon()
 from tussock import bake, native  # noqa: E402
@@ -409,43 +409,28 @@ def test_read_only_folder_and_full_disk_are_reported_with_the_scene_unchanged():
     scene = bpy.context.scene
     ro, full = os.path.join(TMP, "pic_ro"), os.path.join(TMP, "pic_full")
     if os.geteuid() == 0 and mount_tmpfs(ro, "ro,size=64k"):
-        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
-        try:
-            expect_cancel(bpy.ops.tussock.bake, "Read-only file system")
-        finally:
-            bake.CACHE_DIR_OVERRIDE = None
-            subprocess.run(["umount", ro])
+        bake_refused_in(ro, "Read-only file system", unmount=True)
         # the cache's folders exist but the disk became read-only: the frame writer says so
         assert mount_tmpfs(ro, "size=64k")
         for sub in (picture_bake.base_name(scene), picture_bake.uv_name(scene, 1),
                     picture_bake.uv_name(scene, 2)):
             os.makedirs(os.path.join(ro, "tussock_cache", sub))
         subprocess.run(["mount", "-o", "remount,ro", ro], check=True)
-        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
-        try:
-            expect_cancel(bpy.ops.tussock.bake, "background.exr': Read-only file system")
-        finally:
-            bake.CACHE_DIR_OVERRIDE = None
-            subprocess.run(["umount", ro])
+        bake_refused_in(ro, "background.exr': Read-only file system", unmount=True)
         # a disk that fills during the bake: one 320x240 float frame is ~1 MB
         assert mount_tmpfs(full, "size=2m")
         os.makedirs(os.path.join(full, "tussock_cache"))
-        bake.CACHE_DIR_OVERRIDE = os.path.join(full, "tussock_cache")
-        try:
-            expect_cancel(bpy.ops.tussock.bake, "No space left on device")
+
+        def no_temporary_file_left():
             left = [f for _, _, fs in os.walk(full) for f in fs if ".tmp" in f]
-            assert left == [], left  # no temporary file left behind
-        finally:
-            bake.CACHE_DIR_OVERRIDE = None
-            subprocess.run(["umount", full])
+            assert left == [], left
+
+        bake_refused_in(full, "No space left on device", unmount=True,
+                        after=no_temporary_file_left)
     else:  # not root: a folder without write permission
         os.makedirs(ro, exist_ok=True)
         os.chmod(ro, 0o555)
-        bake.CACHE_DIR_OVERRIDE = os.path.join(ro, "tussock_cache")
-        try:
-            expect_cancel(bpy.ops.tussock.bake, "Permission denied")
-        finally:
-            bake.CACHE_DIR_OVERRIDE = None
+        bake_refused_in(ro, "Permission denied")
     assert shows_live(scene) and picture_bake.RECORD not in scene
 
 
