@@ -11,7 +11,6 @@ from harness import test  # noqa: E402
 import numpy as np  # noqa: E402
 
 harness.enable_addon()
-import tussock  # noqa: E402  (the add-on package, linked by run.py)
 from tussock import native  # noqa: E402
 
 lib = native.require()

@@ -14,7 +14,6 @@ import numpy as np  # noqa: E402
 
 harness.enable_addon()
 from tussock import native  # noqa: E402
-from tussock.meadow import build  # noqa: E402
 
 lib = native.require()
 

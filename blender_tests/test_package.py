@@ -1,7 +1,6 @@
 """./build.sh package output: the legacy zip installs with addon_install and enables in
 background Blender; the extension zip carries a valid blender_manifest.toml."""
 
-import glob
 import os
 import sys
 import tomllib
