@@ -28,10 +28,10 @@ MAX_STEP_SECONDS = 1.0 / 20.0  # a step is never longer
 MAX_STEPS_PER_FRAME = 240  # below 1/12 fps a frame would take more: refused with a message
 SNAPSHOT_EVERY = 10  # frames between snapshots of the solver state (counted from frame_start)
 SNAPSHOT_BUDGET = 256 << 20  # bytes of snapshots kept per meadow
-CAPACITY_BLOCK = 1024  # the dynamic mesh has room for a whole number of blocks of blades;
-                       # it grows by half at least and shrinks only below a quarter full, so
-                       # that its topology (rebuilding it costs Blender about as much as five
-                       # frames) changes seldom while tiles come and go
+CAPACITY_BLOCK = 256  # a dynamic mesh has room for a whole number of blocks of blades;
+                      # it grows by half at least and shrinks only below a quarter full, so
+                      # that its topology (rebuilding it costs Blender about as much as five
+                      # frames) changes seldom while tiles come and go
 CHUNKS = 4  # dynamic-mesh objects the simulated blades are shared among, evenly: Blender
             # evaluates separate objects on separate threads, and re-evaluating one
             # 655,000-vertex mesh per frame was most of a frame (docs/performance.md,
@@ -471,18 +471,27 @@ def extra_chunks(obj):
     return found
 
 
-def _empty(child):
-    if len(child.data.vertices):
-        child.data.clear_geometry()
-        child.data.update()
-    for key in ("tussock_layout", "tussock_capacity"):
-        child.data.pop(key, None)
+def _collapse(child, pb=None, i=None):
+    """Shows no blade in a chunk: every vertex at the origin (zero-area quads, which render
+    nothing). Its topology stays: clearing a mesh to no vertices mid-playback makes
+    Blender's rigid-body world take another path (test_sim's snapshot test)."""
+    mesh = child.data
+    n = len(mesh.vertices) * 3
+    if n:
+        co = np.empty(n, np.float32)
+        mesh.vertices.foreach_get("co", co)
+        if co.any():
+            mesh.vertices.foreach_set("co", np.zeros(n, np.float32))
+            mesh.update()
+    if pb is not None and pb.pos is not None:
+        pb.pos.pop(i, None)  # the next write starts this chunk's buffer afresh
 
 
 def empty_extra_chunks(obj):
     """Leaves only the first chunk with blades (a bake's layout lives there alone)."""
-    for child in extra_chunks(obj):
-        _empty(child)
+    pb = _cache.get(obj.name)
+    for i, child in enumerate(extra_chunks(obj), start=1):
+        _collapse(child, pb, i)
 
 
 def chunk_ranges(nb):
@@ -574,8 +583,8 @@ def write(obj, pb):
     for i, blades in enumerate(chunk_ranges(nb)):
         _write_chunk(chunk_object(obj, i), pb, i, blades, k, knots, pb.rand, pb.ribbon,
                      layout_changed)
-    for child in extra_chunks(obj)[CHUNKS - 1:]:  # chunks of a larger CHUNKS: unused
-        _empty(child)
+    for i, child in enumerate(extra_chunks(obj)[CHUNKS - 1:], start=CHUNKS):
+        _collapse(child, pb, i)  # chunks of a larger CHUNKS: unused
     obj["tussock_active_tiles"] = len(tiles)
     obj["tussock_active_blades"] = nb
 
