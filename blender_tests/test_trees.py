@@ -132,6 +132,26 @@ def test_tree_sways_children_stay_attached_frames_repeat():
 
 
 @test
+def test_new_tree_away_from_the_origin_is_posed_where_it_stands():
+    """add_tree writes the tree already bent by the wind where it stands (the 3D cursor),
+    the same bytes the frame handler gives for that frame: the wind is sampled at its tips
+    there, not at the world origin (waves make the two differ)."""
+    fresh()
+    scene = bpy.context.scene
+    windy(scene)
+    scene.frame_set(12)
+    scene.cursor.location = (7.0, -4.0, 0.0)
+    obj = add("black_tupelo", seed=3)
+    made = co(obj)
+    scene.frame_set(12)  # the handler poses it again, with its evaluated matrix
+    assert np.array_equal(co(obj), made)
+    at_origin = build.posed_vertices(build._cache[obj.name], np.identity(4),
+                                     obj.tussock_tree.wind_strength,
+                                     lambda xyz: build.wind_runtime.sample(scene, 12, xyz))
+    assert np.abs(at_origin.ravel() - made).max() > 1e-4  # where it stands matters
+
+
+@test
 def test_smooth_tree_uses_opensubdiv_counts():
     fresh()
     obj = add(leaves=False, smooth_levels=1)

@@ -197,11 +197,12 @@ def pose(obj, scene, frame):
     mesh.update()
 
 
-def write_posed(obj, data, scene, frame):
+def write_posed(obj, data, scene, frame, matrix_world=None):
     """Writes the tree's mesh already bent by the wind at `frame`: one deform and one copy
-    of the vertices, not a rest mesh then a pose. The world matrix is the object's own
-    transform (matrix_basis: a new or rebuilt object may not be evaluated yet)."""
-    m = obj.matrix_world if obj.parent is not None else obj.matrix_basis
+    of the vertices, not a rest mesh then a pose. `matrix_world`: where the tree stands
+    when the object is not evaluated yet (a new object: its matrix_basis); else its
+    evaluated matrix_world."""
+    m = obj.matrix_world if matrix_world is None else matrix_world
     write(obj, data, _posed(obj, data, scene, frame, m))
 
 

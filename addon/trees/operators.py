@@ -37,7 +37,9 @@ class TUSSOCK_OT_add_tree(bpy.types.Operator):
             raise
         obj.location = context.scene.cursor.location
         context.collection.objects.link(obj)
-        build.write_posed(obj, data, context.scene, context.scene.frame_current)
+        # a new object is not evaluated yet: its own transform is where it stands
+        build.write_posed(obj, data, context.scene, context.scene.frame_current,
+                          obj.matrix_basis.copy())
         s.is_tree = True
         for o in context.selected_objects:
             o.select_set(False)
