@@ -263,6 +263,9 @@ tsk_status tsk_tree_mesh_edges(const tsk_tree* t, const tsk_tree_mesh_def* m, in
     s = mesh_sizes(t, m, &nv, &nf);
     if (s != TSK_OK) return s;
     if (nf == 0) return TSK_OK;
+    if (nf > (size_t)INT32_MAX / 4) /* edge and corner indices are int32 */
+        return tsk_error_arg(TSK_ERR_LIMIT, "mesh", "%zu quads have more corners than int32 "
+                             "indices reach; lower mesh.along/around", nf);
     if (edges == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "edges", "is NULL");
     if (corner_edges == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_edges", "is NULL");
     size_t vbase = 0, ebase = 0, f = 0;
