@@ -202,9 +202,14 @@ def test_jumps_resume_from_snapshots_with_the_bytes_of_a_straight_run():
 def test_blades_shared_among_chunk_objects_give_the_same_ribbons():
     """The simulated blades are shared evenly among simulate.CHUNKS objects (children of the
     first, shown and rendered as it is): the same frames give the same ribbons as with one
-    object, and chunks no longer needed are emptied. The objects are made when simulation
-    is switched on, so Bullet's ball rolls the same path as with no simulation at all."""
+    object, and chunks no longer needed show nothing. Fewer than CHUNK_MIN_BLADES per chunk
+    use fewer chunks (lowered to 16 here to split a small scene). The objects are made when
+    simulation is switched on, so Bullet's ball rolls the same path as with no simulation
+    at all."""
     scene, meadow, ball = rolling_ball_scene()
+    assert simulate.chunk_ranges(100) == [range(0, 100)] + [range(100, 100)] * (simulate.CHUNKS - 1)
+    min_blades, simulate.CHUNK_MIN_BLADES = simulate.CHUNK_MIN_BLADES, 16
+    assert [len(r) for r in simulate.chunk_ranges(40)] == [20, 20] + [0] * (simulate.CHUNKS - 2)
     first = bpy.data.objects[f"{meadow.name} blades"]
     extras = simulate.extra_chunks(meadow)
     assert simulate.CHUNKS >= 2 and len(extras) == simulate.CHUNKS - 1
@@ -216,7 +221,7 @@ def test_blades_shared_among_chunk_objects_give_the_same_ribbons():
         knots[f], co[f] = blade_knots(meadow).tobytes(), ribbons(meadow)
         path.append(tuple(ball.matrix_world.translation))
     nb = meadow["tussock_active_blades"]
-    assert nb >= 2 * simulate.CHUNKS
+    assert nb >= 16 * simulate.CHUNKS, nb  # every chunk in use
     assert all(len(o.data.vertices) >= 2 * 16 * (nb // simulate.CHUNKS) for o in extras)
     first.hide_render = True
     scene.frame_set(23)
@@ -231,6 +236,7 @@ def test_blades_shared_among_chunk_objects_give_the_same_ribbons():
         assert all(not positions(o).any() for o in extras)  # unused: no blade shown
     finally:
         simulate.CHUNKS = chunks
+        simulate.CHUNK_MIN_BLADES = min_blades
         simulate.forget()
     # the ball's path with no simulation at all, from a fresh scene
     scene, meadow, ball = rolling_ball_scene()

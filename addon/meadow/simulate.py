@@ -32,6 +32,7 @@ CAPACITY_BLOCK = 256  # a dynamic mesh has room for a whole number of blocks of 
                       # it grows by half at least and shrinks only below a quarter full, so
                       # that its topology (rebuilding it costs Blender about as much as five
                       # frames) changes seldom while tiles come and go
+CHUNK_MIN_BLADES = 1024  # fewer blades than this per chunk: fewer chunks are used
 CHUNKS = 4  # dynamic-mesh objects the simulated blades are shared among, evenly: Blender
             # evaluates separate objects on separate threads, and re-evaluating one
             # 655,000-vertex mesh per frame was most of a frame (docs/performance.md,
@@ -471,10 +472,15 @@ def extra_chunks(obj):
     return found
 
 
+_COLLAPSED = np.zeros(0, np.float32)  # pb.pos[i] of a chunk whose blades are all collapsed
+
+
 def _collapse(child, pb=None, i=None):
     """Shows no blade in a chunk: every vertex at the origin (zero-area quads, which render
     nothing). Its topology stays: clearing a mesh to no vertices mid-playback makes
     Blender's rigid-body world take another path (test_sim's snapshot test)."""
+    if pb is not None and pb.pos is not None and pb.pos.get(i) is _COLLAPSED:
+        return  # already collapsed by this playback
     mesh = child.data
     n = len(mesh.vertices) * 3
     if n:
@@ -484,7 +490,7 @@ def _collapse(child, pb=None, i=None):
             mesh.vertices.foreach_set("co", np.zeros(n, np.float32))
             mesh.update()
     if pb is not None and pb.pos is not None:
-        pb.pos.pop(i, None)  # the next write starts this chunk's buffer afresh
+        pb.pos[i] = _COLLAPSED  # the next write starts this chunk's buffer afresh
 
 
 def empty_extra_chunks(obj):
@@ -495,8 +501,11 @@ def empty_extra_chunks(obj):
 
 
 def chunk_ranges(nb):
-    """The active blades of each chunk, as ranges: CHUNKS nearly equal parts in order."""
-    return [range(i * nb // CHUNKS, (i + 1) * nb // CHUNKS) for i in range(CHUNKS)]
+    """The active blades of each chunk, as ranges in order: nearly equal parts over as many
+    chunks as have CHUNK_MIN_BLADES each (at least one), empty ranges for the rest."""
+    used = max(1, min(CHUNKS, nb // CHUNK_MIN_BLADES))
+    return [range(i * nb // used, (i + 1) * nb // used) if i < used else range(nb, nb)
+            for i in range(CHUNKS)]
 
 
 def chunk_positions(obj):
@@ -536,6 +545,9 @@ def _write_chunk(child, pb, i, blades, k, knots, rand, ribbon, layout_changed):
     lib = native.require()
     mesh = child.data
     nb = blades.stop - blades.start
+    if nb == 0 and mesh.get("tussock_layout") == "live":
+        _collapse(child, pb, i)  # written once: an unchanged mesh costs Blender nothing
+        return
     capacity = mesh.get("tussock_capacity") or 0
     if not capacity or nb > capacity or nb < capacity // 4:
         want = max(nb, capacity * 3 // 2) if nb > capacity else nb  # grow by half at least
