@@ -625,6 +625,49 @@ TEST(test_sim_tile_in_steady_wind_settles_and_is_freed) {
     tsk_blade_sim_destroy(sim);
 }
 
+/* tsk_blade_sim_get_knots (all tiles, in parallel) gives each active tile's knots, as
+ * tsk_blade_sim_get_tile_knots does, in tsk_blade_sim_get_active's order: tiles with full
+ * and partial blocks of blades. */
+TEST(test_sim_all_knots_are_the_tiles_knots_in_order) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.tiles_x = def.tiles_y = 4;
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    if (!sim) return;
+    const int32_t want[3] = {5, 6, 10};
+    const int32_t counts[3] = {70, 1, 64};
+    enum { NB = 70 };
+    static float knots[NB * K16 * 3], widths[NB * K16], sides[NB * 3];
+    for (int i = 0; i < 3; ++i) CHECK(tsk_blade_sim_activate_tile(sim, want[i]) == TSK_OK);
+    int32_t pend[16];
+    const int32_t np = tsk_blade_sim_pending_count(sim);
+    CHECK(np == 3 && tsk_blade_sim_get_pending(sim, pend) == TSK_OK);
+    for (int i = 0; i < np && i < 3; ++i) {
+        const int32_t n = pend[i] == 5 ? counts[0] : pend[i] == 6 ? counts[1] : counts[2];
+        tile_blades(&def, pend[i], n, knots, widths, sides);
+        CHECK(tsk_blade_sim_provide_tile(sim, pend[i], n, knots, widths, sides) == TSK_OK);
+    }
+    const float wind[3] = {3.0f, 1.0f, 0.0f};
+    for (int s = 0; s < 3; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    tsk_blade_sim_info info;
+    CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
+    CHECK(info.active_tiles == 3 && info.active_blades == 135);
+    int32_t tiles[3], tcounts[3];
+    CHECK(tsk_blade_sim_get_active(sim, tiles, tcounts) == TSK_OK);
+    float* all = malloc(sizeof(float) * 135 * K16 * 3);
+    float* one = malloc(sizeof(float) * NB * K16 * 3);
+    CHECK(tsk_blade_sim_get_knots(sim, all) == TSK_OK);
+    size_t off = 0, bad = 0;
+    for (int i = 0; i < 3; ++i) {
+        CHECK(tsk_blade_sim_get_tile_knots(sim, tiles[i], one) == TSK_OK);
+        bad += memcmp(all + off, one, sizeof(float) * (size_t)tcounts[i] * K16 * 3) != 0;
+        off += (size_t)tcounts[i] * K16 * 3;
+    }
+    CHECK_MSG(bad == 0 && off == (size_t)135 * K16 * 3, "%zu tiles differ", bad);
+    free(all), free(one);
+    tsk_blade_sim_destroy(sim);
+}
+
 TEST(test_sim_touched_tile_never_releases) {
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
     def.tiles_x = def.tiles_y = 2;
@@ -993,6 +1036,7 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_wind_per_blade_equals_wind_per_knot),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),
+          TEST_ENTRY(test_sim_all_knots_are_the_tiles_knots_in_order),
           TEST_ENTRY(test_sim_tile_in_steady_wind_settles_and_is_freed),
           TEST_ENTRY(test_sim_clone_resumes_with_identical_bytes),
           TEST_ENTRY(test_sim_bad_input_names_the_argument),

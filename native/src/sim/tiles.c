@@ -851,24 +851,53 @@ tsk_status tsk_blade_sim_get_active(const tsk_blade_sim* sim, int32_t* tiles, in
 
 static void copy_tile_knots(const tsk_blade_sim* sim, const sim_tile* t, float* out) {
     const int32_t K = sim->K;
-    const size_t bf = SIM_BLOCK_FLOATS(K);
-    for (int32_t b = 0; b < t->blade_count; ++b) {
-        const float* P = t->blocks + (size_t)(b / SIM_W) * bf + SIM_OFF_P(K);
-        const int l = b % SIM_W;
-        float* o = out + (size_t)b * K * 3;
-        for (int32_t k = 0; k < K; ++k)
-            for (int c = 0; c < 3; ++c) o[3 * k + c] = P[((size_t)k * 3 + c) * SIM_W + l];
+    const size_t bf = SIM_BLOCK_FLOATS(K), row = (size_t)K * 3;
+    /* block by block, each stored row (knot k, axis c) of SIM_W lanes read in order and
+     * scattered to its blades: a block's output (SIM_W x 3K floats) stays in cache */
+    for (int32_t b0 = 0; b0 < t->blade_count; b0 += SIM_W) {
+        const float* P = t->blocks + (size_t)(b0 / SIM_W) * bf + SIM_OFF_P(K);
+        const int nl = t->blade_count - b0 < SIM_W ? t->blade_count - b0 : SIM_W;
+        float* o = out + (size_t)b0 * row;
+        for (size_t r = 0; r < row; ++r) {
+            const float* src = P + r * SIM_W;
+            for (int l = 0; l < nl; ++l) o[(size_t)l * row + r] = src[l];
+        }
     }
+}
+
+typedef struct knots_ctx {
+    const tsk_blade_sim* sim;
+    const int64_t* offset; /* first float of each tile's knots */
+    float* out;
+} knots_ctx;
+
+static void copy_knots_range(size_t begin, size_t end, size_t chunk, void* vctx) {
+    (void)chunk;
+    const knots_ctx* c = vctx;
+    for (size_t i = begin; i < end; ++i)
+        copy_tile_knots(c->sim, &c->sim->tiles[i], c->out + c->offset[i]);
 }
 
 tsk_status tsk_blade_sim_get_knots(const tsk_blade_sim* sim, float* knots) {
     if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
+    const size_t nt = (size_t)sim->tile_count;
+    int64_t total = 0;
+    for (size_t i = 0; i < nt; ++i) total += sim->tiles[i].blade_count;
+    if (total > 0 && !knots) return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "is NULL");
+    int64_t* offset = nt ? tsk_alloc(nt * sizeof *offset, "knot offsets") : NULL;
     int64_t off = 0;
-    for (int32_t i = 0; i < sim->tile_count; ++i) {
-        if (sim->tiles[i].blade_count > 0 && !knots)
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "is NULL");
-        copy_tile_knots(sim, &sim->tiles[i], knots + off);
+    for (size_t i = 0; i < nt; ++i) {
+        if (offset == NULL) { /* no memory for the table: one tile after another */
+            copy_tile_knots(sim, &sim->tiles[i], knots + off);
+        } else {
+            offset[i] = off;
+        }
         off += (int64_t)sim->tiles[i].blade_count * sim->K * 3;
+    }
+    if (offset != NULL) {
+        knots_ctx c = {sim, offset, knots};
+        tsk_parallel_for(nt, 8, copy_knots_range, &c);
+        tsk_free(offset);
     }
     return TSK_OK;
 }
