@@ -954,6 +954,38 @@ TEST(test_realised_tile_expands_to_the_patch_mesh_moved_to_the_tile) {
     tsk_patch_destroy(p);
 }
 
+/* tsk_blades_expand checks every blade before writing anything (in parallel) and reports
+ * the first bad blade in blade order, whichever input of it is bad. */
+TEST(test_blades_expand_reports_first_bad_blade_and_writes_nothing) {
+    enum { N = 1000, K = 6 };
+    float* knots = malloc(sizeof(float) * N * K * 3);
+    float* widths = malloc(sizeof(float) * N * K);
+    float* sides = malloc(sizeof(float) * N * 3);
+    float* pos = malloc(sizeof(float) * N * K * 6);
+    for (int b = 0; b < N; ++b) {
+        for (int k = 0; k < K; ++k) {
+            knots[3 * (b * K + k)] = (float)b, knots[3 * (b * K + k) + 1] = 0.0f;
+            knots[3 * (b * K + k) + 2] = 0.05f * (float)k;
+            widths[b * K + k] = 0.01f;
+        }
+        sides[3 * b] = 0.0f, sides[3 * b + 1] = 1.0f, sides[3 * b + 2] = 0.0f;
+    }
+    CHECK(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL) == TSK_OK);
+    CHECK(pos[6 * K * 999 + 1] == -0.005f && pos[6 * K * 999 + 4] == 0.005f);
+    knots[3 * (700 * K + 2) + 1] = NAN; /* a later blade's knot */
+    widths[300 * K + 4] = -1.0f;         /* an earlier blade's width */
+    for (int i = 0; i < N * K * 6; ++i) pos[i] = 7.0f;
+    CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL),
+                 TSK_ERR_ARGUMENT, "width 4 of blade 300");
+    int untouched = 1;
+    for (int i = 0; i < N * K * 6; ++i) untouched &= pos[i] == 7.0f;
+    CHECK(untouched);
+    widths[300 * K + 4] = 0.01f;
+    CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL),
+                 TSK_ERR_ARGUMENT, "knot 2 of blade 700");
+    free(knots), free(widths), free(sides), free(pos);
+}
+
 TEST(test_models_from_flat_arrays_split_by_knot_counts) {
     const float xyz[3 * 5] = {1, 1, 0, 1, 1, 0.1f, /* model 0: 2 knots, root moved to 0 */
                               0, 0, 0, 0, 0, 0.2f, 0.1f, 0, 0.3f};
@@ -1123,6 +1155,7 @@ TEST_MAIN(TEST_ENTRY(test_meadow_and_patch_over_memory_budget_are_refused),
           TEST_ENTRY(test_blade_expand_straight_blade_closed_form),
           TEST_ENTRY(test_patch_mesh_identical_bytes_1_and_2_threads),
           TEST_ENTRY(test_realised_tile_expands_to_the_patch_mesh_moved_to_the_tile),
+          TEST_ENTRY(test_blades_expand_reports_first_bad_blade_and_writes_nothing),
           TEST_ENTRY(test_models_from_flat_arrays_split_by_knot_counts),
           TEST_ENTRY(test_meadow_rejects_bad_input_with_messages),
           TEST_ENTRY(test_meadow_and_patch_release_their_memory),

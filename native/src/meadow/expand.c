@@ -141,6 +141,51 @@ static void expand_many(size_t begin, size_t end, size_t chunk, void* vctx) {
                      c->uv ? &c->uv[4 * K * b] : NULL);
 }
 
+/* The first bad input of one blade, as an error; TSK_OK if it has none. */
+static tsk_status report_bad_blade(const float* knots, const float* widths, const float* sides,
+                                   size_t K, size_t b) {
+    for (size_t i = 3 * K * b; i < 3 * K * (b + 1); ++i)
+        if (!isfinite(knots[i]))
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %zu of blade %zu is not finite",
+                                 (i / 3) % K, b);
+    for (size_t i = K * b; i < K * (b + 1); ++i)
+        if (!isfinite(widths[i]) || widths[i] < 0.0f)
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
+                                 "width %zu of blade %zu must be finite and >= 0", i % K, b);
+    const float* s = &sides[3 * b];
+    const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+    if (!isfinite(l2) || !(l2 > 1e-20f))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "sides",
+                             "side of blade %zu must be a finite non-zero vector", b);
+    return TSK_OK;
+}
+
+typedef struct check_ctx {
+    const float *knots, *widths, *sides;
+    size_t K, n;
+    size_t* first_bad; /* per chunk: its first bad blade, or n */
+} check_ctx;
+
+static void check_many(size_t begin, size_t end, size_t chunk, void* vctx) {
+    const check_ctx* c = vctx;
+    c->first_bad[chunk] = c->n;
+    const size_t K = c->K;
+    for (size_t b = begin; b < end; ++b) {
+        int ok = 1;
+        const float* k = &c->knots[3 * K * b];
+        for (size_t i = 0; i < 3 * K; ++i) ok &= isfinite(k[i]) != 0;
+        const float* w = &c->widths[K * b];
+        for (size_t i = 0; i < K; ++i) ok &= isfinite(w[i]) && w[i] >= 0.0f;
+        const float* s = &c->sides[3 * b];
+        const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+        ok &= isfinite(l2) && l2 > 1e-20f;
+        if (!ok) {
+            c->first_bad[chunk] = b;
+            return;
+        }
+    }
+}
+
 tsk_status tsk_blades_expand(const float* knots, const float* widths, const float* sides,
                              size_t blade_count, int32_t knot_count, float* positions,
                              float* normals, float* uvs) {
@@ -156,21 +201,17 @@ tsk_status tsk_blades_expand(const float* knots, const float* widths, const floa
     if (widths == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "is NULL");
     if (sides == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "sides", "is NULL");
     const size_t K = (size_t)knot_count;
-    for (size_t i = 0; i < 3 * K * blade_count; ++i)
-        if (!isfinite(knots[i]))
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %zu of blade %zu is not finite",
-                                 (i / 3) % K, i / (3 * K));
-    for (size_t i = 0; i < K * blade_count; ++i)
-        if (!isfinite(widths[i]) || widths[i] < 0.0f)
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
-                                 "width %zu of blade %zu must be finite and >= 0", i % K, i / K);
-    for (size_t b = 0; b < blade_count; ++b) {
-        const float* s = &sides[3 * b];
-        const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
-        if (!isfinite(l2) || !(l2 > 1e-20f))
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "sides",
-                                 "side of blade %zu must be a finite non-zero vector", b);
-    }
+    /* every input checked first, in parallel; the first bad blade (in blade order, whatever
+     * the threads) is reported and nothing is written */
+    const size_t grain = 256, chunks = tsk_chunk_count(blade_count, grain);
+    size_t* first_bad = tsk_alloc(chunks * sizeof *first_bad, "blade checks");
+    if (first_bad == NULL) return TSK_ERR_MEMORY;
+    check_ctx cc = {knots, widths, sides, K, blade_count, first_bad};
+    tsk_parallel_for(blade_count, grain, check_many, &cc);
+    size_t bad = blade_count;
+    for (size_t i = 0; i < chunks && bad == blade_count; ++i) bad = first_bad[i];
+    tsk_free(first_bad);
+    if (bad < blade_count) return report_bad_blade(knots, widths, sides, K, bad);
     many_ctx c = {knots, widths, sides, knot_count, positions, normals, uvs};
     tsk_parallel_for(blade_count, 256, expand_many, &c);
     return TSK_OK;
