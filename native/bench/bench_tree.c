@@ -91,14 +91,21 @@ static void bench_wind(const char* name, size_t target, int b12, int repeats) {
     tsk_tree_destroy(t);
 }
 
-static void bench_mesh(int repeats) {
+/* The black tupelo preset grown, or NULL with the error printed for benchmark `name`. */
+static tsk_tree* tupelo(const char* name) {
     tsk_tree_def d;
     tsk_tree_preset("black_tupelo", &d);
     tsk_tree* t = NULL;
     if (tsk_tree_create(&d, &t) != TSK_OK) {
-        fprintf(stderr, "tree_mesh: %s\n", tsk_last_error());
-        return;
+        fprintf(stderr, "%s: %s\n", name, tsk_last_error());
+        return NULL;
     }
+    return t;
+}
+
+static void bench_mesh(int repeats) {
+    tsk_tree* t = tupelo("tree_mesh");
+    if (t == NULL) return;
     tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
     m.leaves = 0; /* branches only: leaf cards are a copy, not the deformer */
     size_t nv = 0, nf = 0;
@@ -242,13 +249,8 @@ static void bench_generate(int repeats) {
  * (tsk_tree_mesh_edges) against deriving them from its faces (tsk_mesh_edges, the way Blender
  * would), in the same run. */
 static void bench_mesh_edges(int repeats) {
-    tsk_tree_def d;
-    tsk_tree_preset("black_tupelo", &d);
-    tsk_tree* t = NULL;
-    if (tsk_tree_create(&d, &t) != TSK_OK) {
-        fprintf(stderr, "tree_mesh_edges: %s\n", tsk_last_error());
-        return;
-    }
+    tsk_tree* t = tupelo("tree_mesh_edges");
+    if (t == NULL) return;
     tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
     size_t nv = 0, nf = 0, ne = 0;
     tsk_tree_mesh_count(t, &m, &nv, &nf);
