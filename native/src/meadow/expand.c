@@ -102,6 +102,21 @@ static void blade_indices(int32_t n, int32_t base, int32_t* tris) {
     }
 }
 
+/* What is wrong with one blade's input, checked knot by knot (its position, then its width)
+ * and then its side: BAD_NONE, or which input with the knot in *at. */
+enum { BAD_NONE, BAD_KNOT, BAD_WIDTH, BAD_SIDE };
+static int bad_input(const float* knots, const float* widths, const float* side, size_t K,
+                     size_t* at) {
+    for (size_t k = 0; k < K; ++k) {
+        *at = k;
+        if (!isfinite(knots[3 * k]) || !isfinite(knots[3 * k + 1]) || !isfinite(knots[3 * k + 2]))
+            return BAD_KNOT;
+        if (!isfinite(widths[k]) || widths[k] < 0.0f) return BAD_WIDTH;
+    }
+    const float l2 = side[0] * side[0] + side[1] * side[1] + side[2] * side[2];
+    return isfinite(l2) && l2 > 1e-20f ? BAD_NONE : BAD_SIDE;
+}
+
 tsk_status tsk_blade_expand(const float* knots, const float* widths, int32_t knot_count,
                             const float side[3], float* positions, float* normals, float* uvs) {
     if (knot_count < 2 || knot_count > TSK_BLADE_MAX_KNOTS)
@@ -111,16 +126,14 @@ tsk_status tsk_blade_expand(const float* knots, const float* widths, int32_t kno
     if (knots == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "is NULL");
     if (widths == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "is NULL");
     if (side == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "side", "is NULL");
-    for (int32_t k = 0; k < knot_count; ++k) {
-        if (!isfinite(knots[3 * k]) || !isfinite(knots[3 * k + 1]) || !isfinite(knots[3 * k + 2]))
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %d is not finite", (int)k);
-        if (!isfinite(widths[k]) || widths[k] < 0.0f)
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "width %d must be finite and >= 0",
-                                 (int)k);
+    size_t k = 0;
+    switch (bad_input(knots, widths, side, (size_t)knot_count, &k)) {
+    case BAD_KNOT: return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %d is not finite", (int)k);
+    case BAD_WIDTH:
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "width %d must be finite and >= 0", (int)k);
+    case BAD_SIDE: return tsk_error_arg(TSK_ERR_ARGUMENT, "side", "must be a finite non-zero vector");
+    default: break;
     }
-    const float sl2 = side[0] * side[0] + side[1] * side[1] + side[2] * side[2];
-    if (!isfinite(sl2) || !(sl2 > 1e-20f))
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "side", "must be a finite non-zero vector");
     expand_blade(knots, widths, knot_count, side, positions, normals, uvs);
     return TSK_OK;
 }
@@ -141,23 +154,21 @@ static void expand_many(size_t begin, size_t end, size_t chunk, void* vctx) {
                      c->uv ? &c->uv[4 * K * b] : NULL);
 }
 
-/* The first bad input of one blade, as an error; TSK_OK if it has none. */
+/* The error for blade b's bad input (bad_input says which). */
 static tsk_status report_bad_blade(const float* knots, const float* widths, const float* sides,
                                    size_t K, size_t b) {
-    for (size_t i = 3 * K * b; i < 3 * K * (b + 1); ++i)
-        if (!isfinite(knots[i]))
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %zu of blade %zu is not finite",
-                                 (i / 3) % K, b);
-    for (size_t i = K * b; i < K * (b + 1); ++i)
-        if (!isfinite(widths[i]) || widths[i] < 0.0f)
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
-                                 "width %zu of blade %zu must be finite and >= 0", i % K, b);
-    const float* s = &sides[3 * b];
-    const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
-    if (!isfinite(l2) || !(l2 > 1e-20f))
+    size_t k = 0;
+    switch (bad_input(&knots[3 * K * b], &widths[K * b], &sides[3 * b], K, &k)) {
+    case BAD_KNOT:
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %zu of blade %zu is not finite", k, b);
+    case BAD_WIDTH:
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
+                             "width %zu of blade %zu must be finite and >= 0", k, b);
+    case BAD_SIDE:
         return tsk_error_arg(TSK_ERR_ARGUMENT, "sides",
                              "side of blade %zu must be a finite non-zero vector", b);
-    return TSK_OK;
+    default: return TSK_OK;
+    }
 }
 
 typedef struct check_ctx {
@@ -168,22 +179,15 @@ typedef struct check_ctx {
 
 static void check_many(size_t begin, size_t end, size_t chunk, void* vctx) {
     const check_ctx* c = vctx;
-    c->first_bad[chunk] = c->n;
     const size_t K = c->K;
-    for (size_t b = begin; b < end; ++b) {
-        int ok = 1;
-        const float* k = &c->knots[3 * K * b];
-        for (size_t i = 0; i < 3 * K; ++i) ok &= isfinite(k[i]) != 0;
-        const float* w = &c->widths[K * b];
-        for (size_t i = 0; i < K; ++i) ok &= isfinite(w[i]) && w[i] >= 0.0f;
-        const float* s = &c->sides[3 * b];
-        const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
-        ok &= isfinite(l2) && l2 > 1e-20f;
-        if (!ok) {
+    size_t k;
+    c->first_bad[chunk] = c->n;
+    for (size_t b = begin; b < end; ++b)
+        if (bad_input(&c->knots[3 * K * b], &c->widths[K * b], &c->sides[3 * b], K, &k) !=
+            BAD_NONE) {
             c->first_bad[chunk] = b;
             return;
         }
-    }
 }
 
 tsk_status tsk_blades_expand(const float* knots, const float* widths, const float* sides,
