@@ -51,14 +51,21 @@ def save_small_render_scene(scene, folder, cam_location, cam_rotation):
     return path
 
 
-def make_scene(folder, frames=FRAMES, preset="quaking_aspen"):
-    """A saved .blend with a swaying tree and a small Cycles camera; returns its path."""
+def empty_scene(frames):
+    """Factory settings with Tussock on and nothing of an earlier test cached: frames 1..frames."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     harness.enable_addon()
     runtime.clear()
     tree_build.forget()
+    simulate.forget()
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, frames
+    return scene
+
+
+def make_scene(folder, frames=FRAMES, preset="quaking_aspen"):
+    """A saved .blend with a swaying tree and a small Cycles camera; returns its path."""
+    scene = empty_scene(frames)
     w = scene.tussock_wind
     w.base_speed = 4.0
     wave = w.waves.add()
@@ -215,12 +222,7 @@ def test_version_missing_frame_and_range_change_are_reported():
 def make_meadow_scene(folder, frames=FRAMES):
     """A saved .blend with a small simulated meadow that a keyframed ball crosses, in a
     breeze, and a small Cycles camera looking at the ball's path; returns its path."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    harness.enable_addon()
-    runtime.clear()
-    simulate.forget()
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = 1, frames
+    scene = empty_scene(frames)
     scene.tussock_wind.base_speed = 3.0
     bpy.ops.mesh.primitive_plane_add(size=2.0)
     assert bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=32, density="UNIFORM",
