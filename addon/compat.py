@@ -11,8 +11,24 @@ def mesh_indices(values):
     edges' vertices) as the array foreach_set copies in one go. These RNA properties are
     unsigned: a uint32 buffer matches them and takes the raw-array path, while an int32
     one is converted item by item (Blender 3.4: 1.4 ms against 159 ms for 400,000 corners).
-    Where a version stores them otherwise, the values are the same and only speed differs."""
-    return np.ascontiguousarray(values, np.uint32).ravel()
+    Where a version stores them otherwise, the values are the same and only speed differs.
+    Indices are never negative, so a contiguous int32 array is the same bytes read as
+    uint32: it is reinterpreted in place rather than copied (a 99,000-quad tree has 1.2 M
+    such indices)."""
+    a = np.asarray(values)
+    if a.dtype == np.int32 and a.flags.c_contiguous:
+        return a.reshape(-1).view(np.uint32)
+    return np.ascontiguousarray(a, np.uint32).ravel()
+
+
+def set_face_corners(polygons, corners_per_face):
+    """Each face's first corner (loop_start) for faces of `corners_per_face` corners each,
+    after polygons.add(). Blender 3.4/3.5 also store each face's corner count (loop_total)
+    and need it set; 3.6+ derives it from the starts and made it read-only."""
+    nf, k = len(polygons), int(corners_per_face)
+    polygons.foreach_set("loop_start", np.arange(0, nf * k, k, dtype=np.uint32))
+    if not bpy.types.MeshPolygon.bl_rna.properties["loop_total"].is_readonly:
+        polygons.foreach_set("loop_total", np.full(nf, k, np.uint32))
 
 
 def node_group_add_socket(group, in_out, socket_type, name):

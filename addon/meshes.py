@@ -32,5 +32,4 @@ def set_faces(mesh, faces, edges=None):
     mesh.loops.foreach_set("vertex_index", compat.mesh_indices(faces))
     mesh.loops.foreach_set("edge_index", compat.mesh_indices(corner_edges))
     mesh.polygons.add(nf)
-    mesh.polygons.foreach_set("loop_start", compat.mesh_indices(np.arange(0, n, k)))
-    mesh.polygons.foreach_set("loop_total", compat.mesh_indices(np.full(nf, k)))
+    compat.set_face_corners(mesh.polygons, k)

@@ -101,6 +101,33 @@ def test_compat_node_group_sockets():
 
 
 @test
+def test_compat_mesh_indices_and_face_corners():
+    harness.enable_addon()
+    import numpy as np
+    from tussock import compat, meshes
+    # int32 indices are read as uint32 in place; other types are converted
+    idx = np.array([[0, 1, 2], [2, 3, 0]], np.int32)
+    u = compat.mesh_indices(idx)
+    assert u.dtype == np.uint32 and np.shares_memory(u, idx) and u.tolist() == [0, 1, 2, 2, 3, 0]
+    w = compat.mesh_indices(np.array([5, 6], np.int64))
+    assert w.dtype == np.uint32 and w.tolist() == [5, 6]
+    s = compat.mesh_indices(idx[:, ::2])  # not contiguous: copied
+    assert not np.shares_memory(s, idx) and s.tolist() == [0, 2, 2, 0]
+    for k, faces in ((4, [[0, 1, 2, 3], [1, 4, 5, 2]]), (3, [[0, 1, 2], [2, 1, 4], [4, 5, 2]])):
+        mesh = bpy.data.meshes.new(f"tsk corners {k}")
+        mesh.vertices.add(6)
+        mesh.vertices.foreach_set("co", np.arange(18, dtype=np.float32))
+        meshes.set_faces(mesh, np.array(faces))
+        mesh.update()
+        starts = np.empty(len(faces), np.int32)
+        mesh.polygons.foreach_get("loop_start", starts)
+        assert starts.tolist() == list(range(0, k * len(faces), k)), starts
+        assert [len(p.vertices) for p in mesh.polygons] == [k] * len(faces)
+        assert [list(p.vertices) for p in mesh.polygons] == faces
+        assert not mesh.validate(), "set_faces made a mesh Blender had to correct"
+        bpy.data.meshes.remove(mesh)
+
+@test
 def test_missing_native_library_still_registers_with_clear_message():
     # A copy of the add-on without _tussock*.so, under another name.
     import tussock

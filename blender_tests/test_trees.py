@@ -14,7 +14,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 harness.enable_addon()
-from tussock import native  # noqa: E402
+from tussock import compat, native  # noqa: E402
 from tussock.trees import build, presets  # noqa: E402
 
 lib = native.require()
@@ -185,8 +185,7 @@ def test_tree_mesh_edges_are_those_blender_derives():
     ref.loops.add(nl)
     ref.loops.foreach_set("vertex_index", corners)
     ref.polygons.add(len(mesh.polygons))
-    ref.polygons.foreach_set("loop_start", np.arange(0, nl, 4, dtype=np.int32))
-    ref.polygons.foreach_set("loop_total", np.full(len(mesh.polygons), 4, np.int32))
+    compat.set_face_corners(ref.polygons, 4)
     ref.update(calc_edges=True)
     theirs = np.empty(len(ref.edges) * 2, np.int32)
     ref.edges.foreach_get("vertices", theirs)

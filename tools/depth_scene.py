@@ -66,8 +66,8 @@ def blade_mesh(name, centre, widths):
     mesh.loops.add(quads.size)
     mesh.loops.foreach_set("vertex_index", quads.ravel())
     mesh.polygons.add(n - 1)
-    mesh.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
-    mesh.polygons.foreach_set("loop_total", np.full(n - 1, 4, np.int32))
+    from tussock import compat  # face sizes are read-only from Blender 3.6
+    compat.set_face_corners(mesh.polygons, 4)
     mesh.update()
     mesh.validate()
     obj = bpy.data.objects.new(name, mesh)

@@ -5,7 +5,7 @@ regrows the tree interactively."""
 import bpy
 
 from .. import native
-from . import params, presets
+from . import params
 
 
 def _rebuild(self, context):
