@@ -356,6 +356,54 @@ def test_settle_time_frees_tiles_that_wind_keeps_moving():
 
 
 @test
+def test_chunk_meshes_fit_their_blades_once_the_tiles_hold_still():
+    """A chunk's mesh grows by half at least, so it can be left with much unused room that
+    Blender evaluates every frame. Once the active tiles have held FIT_AFTER_FRAMES frames,
+    a chunk with more than an eighth of its room unused is rebuilt to fit, and the ribbons
+    shown are the same bytes as with no fitting."""
+    cap, block = simulate.chunk_capacity, simulate.CAPACITY_BLOCK
+    assert cap(0, 10) == block and cap(block, block) == block
+    assert cap(4 * block, 4 * block + 1) == 6 * block            # grows by half
+    assert cap(4 * block, block - 1) == block                    # under a quarter: shrinks
+    assert cap(8 * block, 6 * block) == 8 * block                # holds while tiles come and go
+    assert cap(8 * block, 6 * block, fit=True) == 6 * block      # fits once they hold still
+    assert cap(8 * block, 7 * block + 1, fit=True) == 8 * block  # an eighth unused: kept
+    saved = simulate.CAPACITY_BLOCK, simulate.CHUNK_MIN_BLADES, simulate.FIT_AFTER_FRAMES
+    shown, rooms = {}, {}
+    try:
+        simulate.CAPACITY_BLOCK, simulate.CHUNK_MIN_BLADES = 8, 16  # a small scene's sizes
+        for fit_after in (simulate.FIT_AFTER_FRAMES, 10 ** 9):
+            simulate.FIT_AFTER_FRAMES = fit_after
+            scene, meadow, ball = rolling_ball_scene()
+            ball.rigid_body.type = "PASSIVE"  # keyframed instead: rolls in over 14 frames, stops
+            ball.rigid_body.kinematic = True
+            for f, x in ((1, -1.6), (14, -0.4)):
+                ball.location.x = x
+                ball.keyframe_insert("location", frame=f)
+            chunks = [bpy.data.objects[f"{meadow.name} blades"]] + simulate.extra_chunks(meadow)
+            shown[fit_after], rooms[fit_after] = [], []
+            for f in range(1, 29):
+                scene.frame_set(f)
+                assert meadow.tussock_meadow.last_error == "", meadow.tussock_meadow.last_error
+                shown[fit_after].append(ribbons(meadow))
+                rooms[fit_after].append([len(o.data.vertices) for o in chunks])
+            k = simulate._cache[meadow.name].runner.K
+            ranges = simulate.chunk_ranges(meadow["tussock_active_blades"])
+            used = [-(-len(r) // 8) * 8 * 2 * k for r in ranges]
+            simulate.forget()
+        fitted, grown = rooms[saved[2]][-1], rooms[10 ** 9][-1]
+        assert fitted != grown, (fitted, grown)  # growth had left room to fit
+        for room, need, before in zip(fitted, used, grown):
+            if need:  # a chunk in use: fitted unless an eighth or less was unused
+                assert room == need or (room == before and need >= before - before // 8), \
+                    (room, need, before)
+        assert shown[saved[2]] == shown[10 ** 9]
+    finally:
+        simulate.CAPACITY_BLOCK, simulate.CHUNK_MIN_BLADES, simulate.FIT_AFTER_FRAMES = saved
+        simulate.forget()
+
+
+@test
 def test_slow_motion_frame_rates_take_more_steps_not_an_error():
     """Two solver steps per frame at ordinary rates, more when a step would exceed 1/20 s
     (a 5 fps time-lapse takes 4), and the blades still bend under the ball."""

@@ -29,9 +29,13 @@ MAX_STEPS_PER_FRAME = 240  # below 1/12 fps a frame would take more: refused wit
 SNAPSHOT_EVERY = 10  # frames between snapshots of the solver state (counted from frame_start)
 SNAPSHOT_BUDGET = 256 << 20  # bytes of snapshots kept per meadow
 CAPACITY_BLOCK = 256  # a dynamic mesh has room for a whole number of blocks of blades;
-                      # it grows by half at least and shrinks only below a quarter full, so
-                      # that its topology (rebuilding it costs Blender about as much as five
-                      # frames) changes seldom while tiles come and go
+                      # it grows by half at least and shrinks below a quarter full, so that
+                      # its topology changes seldom while tiles come and go (rebuilding a
+                      # chunk of ~6,000 blades costs about 24 ms)
+FIT_AFTER_FRAMES = 4  # but every vertex of the room costs Blender each frame, used or not:
+                      # once the active tiles have held this many frames, a chunk with more
+                      # than an eighth of its room unused is rebuilt to fit (blade_playback:
+                      # growth had left 45 % unused, ~5 ms per chunk and frame)
 CHUNK_MIN_BLADES = 1024  # fewer blades than this per chunk: fewer chunks are used
 CHUNKS = 4  # dynamic-mesh objects the simulated blades are shared among, evenly: Blender
             # evaluates separate objects on separate threads, and re-evaluating one
@@ -248,6 +252,7 @@ class Playback:
         self.stale = False  # the solver's state used colliders that have changed since
         self.restored_from = None  # frame the last jump back resumed from (tests, panel)
         self.written = None  # active tiles last written into the dynamic mesh (bytes)
+        self.steady = 0  # writes since the active tiles last changed
         self.pos = None  # chunk index -> its vertex positions
         self.ribbon = None  # (widths, sides) of the written tiles, one row per blade
         self.rand = None  # colour value of each written blade
@@ -540,18 +545,30 @@ def active_ribbons(obj):
     return np.concatenate(out)
 
 
-def _write_chunk(child, pb, i, blades, k, knots, rand, ribbon, layout_changed):
-    """Writes blades [blades.start, blades.stop) of the active ones into chunk `child`."""
+def chunk_capacity(capacity, nb, fit=False):
+    """Room (in blades) of a chunk's mesh holding nb blades, given its room now: whole
+    CAPACITY_BLOCKs, grown by half at least when too small, shrunk to fit when under a
+    quarter full, and when `fit` (the active tiles have held FIT_AFTER_FRAMES) to fit if
+    more than an eighth of it is unused."""
+    def blocks(n):
+        return max(1, -(-n // CAPACITY_BLOCK)) * CAPACITY_BLOCK
+    if not capacity or nb > capacity:
+        return blocks(max(nb, capacity * 3 // 2))
+    if nb < capacity // 4 or (fit and blocks(nb) < capacity - capacity // 8):
+        return blocks(nb)
+    return capacity
+
+
+def _write_chunk(child, pb, i, blades, k, knots, rand, ribbon, layout_changed, fit=False):
+    """Writes blades [blades.start, blades.stop) of the active ones into chunk `child`;
+    `fit`: see chunk_capacity."""
     lib = native.require()
     mesh = child.data
     nb = blades.stop - blades.start
     if nb == 0 and mesh.get("tussock_layout") == "live":
         _collapse(child, pb, i)  # written once: an unchanged mesh costs Blender nothing
         return
-    capacity = mesh.get("tussock_capacity") or 0
-    if not capacity or nb > capacity or nb < capacity // 4:
-        want = max(nb, capacity * 3 // 2) if nb > capacity else nb  # grow by half at least
-        capacity = max(1, -(-want // CAPACITY_BLOCK)) * CAPACITY_BLOCK
+    capacity = chunk_capacity(mesh.get("tussock_capacity") or 0, nb, fit)
     fresh = (mesh.get("tussock_layout") != "live" or mesh.get("tussock_capacity") != capacity
              or len(mesh.vertices) != capacity * 2 * k)
     if fresh:
@@ -582,6 +599,7 @@ def write(obj, pb):
     nb = int(counts.sum())
     layout = tiles.tobytes()
     layout_changed = pb.written != layout
+    pb.steady = 0 if layout_changed else pb.steady + 1
     if layout_changed:
         pb.written = layout
         pb.hidden = np.isin(pb.instance_tile, tiles)
@@ -594,7 +612,7 @@ def write(obj, pb):
     knots = r.knots() if nb else None
     for i, blades in enumerate(chunk_ranges(nb)):
         _write_chunk(chunk_object(obj, i), pb, i, blades, k, knots, pb.rand, pb.ribbon,
-                     layout_changed)
+                     layout_changed, fit=pb.steady == FIT_AFTER_FRAMES)
     for i, child in enumerate(extra_chunks(obj)[CHUNKS - 1:], start=CHUNKS):
         _collapse(child, pb, i)  # chunks of a larger CHUNKS: unused
     obj["tussock_active_tiles"] = len(tiles)
