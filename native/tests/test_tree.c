@@ -661,6 +661,21 @@ TEST(test_mesh_edges_closed_form_equal_derived_edges) {
         for (size_t e = 0; e < ne1; ++e) unused += !used[e];
         CHECK_MSG(bad == 0 && unused == 0, "%s: %zu corners with a wrong edge, %zu edges unused",
                   names[p], bad, unused);
+        /* written in parallel, branch by branch: the same bytes with one thread */
+        int32_t* faces1 = malloc(n * sizeof(int32_t));
+        float* uv1 = malloc(2 * n * sizeof(float));
+        float* uv2 = malloc(2 * n * sizeof(float));
+        size_t ne3 = 0;
+        CHECK(tsk_tree_mesh_topology(t, &m, faces, uv2) == TSK_OK);
+        CHECK(tsk_set_threads(1) == TSK_OK);
+        CHECK(tsk_tree_mesh_topology(t, &m, faces1, uv1) == TSK_OK);
+        CHECK(tsk_tree_mesh_edges(t, &m, e2, c2, &ne3) == TSK_OK);
+        tsk_set_threads(0);
+        CHECK(ne3 == ne1 && memcmp(e1, e2, 2 * ne1 * sizeof(int32_t)) == 0 &&
+              memcmp(c1, c2, n * sizeof(int32_t)) == 0);
+        CHECK(memcmp(faces, faces1, n * sizeof(int32_t)) == 0 &&
+              memcmp(uv1, uv2, 2 * n * sizeof(float)) == 0);
+        free(faces1), free(uv1), free(uv2);
         /* misuse is refused, not written through */
         size_t count = 99;
         CHECK(tsk_tree_mesh_edges(t, &m, NULL, c1, &count) == TSK_ERR_ARGUMENT && count == 0);

@@ -161,9 +161,26 @@ static tsk_status check_mesh_args(const tsk_tree* t, const tsk_tree_mesh_def* m)
     return TSK_OK;
 }
 
-static size_t branch_vertices(const tsk_tree* t, const tsk_tree_mesh_def* m, size_t i) {
-    const int l = t->level[i];
-    return (size_t)(m->along[l] + 1) * (size_t)m->around[l];
+/* Where each branch's part of the mesh starts: its first vertex, face and edge (n + 1 of
+ * each; the last are where the leaves start). The tree's parts are written in parallel. */
+typedef struct branch_offsets {
+    size_t *v, *f, *e;
+} branch_offsets;
+
+static tsk_status offsets_make(const tsk_tree* t, const tsk_tree_mesh_def* m, branch_offsets* o) {
+    o->v = tsk_alloc(3 * (t->n + 1) * sizeof(size_t), "mesh offsets");
+    if (o->v == NULL) return TSK_ERR_MEMORY;
+    o->f = o->v + t->n + 1;
+    o->e = o->f + t->n + 1;
+    size_t v = 0, f = 0, e = 0;
+    for (size_t i = 0; i < t->n; ++i) {
+        o->v[i] = v, o->f[i] = f, o->e[i] = e;
+        const int l = t->level[i];
+        const size_t A = (size_t)m->along[l], C = (size_t)m->around[l];
+        v += (A + 1) * C, f += A * C, e += (2 * A + 1) * C;
+    }
+    o->v[t->n] = v, o->f[t->n] = f, o->e[t->n] = e;
+    return TSK_OK;
 }
 
 /* Total sizes; also fails with TSK_ERR_LIMIT past 2^31 vertices (int32 indices). */
@@ -201,6 +218,66 @@ tsk_status tsk_tree_mesh_count(const tsk_tree* t, const tsk_tree_mesh_def* m, si
     return tsk_memory_check((double)*vertex_count * 24.0 + (double)*face_count * 48.0, "mesh");
 }
 
+typedef struct topo_ctx {
+    const tsk_tree* t;
+    const tsk_tree_mesh_def* m;
+    branch_offsets o;
+    int32_t* faces;
+    float* uvs;
+    int32_t* edges;
+    int32_t* corner_edges;
+} topo_ctx;
+
+/* Branch i's quads: (j, k) -> (j, k+1) -> (j+1, k+1) -> (j+1, k) of its (A + 1) x C grid. */
+static void topology_range(size_t b, size_t e, size_t chunk, void* vctx) {
+    (void)chunk;
+    const topo_ctx* c = vctx;
+    for (size_t i = b; i < e; ++i) {
+        const int l = c->t->level[i];
+        const int A = c->m->along[l], C = c->m->around[l];
+        const float r0 = c->t->shape[i].radius;
+        const float vscale = r0 > 0.0f ? c->t->length[i] / (TWO_PI * r0) : 1.0f;
+        const size_t vbase = c->o.v[i];
+        size_t f = c->o.f[i];
+        for (int j = 0; j < A; ++j) {
+            for (int k = 0; k < C; ++k, ++f) {
+                const int k1 = k + 1 < C ? k + 1 : 0;
+                int32_t* q = c->faces + 4 * f;
+                q[0] = (int32_t)(vbase + (size_t)j * C + k);
+                q[1] = (int32_t)(vbase + (size_t)j * C + k1);
+                q[2] = (int32_t)(vbase + (size_t)(j + 1) * C + k1);
+                q[3] = (int32_t)(vbase + (size_t)(j + 1) * C + k);
+                if (c->uvs) {
+                    float* uv = c->uvs + 8 * f;
+                    const float u0 = (float)k / C, u1 = (float)(k + 1) / C;
+                    const float v0 = (float)j / A * vscale, v1 = (float)(j + 1) / A * vscale;
+                    uv[0] = u0, uv[1] = v0, uv[2] = u1, uv[3] = v0;
+                    uv[4] = u1, uv[5] = v1, uv[6] = u0, uv[7] = v1;
+                }
+            }
+        }
+    }
+}
+
+/* Leaf cards: corners base-left, base-right, tip-right, tip-left; this order faces the card
+ * normal. */
+static void leaf_topology_range(size_t b, size_t e, size_t chunk, void* vctx) {
+    (void)chunk;
+    const topo_ctx* c = vctx;
+    const size_t n = c->t->n;
+    for (size_t j = b; j < e; ++j) {
+        const size_t f = c->o.f[n] + j;
+        int32_t* q = c->faces + 4 * f;
+        const int32_t v = (int32_t)(c->o.v[n] + 4 * j);
+        q[0] = v, q[1] = v + 3, q[2] = v + 2, q[3] = v + 1;
+        if (c->uvs) {
+            float* uv = c->uvs + 8 * f;
+            uv[0] = 0, uv[1] = 0, uv[2] = 0, uv[3] = 1, uv[4] = 1, uv[5] = 1, uv[6] = 1,
+            uv[7] = 0;
+        }
+    }
+}
+
 tsk_status tsk_tree_mesh_topology(const tsk_tree* t, const tsk_tree_mesh_def* m, int32_t* faces,
                                   float* uvs) {
     tsk_status s = check_mesh_args(t, m);
@@ -209,48 +286,67 @@ tsk_status tsk_tree_mesh_topology(const tsk_tree* t, const tsk_tree_mesh_def* m,
     s = mesh_sizes(t, m, &nv, &nf);
     if (s != TSK_OK) return s;
     if (nf > 0 && faces == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "faces", "is NULL");
-    size_t vbase = 0, f = 0;
-    for (size_t i = 0; i < t->n; ++i) {
-        const int l = t->level[i];
-        const int A = m->along[l], C = m->around[l];
-        const float r0 = t->shape[i].radius;
-        const float vscale = r0 > 0.0f ? t->length[i] / (TWO_PI * r0) : 1.0f;
-        for (int j = 0; j < A; ++j) {
-            for (int k = 0; k < C; ++k) {
-                const int k1 = (k + 1) % C;
-                int32_t* q = faces + 4 * f;
-                q[0] = (int32_t)(vbase + (size_t)j * C + k);
-                q[1] = (int32_t)(vbase + (size_t)j * C + k1);
-                q[2] = (int32_t)(vbase + (size_t)(j + 1) * C + k1);
-                q[3] = (int32_t)(vbase + (size_t)(j + 1) * C + k);
-                if (uvs) {
-                    float* uv = uvs + 8 * f;
-                    const float u0 = (float)k / C, u1 = (float)(k + 1) / C;
-                    const float v0 = (float)j / A * vscale, v1 = (float)(j + 1) / A * vscale;
-                    uv[0] = u0, uv[1] = v0, uv[2] = u1, uv[3] = v0;
-                    uv[4] = u1, uv[5] = v1, uv[6] = u0, uv[7] = v1;
-                }
-                ++f;
-            }
-        }
-        vbase += (size_t)(A + 1) * C;
-    }
-    if (m->leaves) {
-        for (size_t j = 0; j < t->leaf_n; ++j) {
-            int32_t* q = faces + 4 * f;
-            const int32_t b = (int32_t)(vbase + 4 * j);
-            /* corners are base-left, base-right, tip-right, tip-left; this order faces the
-             * card normal */
-            q[0] = b, q[1] = b + 3, q[2] = b + 2, q[3] = b + 1;
-            if (uvs) {
-                float* uv = uvs + 8 * f;
-                uv[0] = 0, uv[1] = 0, uv[2] = 0, uv[3] = 1, uv[4] = 1, uv[5] = 1, uv[6] = 1,
-                uv[7] = 0;
-            }
-            ++f;
-        }
-    }
+    topo_ctx c = {t, m, {NULL, NULL, NULL}, faces, uvs, NULL, NULL};
+    s = offsets_make(t, m, &c.o);
+    if (s != TSK_OK) return s;
+    tsk_parallel_for(t->n, 64, topology_range, &c);
+    if (m->leaves) tsk_parallel_for(t->leaf_n, 4096, leaf_topology_range, &c);
+    tsk_free(c.o.v);
     return TSK_OK;
+}
+
+/* Branch i's edges. Ring edge (j, k): ring j's vertex k to k + 1, index e0 + j C + k
+ * (j = 0..A); edge along (j, k): ring j's vertex k to ring j + 1's, after the (A + 1) C ring
+ * edges. Each corner's edge leaves it toward the next corner of its quad, in the order
+ * topology_range writes them: (j, k) -> (j, k+1) -> (j+1, k+1) -> (j+1, k). */
+static void edges_range(size_t b, size_t e, size_t chunk, void* vctx) {
+    (void)chunk;
+    const topo_ctx* c = vctx;
+    for (size_t i = b; i < e; ++i) {
+        const int l = c->t->level[i];
+        const size_t A = (size_t)c->m->along[l], C = (size_t)c->m->around[l];
+        const size_t vbase = c->o.v[i], ebase = c->o.e[i];
+        const size_t along0 = ebase + (A + 1) * C;
+        for (size_t j = 0; j <= A; ++j)
+            for (size_t k = 0; k < C; ++k) {
+                int32_t* ed = c->edges + 2 * (ebase + j * C + k);
+                ed[0] = (int32_t)(vbase + j * C + k);
+                ed[1] = (int32_t)(vbase + j * C + (k + 1 < C ? k + 1 : 0));
+            }
+        for (size_t j = 0; j < A; ++j)
+            for (size_t k = 0; k < C; ++k) {
+                int32_t* ed = c->edges + 2 * (along0 + j * C + k);
+                ed[0] = (int32_t)(vbase + j * C + k);
+                ed[1] = (int32_t)(vbase + (j + 1) * C + k);
+            }
+        size_t f = c->o.f[i];
+        for (size_t j = 0; j < A; ++j)
+            for (size_t k = 0; k < C; ++k, ++f) {
+                const size_t k1 = k + 1 < C ? k + 1 : 0;
+                int32_t* ce = c->corner_edges + 4 * f;
+                ce[0] = (int32_t)(ebase + j * C + k);
+                ce[1] = (int32_t)(along0 + j * C + k1);
+                ce[2] = (int32_t)(ebase + (j + 1) * C + k);
+                ce[3] = (int32_t)(along0 + j * C + k);
+            }
+    }
+}
+
+/* A leaf card's four sides, corners b, b+3, b+2, b+1 (leaf_topology_range). */
+static void leaf_edges_range(size_t b, size_t e, size_t chunk, void* vctx) {
+    (void)chunk;
+    const topo_ctx* c = vctx;
+    const size_t n = c->t->n;
+    for (size_t j = b; j < e; ++j) {
+        const int32_t v = (int32_t)(c->o.v[n] + 4 * j);
+        const int32_t q[4] = {v, v + 3, v + 2, v + 1};
+        const size_t ebase = c->o.e[n] + 4 * j, f = c->o.f[n] + j;
+        for (size_t k = 0; k < 4; ++k) {
+            c->edges[2 * (ebase + k)] = q[k];
+            c->edges[2 * (ebase + k) + 1] = q[(k + 1) % 4];
+            c->corner_edges[4 * f + k] = (int32_t)(ebase + k);
+        }
+    }
 }
 
 tsk_status tsk_tree_mesh_edges(const tsk_tree* t, const tsk_tree_mesh_def* m, int32_t* edges,
@@ -268,53 +364,17 @@ tsk_status tsk_tree_mesh_edges(const tsk_tree* t, const tsk_tree_mesh_def* m, in
                              "indices reach; lower mesh.along/around", nf);
     if (edges == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "edges", "is NULL");
     if (corner_edges == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_edges", "is NULL");
-    size_t vbase = 0, ebase = 0, f = 0;
-    for (size_t i = 0; i < t->n; ++i) {
-        const int l = t->level[i];
-        const size_t A = (size_t)m->along[l], C = (size_t)m->around[l];
-        /* ring edge (j, k): ring j's vertex k to k + 1, index ebase + j C + k (j = 0..A);
-         * edge along (j, k): ring j's vertex k to ring j + 1's, after the (A + 1) C rings */
-        const size_t along0 = ebase + (A + 1) * C;
-        for (size_t j = 0; j <= A; ++j)
-            for (size_t k = 0; k < C; ++k) {
-                int32_t* e = edges + 2 * (ebase + j * C + k);
-                e[0] = (int32_t)(vbase + j * C + k);
-                e[1] = (int32_t)(vbase + j * C + (k + 1) % C);
-            }
-        for (size_t j = 0; j < A; ++j)
-            for (size_t k = 0; k < C; ++k) {
-                int32_t* e = edges + 2 * (along0 + j * C + k);
-                e[0] = (int32_t)(vbase + j * C + k);
-                e[1] = (int32_t)(vbase + (j + 1) * C + k);
-            }
-        /* the corners of quad (j, k) as tsk_tree_mesh_topology writes them: (j, k) ->
-         * (j, k+1) -> (j+1, k+1) -> (j+1, k) */
-        for (size_t j = 0; j < A; ++j)
-            for (size_t k = 0; k < C; ++k, ++f) {
-                const size_t k1 = (k + 1) % C;
-                int32_t* ce = corner_edges + 4 * f;
-                ce[0] = (int32_t)(ebase + j * C + k);
-                ce[1] = (int32_t)(along0 + j * C + k1);
-                ce[2] = (int32_t)(ebase + (j + 1) * C + k);
-                ce[3] = (int32_t)(along0 + j * C + k);
-            }
-        vbase += (A + 1) * C;
-        ebase += (2 * A + 1) * C;
-    }
+    topo_ctx c = {t, m, {NULL, NULL, NULL}, NULL, NULL, edges, corner_edges};
+    s = offsets_make(t, m, &c.o);
+    if (s != TSK_OK) return s;
+    tsk_parallel_for(t->n, 64, edges_range, &c);
+    size_t ne = c.o.e[t->n];
     if (m->leaves) {
-        /* card corners b, b+3, b+2, b+1 (tsk_tree_mesh_topology): one edge per side */
-        for (size_t j = 0; j < t->leaf_n; ++j, ++f) {
-            const int32_t b = (int32_t)(vbase + 4 * j);
-            const int32_t q[4] = {b, b + 3, b + 2, b + 1};
-            for (int c = 0; c < 4; ++c) {
-                edges[2 * (ebase + (size_t)c)] = q[c];
-                edges[2 * (ebase + (size_t)c) + 1] = q[(c + 1) % 4];
-                corner_edges[4 * f + (size_t)c] = (int32_t)(ebase + (size_t)c);
-            }
-            ebase += 4;
-        }
+        tsk_parallel_for(t->leaf_n, 4096, leaf_edges_range, &c);
+        ne += 4 * t->leaf_n;
     }
-    *edge_count = ebase;
+    tsk_free(c.o.v);
+    *edge_count = ne;
     return TSK_OK;
 }
 
@@ -459,17 +519,14 @@ tsk_status tsk_tree_mesh_deform(const tsk_tree* t, const tsk_tree_mesh_def* m, f
     s = mesh_sizes(t, m, &nv, &nf);
     if (s != TSK_OK) return s;
     if (nv > 0 && positions == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "positions", "is NULL");
-    size_t* vstart = tsk_alloc((t->n + 1) * sizeof(size_t), "mesh offsets");
-    if (vstart == NULL) return TSK_ERR_MEMORY;
-    size_t acc = 0;
-    for (size_t i = 0; i < t->n; ++i) {
-        vstart[i] = acc;
-        acc += branch_vertices(t, m, i);
-    }
-    vstart[t->n] = acc;
+    branch_offsets o;
+    s = offsets_make(t, m, &o);
+    if (s != TSK_OK) return s;
+    const size_t* vstart = o.v;
+    const size_t acc = o.v[t->n];
     float* tables = tsk_alloc(2 * 256 * TSK_TREE_MAX_LEVELS * sizeof(float), "mesh tables");
     if (tables == NULL) {
-        tsk_free(vstart);
+        tsk_free(o.v);
         return TSK_ERR_MEMORY;
     }
     deform_ctx c = {t, m, {NULL, NULL, NULL, NULL}, vstart, positions, normals};
@@ -489,6 +546,6 @@ tsk_status tsk_tree_mesh_deform(const tsk_tree* t, const tsk_tree_mesh_def* m, f
         leaf_ctx lc = {t, acc, positions, normals};
         tsk_parallel_for(t->leaf_n, 1024, leaf_range, &lc);
     }
-    tsk_free(vstart);
+    tsk_free(o.v);
     return TSK_OK;
 }
