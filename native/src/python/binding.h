@@ -31,7 +31,8 @@ int tsk_py_buffer(PyObject* obj, const char* name, tsk_py_dtype dtype, Py_ssize_
 Py_ssize_t tsk_py_count(const Py_buffer* view);
 
 /// Buffers acquired together (tsk_py_views_get) and released together (tsk_py_views_release).
-enum { TSK_PY_MAX_VIEWS = 12 };
+/// The most a function holds is 17: picture_composite's 16 layers and its output.
+enum { TSK_PY_MAX_VIEWS = 17 };
 typedef struct tsk_py_views {
     Py_buffer view[TSK_PY_MAX_VIEWS];
     int n;

@@ -348,36 +348,30 @@ static PyObject* py_capture_blades(PyObject* self, PyObject* args) {
     handle_box* box = unwrap(h, CAPTURE_NAME, "capture");
     if (box == NULL) return NULL;
     const Py_ssize_t n = tsk_capture_blade_count(box->ptr);
-    Py_buffer counts, flags;
-    int have_counts = counts_obj != Py_None, have_flags = flags_obj != Py_None;
-    if (have_counts && !tsk_py_buffer(counts_obj, "knot_counts", TSK_PY_I32, n, 1, &counts))
-        return NULL;
-    if (have_flags && !tsk_py_buffer(flags_obj, "flags", TSK_PY_I32, n, 1, &flags)) {
-        if (have_counts) PyBuffer_Release(&counts);
+    tsk_py_views v = {.n = 0};
+    int32_t* counts;
+    uint32_t* flags;
+    if (!tsk_py_views_get(&v, counts_obj, "knot_counts", TSK_PY_I32, n, 1, 1, (void**)&counts) ||
+        !tsk_py_views_get(&v, flags_obj, "flags", TSK_PY_I32, n, 1, 1, (void**)&flags)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
-    tsk_status s = tsk_capture_get_blades(box->ptr, have_counts ? counts.buf : NULL,
-                                          have_flags ? flags.buf : NULL, (size_t)n);
-    if (have_counts) PyBuffer_Release(&counts);
-    if (have_flags) PyBuffer_Release(&flags);
+    tsk_status s = tsk_capture_get_blades(box->ptr, counts, flags, (size_t)n);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
 
-/* Gets up to three optional float32 output buffers of 3n, n and 2n elements. */
-static int knot_buffers(PyObject* xyz_o, PyObject* w_o, PyObject* uv_o, Py_ssize_t n,
-                        Py_buffer v[3], int have[3]) {
+/* Gets up to three optional float32 output buffers of 3n, n and 2n elements into `v`
+ * (p[i] = NULL for a None); on failure the caller releases `v`. */
+static int knot_buffers(tsk_py_views* v, PyObject* xyz_o, PyObject* w_o, PyObject* uv_o,
+                        Py_ssize_t n, void* p[3]) {
     PyObject* objs[3] = {xyz_o, w_o, uv_o};
     const char* names[3] = {"camera_xyz", "width", "pixel_uv"};
     const Py_ssize_t mult[3] = {3, 1, 2};
-    for (int i = 0; i < 3; ++i) {
-        have[i] = objs[i] != Py_None;
-        if (have[i] && !tsk_py_buffer(objs[i], names[i], TSK_PY_F32, mult[i] * n, 1, &v[i])) {
-            for (int j = 0; j < i; ++j)
-                if (have[j]) PyBuffer_Release(&v[j]);
+    for (int i = 0; i < 3; ++i)
+        if (!tsk_py_views_get(v, objs[i], names[i], TSK_PY_F32, mult[i] * n, 1, 1, &p[i]))
             return 0;
-        }
-    }
     return 1;
 }
 
@@ -388,14 +382,14 @@ static PyObject* py_capture_knots(PyObject* self, PyObject* args) {
     handle_box* box = unwrap(h, CAPTURE_NAME, "capture");
     if (box == NULL) return NULL;
     const Py_ssize_t n = tsk_capture_knot_total(box->ptr);
-    Py_buffer v[3];
-    int have[3];
-    if (!knot_buffers(xyz, w, uv, n, v, have)) return NULL;
-    tsk_status s = tsk_capture_get_knots(box->ptr, have[0] ? v[0].buf : NULL,
-                                         have[1] ? v[1].buf : NULL, have[2] ? v[2].buf : NULL,
-                                         (size_t)n);
-    for (int i = 0; i < 3; ++i)
-        if (have[i]) PyBuffer_Release(&v[i]);
+    tsk_py_views v = {.n = 0};
+    void* p[3];
+    if (!knot_buffers(&v, xyz, w, uv, n, p)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
+    tsk_status s = tsk_capture_get_knots(box->ptr, p[0], p[1], p[2], (size_t)n);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -412,14 +406,14 @@ static PyObject* py_capture_blade(PyObject* self, PyObject* args) {
     int32_t counts[TSK_CAPTURE_MAX_BLADES];
     tsk_capture_get_blades(box->ptr, counts, NULL, (size_t)nb);
     const Py_ssize_t n = counts[blade];
-    Py_buffer v[3];
-    int have[3];
-    if (!knot_buffers(xyz, w, uv, n, v, have)) return NULL;
-    tsk_status s = tsk_capture_get_blade(box->ptr, blade, have[0] ? v[0].buf : NULL,
-                                         have[1] ? v[1].buf : NULL, have[2] ? v[2].buf : NULL,
-                                         (size_t)n);
-    for (int i = 0; i < 3; ++i)
-        if (have[i]) PyBuffer_Release(&v[i]);
+    tsk_py_views v = {.n = 0};
+    void* p[3];
+    if (!knot_buffers(&v, xyz, w, uv, n, p)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
+    tsk_status s = tsk_capture_get_blade(box->ptr, blade, p[0], p[1], p[2], (size_t)n);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     return PyLong_FromSsize_t(n);
 }

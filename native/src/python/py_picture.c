@@ -148,20 +148,20 @@ static PyObject* py_picture_propose_mask(PyObject* self, PyObject* args, PyObjec
     int w, h;
     tsk_picture_size(p, &w, &h);
     const Py_ssize_t n = (Py_ssize_t)w * h;
-    Py_buffer out, strokes;
-    if (!tsk_py_buffer(out_obj, "out", TSK_PY_U8, n, 1, &out)) return NULL;
+    tsk_py_views v = {.n = 0};
+    uint8_t* out;
+    const uint8_t* strokes;
     const int has_strokes = strokes_obj != Py_None;
-    if (has_strokes && !tsk_py_buffer(strokes_obj, "strokes", TSK_PY_U8, n, 0, &strokes)) {
-        PyBuffer_Release(&out);
+    if (!tsk_py_views_get(&v, out_obj, "out", TSK_PY_U8, n, 1, 0, (void**)&out) ||
+        !tsk_py_views_get(&v, strokes_obj, "strokes", TSK_PY_U8, n, 0, 1, (void**)&strokes)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_picture_propose_mask(p, &g, has_strokes ? strokes.buf : NULL,
-                                 has_strokes ? (size_t)n : 0, out.buf, (size_t)n);
+    s = tsk_picture_propose_mask(p, &g, strokes, has_strokes ? (size_t)n : 0, out, (size_t)n);
     Py_END_ALLOW_THREADS
-    if (has_strokes) PyBuffer_Release(&strokes);
-    PyBuffer_Release(&out);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -286,48 +286,33 @@ static PyObject* py_picture_layer_frame(PyObject* self, PyObject* args, PyObject
     int w, h;
     tsk_picture_size(p, &w, &h);
     const Py_ssize_t n = (Py_ssize_t)w * h;
-    Py_buffer vx, vy, rgba, uv, scale;
-    int have_rgba = rgba_obj != Py_None, have_uv = uv_obj != Py_None;
-    int have_scale = scale_obj != Py_None;
-    if (!tsk_py_buffer(vx_obj, "vx", TSK_PY_F32, (Py_ssize_t)fw * fh, 0, &vx)) return NULL;
-    if (!tsk_py_buffer(vy_obj, "vy", TSK_PY_F32, (Py_ssize_t)fw * fh, 0, &vy)) {
-        PyBuffer_Release(&vx);
+    tsk_py_views v = {.n = 0};
+    const float *vx, *vy, *scale;
+    float *rgba, *uv;
+    const int have_rgba = rgba_obj != Py_None, have_uv = uv_obj != Py_None;
+    const int have_scale = scale_obj != Py_None;
+    if (!tsk_py_views_get(&v, vx_obj, "vx", TSK_PY_F32, (Py_ssize_t)fw * fh, 0, 0, (void**)&vx) ||
+        !tsk_py_views_get(&v, vy_obj, "vy", TSK_PY_F32, (Py_ssize_t)fw * fh, 0, 0, (void**)&vy) ||
+        !tsk_py_views_get(&v, rgba_obj, "rgba", TSK_PY_F32, 4 * n, 1, 1, (void**)&rgba) ||
+        !tsk_py_views_get(&v, uv_obj, "uv", TSK_PY_F32, 4 * n, 1, 1, (void**)&uv) ||
+        !tsk_py_views_get(&v, scale_obj, "scale_map", TSK_PY_F32, n, 0, 1, (void**)&scale)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
-    if (have_rgba && !tsk_py_buffer(rgba_obj, "rgba", TSK_PY_F32, 4 * n, 1, &rgba)) {
-        have_rgba = have_uv = have_scale = 0;
-        goto fail;
-    }
-    if (have_uv && !tsk_py_buffer(uv_obj, "uv", TSK_PY_F32, 4 * n, 1, &uv)) {
-        have_uv = have_scale = 0;
-        goto fail;
-    }
-    if (have_scale && !tsk_py_buffer(scale_obj, "scale_map", TSK_PY_F32, n, 0, &scale)) {
-        have_scale = 0;
-        goto fail;
-    }
-    tsk_picture_field f = {vx.buf, vy.buf, fw, fh, y_up};
+    tsk_picture_field f = {vx, vy, fw, fh, y_up};
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_picture_layer_frame(p, layer, &a.def, &f, have_scale ? scale.buf : NULL,
-                                have_scale ? (size_t)n : 0, have_rgba ? rgba.buf : NULL,
-                                have_rgba ? (size_t)(4 * n) : 0, have_uv ? uv.buf : NULL,
+    s = tsk_picture_layer_frame(p, layer, &a.def, &f, scale, have_scale ? (size_t)n : 0, rgba,
+                                have_rgba ? (size_t)(4 * n) : 0, uv,
                                 have_uv ? (size_t)(4 * n) : 0, uv_bottom_up);
     Py_END_ALLOW_THREADS
-    PyBuffer_Release(&vx);
-    PyBuffer_Release(&vy);
-    if (have_rgba) PyBuffer_Release(&rgba);
-    if (have_uv) PyBuffer_Release(&uv);
-    if (have_scale) PyBuffer_Release(&scale);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
-fail:
-    PyBuffer_Release(&vx);
-    PyBuffer_Release(&vy);
-    if (have_rgba) PyBuffer_Release(&rgba);
-    if (have_uv) PyBuffer_Release(&uv);
-    return NULL;
 }
+
+_Static_assert(TSK_PICTURE_MAX_LAYERS + 1 <= TSK_PY_MAX_VIEWS,
+               "picture_composite holds every layer and out in one tsk_py_views");
 
 static PyObject* py_picture_composite(PyObject* self, PyObject* args) {
     (void)self;
@@ -346,10 +331,9 @@ static PyObject* py_picture_composite(PyObject* self, PyObject* args) {
     if (count > TSK_PICTURE_MAX_LAYERS)
         return tsk_py_raise_arg("layers", "at most %d layers, got %zd", TSK_PICTURE_MAX_LAYERS,
                                 count);
-    Py_buffer views[TSK_PICTURE_MAX_LAYERS];
+    tsk_py_views v = {.n = 0};
     const float* ptrs[TSK_PICTURE_MAX_LAYERS];
-    int held[TSK_PICTURE_MAX_LAYERS] = {0};
-    Py_buffer out;
+    float* out;
     int ok = 1;
     for (Py_ssize_t i = 0; i < count && ok; ++i) {
         PyObject* item = PySequence_GetItem(seq, i);
@@ -357,29 +341,19 @@ static PyObject* py_picture_composite(PyObject* self, PyObject* args) {
             ok = 0;
             break;
         }
-        ptrs[i] = NULL;
-        if (item != Py_None) {
-            char name[32];
-            snprintf(name, sizeof name, "layers[%zd]", i);
-            if (tsk_py_buffer(item, name, TSK_PY_F32, n4, 0, &views[i])) {
-                held[i] = 1;
-                ptrs[i] = views[i].buf;
-            } else {
-                ok = 0;
-            }
-        }
+        char name[32];
+        snprintf(name, sizeof name, "layers[%zd]", i);
+        ok = tsk_py_views_get(&v, item, name, TSK_PY_F32, n4, 0, 1, (void**)&ptrs[i]);
         Py_DECREF(item);
     }
-    if (ok && !tsk_py_buffer(out_obj, "out", TSK_PY_F32, n4, 1, &out)) ok = 0;
+    ok = ok && tsk_py_views_get(&v, out_obj, "out", TSK_PY_F32, n4, 1, 0, (void**)&out);
     tsk_status s = TSK_OK;
     if (ok) {
         Py_BEGIN_ALLOW_THREADS
-        s = tsk_picture_composite(p, ptrs, (size_t)count, out.buf, (size_t)n4);
+        s = tsk_picture_composite(p, ptrs, (size_t)count, out, (size_t)n4);
         Py_END_ALLOW_THREADS
-        PyBuffer_Release(&out);
     }
-    for (Py_ssize_t i = 0; i < count; ++i)
-        if (held[i]) PyBuffer_Release(&views[i]);
+    tsk_py_views_release(&v);
     if (!ok) return NULL;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -416,33 +390,27 @@ static PyObject* py_warp_corners(PyObject* self, PyObject* args, PyObject* kw) {
     tsk_status s = tsk_warp_grid_size(w, h, a.def.cell_x, a.def.cell_y, &cx, &cy);
     if (s != TSK_OK) return tsk_py_raise(s);
     const Py_ssize_t nc = (Py_ssize_t)cx * cy;
-    Py_buffer b[5];
-    int n_held = 0;
-    if (!tsk_py_buffer(vx_obj, "vx", TSK_PY_F32, (Py_ssize_t)fw * fh, 0, &b[0])) goto fail;
-    ++n_held;
-    if (!tsk_py_buffer(vy_obj, "vy", TSK_PY_F32, (Py_ssize_t)fw * fh, 0, &b[1])) goto fail;
-    ++n_held;
-    if (!tsk_py_buffer(dx_obj, "corner_dx", TSK_PY_F32, nc, 1, &b[2])) goto fail;
-    ++n_held;
-    if (!tsk_py_buffer(dy_obj, "corner_dy", TSK_PY_F32, nc, 1, &b[3])) goto fail;
-    ++n_held;
+    tsk_py_views v = {.n = 0};
+    const float *vx, *vy, *scale;
+    float *dx, *dy;
     const int have_scale = scale_obj != Py_None;
-    if (have_scale) {
-        if (!tsk_py_buffer(scale_obj, "scale_map", TSK_PY_F32, (Py_ssize_t)w * h, 0, &b[4]))
-            goto fail;
-        ++n_held;
+    if (!tsk_py_views_get(&v, vx_obj, "vx", TSK_PY_F32, (Py_ssize_t)fw * fh, 0, 0, (void**)&vx) ||
+        !tsk_py_views_get(&v, vy_obj, "vy", TSK_PY_F32, (Py_ssize_t)fw * fh, 0, 0, (void**)&vy) ||
+        !tsk_py_views_get(&v, dx_obj, "corner_dx", TSK_PY_F32, nc, 1, 0, (void**)&dx) ||
+        !tsk_py_views_get(&v, dy_obj, "corner_dy", TSK_PY_F32, nc, 1, 0, (void**)&dy) ||
+        !tsk_py_views_get(&v, scale_obj, "scale_map", TSK_PY_F32, (Py_ssize_t)w * h, 0, 1,
+                          (void**)&scale)) {
+        tsk_py_views_release(&v);
+        return NULL;
     }
-    tsk_picture_field f = {b[0].buf, b[1].buf, fw, fh, y_up};
+    tsk_picture_field f = {vx, vy, fw, fh, y_up};
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_warp_corners(&a.def, w, h, &f, have_scale ? b[4].buf : NULL,
-                         have_scale ? (size_t)w * h : 0, b[2].buf, b[3].buf, (size_t)nc);
+    s = tsk_warp_corners(&a.def, w, h, &f, scale, have_scale ? (size_t)w * h : 0, dx, dy,
+                         (size_t)nc);
     Py_END_ALLOW_THREADS
-    for (int i = 0; i < n_held; ++i) PyBuffer_Release(&b[i]);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
-fail:
-    for (int i = 0; i < n_held; ++i) PyBuffer_Release(&b[i]);
-    return NULL;
 }
 
 static PyObject* py_warp_apply(PyObject* self, PyObject* args, PyObject* kw) {
@@ -462,25 +430,24 @@ static PyObject* py_warp_apply(PyObject* self, PyObject* args, PyObject* kw) {
     tsk_status s = tsk_warp_grid_size(w, h, sx, sy, &cx, &cy);
     if (s != TSK_OK) return tsk_py_raise(s);
     const Py_ssize_t nc = (Py_ssize_t)cx * cy, n4 = (Py_ssize_t)w * h * 4;
-    Py_buffer b[5];
-    int held[5] = {0};
+    tsk_py_views v = {.n = 0};
+    const float *dx, *dy, *src = NULL;
+    float *dst = NULL, *uv;
     const int have_dst = dst_obj != Py_None, have_uv = uv_obj != Py_None;
-    int ok = tsk_py_buffer(dx_obj, "corner_dx", TSK_PY_F32, nc, 0, &b[0]) && (held[0] = 1) &&
-             tsk_py_buffer(dy_obj, "corner_dy", TSK_PY_F32, nc, 0, &b[1]) && (held[1] = 1);
+    int ok = tsk_py_views_get(&v, dx_obj, "corner_dx", TSK_PY_F32, nc, 0, 0, (void**)&dx) &&
+             tsk_py_views_get(&v, dy_obj, "corner_dy", TSK_PY_F32, nc, 0, 0, (void**)&dy);
     if (ok && have_dst)
-        ok = tsk_py_buffer(src_obj, "src", TSK_PY_F32, n4, 0, &b[2]) && (held[2] = 1) &&
-             tsk_py_buffer(dst_obj, "dst", TSK_PY_F32, n4, 1, &b[3]) && (held[3] = 1);
-    if (ok && have_uv) ok = tsk_py_buffer(uv_obj, "uv", TSK_PY_F32, n4, 1, &b[4]) && (held[4] = 1);
+        ok = tsk_py_views_get(&v, src_obj, "src", TSK_PY_F32, n4, 0, 0, (void**)&src) &&
+             tsk_py_views_get(&v, dst_obj, "dst", TSK_PY_F32, n4, 1, 0, (void**)&dst);
+    ok = ok && tsk_py_views_get(&v, uv_obj, "uv", TSK_PY_F32, n4, 1, 1, (void**)&uv);
     if (ok) {
         Py_BEGIN_ALLOW_THREADS
-        s = tsk_warp_apply(w, h, have_dst ? b[2].buf : NULL, have_dst ? (size_t)n4 : 0, sx, sy,
-                           b[0].buf, b[1].buf, (size_t)nc, sampling, have_dst ? b[3].buf : NULL,
-                           have_dst ? (size_t)n4 : 0, have_uv ? b[4].buf : NULL,
-                           have_uv ? (size_t)n4 : 0, uv_bottom_up);
+        s = tsk_warp_apply(w, h, src, have_dst ? (size_t)n4 : 0, sx, sy, dx, dy, (size_t)nc,
+                           sampling, dst, have_dst ? (size_t)n4 : 0, uv, have_uv ? (size_t)n4 : 0,
+                           uv_bottom_up);
         Py_END_ALLOW_THREADS
     }
-    for (int i = 0; i < 5; ++i)
-        if (held[i]) PyBuffer_Release(&b[i]);
+    tsk_py_views_release(&v);
     if (!ok) return NULL;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;

@@ -3,20 +3,16 @@
 #include "binding.h"
 #include "tussock/refine.h"
 
-/* Number of knots of a float32 xyz buffer (its length must be a multiple of 3). */
-static int xyz_count(Py_buffer* view, const char* name, Py_ssize_t* count) {
-    Py_ssize_t n = tsk_py_count(view);
+/* Number of knots of the float32 xyz buffer acquired last into `v` (its length must be a
+ * multiple of 3). */
+static int xyz_count(const tsk_py_views* v, const char* name, Py_ssize_t* count) {
+    Py_ssize_t n = tsk_py_count(&v->view[v->n - 1]);
     if (n % 3 != 0) {
         tsk_py_raise_arg(name, "length %zd is not a multiple of 3 (x, y, z per knot)", n);
         return 0;
     }
     *count = n / 3;
     return 1;
-}
-
-static void release_all(Py_buffer** views, int n) {
-    for (int i = 0; i < n; ++i)
-        if (views[i] && views[i]->obj) PyBuffer_Release(views[i]);
 }
 
 static PyObject* py_refine_blade(PyObject* self, PyObject* args, PyObject* kw) {
@@ -34,32 +30,35 @@ static PyObject* py_refine_blade(PyObject* self, PyObject* args, PyObject* kw) {
     if (frames < 1) return tsk_py_raise_arg("frame_count", "must be at least 1, got %zd", frames);
     if (target < TSK_REFINE_MIN_TARGET || target > TSK_REFINE_MAX_TARGET)
         return tsk_py_raise_arg("target_knots", "must be from 2 to 64, got %d", target);
-    Py_buffer k = {0}, w = {0}, t = {0}, ok = {0}, ow = {0}, orr = {0}, ot = {0};
-    Py_buffer* all[] = {&k, &w, &t, &ok, &ow, &orr, &ot};
+    tsk_py_views v = {.n = 0};
+    const float *k, *w, *t;
+    float *ok, *ow, *ot;
+    int32_t* orr;
     Py_ssize_t n;
-    if (!tsk_py_buffer(ko, "knots", TSK_PY_F32, -1, 0, &k)) return NULL;
-    if (!xyz_count(&k, "knots", &n)) goto fail;
-    if (!tsk_py_buffer(wo, "widths", TSK_PY_F32, n, 0, &w)) goto fail;
-    if (!tsk_py_buffer(to, "trajectories", TSK_PY_F32, frames * n * 3, 0, &t)) goto fail;
-    if (!tsk_py_buffer(oko, "out_knots", TSK_PY_F32, (Py_ssize_t)target * 3, 1, &ok)) goto fail;
-    if (!tsk_py_buffer(owo, "out_widths", TSK_PY_F32, target, 1, &ow)) goto fail;
-    if (!tsk_py_buffer(oro, "out_ranges", TSK_PY_I32, (Py_ssize_t)target * 2, 1, &orr)) goto fail;
-    if (oto != Py_None &&
-        !tsk_py_buffer(oto, "out_trajectories", TSK_PY_F32, frames * target * 3, 1, &ot))
-        goto fail;
+    if (!tsk_py_views_get(&v, ko, "knots", TSK_PY_F32, -1, 0, 0, (void**)&k) ||
+        !xyz_count(&v, "knots", &n) ||
+        !tsk_py_views_get(&v, wo, "widths", TSK_PY_F32, n, 0, 0, (void**)&w) ||
+        !tsk_py_views_get(&v, to, "trajectories", TSK_PY_F32, frames * n * 3, 0, 0, (void**)&t) ||
+        !tsk_py_views_get(&v, oko, "out_knots", TSK_PY_F32, (Py_ssize_t)target * 3, 1, 0,
+                          (void**)&ok) ||
+        !tsk_py_views_get(&v, owo, "out_widths", TSK_PY_F32, target, 1, 0, (void**)&ow) ||
+        !tsk_py_views_get(&v, oro, "out_ranges", TSK_PY_I32, (Py_ssize_t)target * 2, 1, 0,
+                          (void**)&orr) ||
+        !tsk_py_views_get(&v, oto, "out_trajectories", TSK_PY_F32, frames * target * 3, 1, 1,
+                          (void**)&ot)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
     tsk_refine_def def = {target, mu};
-    tsk_refine_input in = {k.buf, w.buf, t.buf, (size_t)n, (size_t)frames};
-    tsk_refine_output out = {ok.buf, ow.buf, orr.buf, oto != Py_None ? ot.buf : NULL};
+    tsk_refine_input in = {k, w, t, (size_t)n, (size_t)frames};
+    tsk_refine_output out = {ok, ow, orr, ot};
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_refine_blade(&def, &in, &out);
     Py_END_ALLOW_THREADS
-    release_all(all, 7);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
-fail:
-    release_all(all, 7);
-    return NULL;
 }
 
 static PyObject* py_refine_blades(PyObject* self, PyObject* args, PyObject* kw) {
@@ -78,119 +77,125 @@ static PyObject* py_refine_blades(PyObject* self, PyObject* args, PyObject* kw) 
     if (frames < 1) return tsk_py_raise_arg("frame_count", "must be at least 1, got %zd", frames);
     if (target < TSK_REFINE_MIN_TARGET || target > TSK_REFINE_MAX_TARGET)
         return tsk_py_raise_arg("target_knots", "must be from 2 to 64, got %d", target);
-    Py_buffer k = {0}, w = {0}, t = {0}, ok = {0}, ow = {0}, orr = {0}, ot = {0};
-    Py_buffer* all[] = {&k, &w, &t, &ok, &ow, &orr, &ot};
+    tsk_py_views v = {.n = 0};
+    const float *k, *w, *t;
+    float *ok, *ow, *ot;
+    int32_t* orr;
     tsk_refine_input* in = NULL;
     tsk_refine_output* out = NULL;
+    tsk_status s = TSK_OK;
+    int got = 0;
     Py_ssize_t n;
-    if (!tsk_py_buffer(ko, "knots", TSK_PY_F32, -1, 0, &k)) return NULL;
-    if (!xyz_count(&k, "knots", &n)) goto fail;
+    if (!tsk_py_views_get(&v, ko, "knots", TSK_PY_F32, -1, 0, 0, (void**)&k) ||
+        !xyz_count(&v, "knots", &n))
+        goto done;
     if (n % blades != 0) {
         tsk_py_raise_arg("knots", "%zd knots do not split into %zd blades of equal size", n,
                          blades);
-        goto fail;
+        goto done;
     }
     const Py_ssize_t per = n / blades, m = target;
-    if (!tsk_py_buffer(wo, "widths", TSK_PY_F32, n, 0, &w)) goto fail;
-    if (!tsk_py_buffer(to, "trajectories", TSK_PY_F32, frames * n * 3, 0, &t)) goto fail;
-    if (!tsk_py_buffer(oko, "out_knots", TSK_PY_F32, blades * m * 3, 1, &ok)) goto fail;
-    if (!tsk_py_buffer(owo, "out_widths", TSK_PY_F32, blades * m, 1, &ow)) goto fail;
-    if (!tsk_py_buffer(oro, "out_ranges", TSK_PY_I32, blades * m * 2, 1, &orr)) goto fail;
-    if (oto != Py_None &&
-        !tsk_py_buffer(oto, "out_trajectories", TSK_PY_F32, blades * frames * m * 3, 1, &ot))
-        goto fail;
+    if (!tsk_py_views_get(&v, wo, "widths", TSK_PY_F32, n, 0, 0, (void**)&w) ||
+        !tsk_py_views_get(&v, to, "trajectories", TSK_PY_F32, frames * n * 3, 0, 0, (void**)&t) ||
+        !tsk_py_views_get(&v, oko, "out_knots", TSK_PY_F32, blades * m * 3, 1, 0, (void**)&ok) ||
+        !tsk_py_views_get(&v, owo, "out_widths", TSK_PY_F32, blades * m, 1, 0, (void**)&ow) ||
+        !tsk_py_views_get(&v, oro, "out_ranges", TSK_PY_I32, blades * m * 2, 1, 0, (void**)&orr) ||
+        !tsk_py_views_get(&v, oto, "out_trajectories", TSK_PY_F32, blades * frames * m * 3, 1, 1,
+                          (void**)&ot))
+        goto done;
     in = tsk_alloc((size_t)blades * sizeof *in, "binding blades");
     out = tsk_alloc((size_t)blades * sizeof *out, "binding outputs");
     if (in == NULL || out == NULL) {
         tsk_py_raise(TSK_ERR_MEMORY);
-        goto fail;
+        goto done;
     }
     /* blade b: knots [b][per][3], widths [b][per], trajectories [b][frames][per][3] */
     for (Py_ssize_t b = 0; b < blades; ++b) {
-        in[b] = (tsk_refine_input){(const float*)k.buf + b * per * 3,
-                                   (const float*)w.buf + b * per,
-                                   (const float*)t.buf + b * frames * per * 3, (size_t)per,
-                                   (size_t)frames};
-        out[b] = (tsk_refine_output){(float*)ok.buf + b * m * 3, (float*)ow.buf + b * m,
-                                     (int32_t*)orr.buf + b * m * 2,
-                                     oto != Py_None ? (float*)ot.buf + b * frames * m * 3 : NULL};
+        in[b] = (tsk_refine_input){k + b * per * 3, w + b * per, t + b * frames * per * 3,
+                                   (size_t)per, (size_t)frames};
+        out[b] = (tsk_refine_output){ok + b * m * 3, ow + b * m, orr + b * m * 2,
+                                     oto != Py_None ? ot + b * frames * m * 3 : NULL};
     }
     tsk_refine_def def = {target, mu};
-    tsk_status s;
+    got = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_refine_blades(&def, in, out, (size_t)blades);
     Py_END_ALLOW_THREADS
+done:
     tsk_free(in);
     tsk_free(out);
-    release_all(all, 7);
+    tsk_py_views_release(&v);
+    if (!got) return NULL;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
-fail:
-    tsk_free(in);
-    tsk_free(out);
-    release_all(all, 7);
-    return NULL;
 }
 
 static PyObject* py_refine_track(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *ro, *fko, *foo, *oto;
     if (!PyArg_ParseTuple(args, "OOOO:refine_track", &ro, &fko, &foo, &oto)) return NULL;
-    Py_buffer r = {0}, fk = {0}, fo = {0}, ot = {0};
-    Py_buffer* all[] = {&r, &fk, &fo, &ot};
+    tsk_py_views v = {.n = 0};
+    const float *r, *fk;
+    const int32_t* fo;
+    float* ot;
+    tsk_status s = TSK_OK;
+    int got = 0;
     Py_ssize_t n, total, frames;
-    if (!tsk_py_buffer(ro, "ref_knots", TSK_PY_F32, -1, 0, &r)) return NULL;
-    if (!xyz_count(&r, "ref_knots", &n)) goto fail;
-    if (!tsk_py_buffer(fko, "frame_knots", TSK_PY_F32, -1, 0, &fk)) goto fail;
-    if (!xyz_count(&fk, "frame_knots", &total)) goto fail;
-    if (!tsk_py_buffer(foo, "frame_offsets", TSK_PY_I32, -1, 0, &fo)) goto fail;
-    frames = tsk_py_count(&fo) - 1;
+    if (!tsk_py_views_get(&v, ro, "ref_knots", TSK_PY_F32, -1, 0, 0, (void**)&r) ||
+        !xyz_count(&v, "ref_knots", &n) ||
+        !tsk_py_views_get(&v, fko, "frame_knots", TSK_PY_F32, -1, 0, 0, (void**)&fk) ||
+        !xyz_count(&v, "frame_knots", &total) ||
+        !tsk_py_views_get(&v, foo, "frame_offsets", TSK_PY_I32, -1, 0, 0, (void**)&fo))
+        goto done;
+    frames = tsk_py_count(&v.view[v.n - 1]) - 1;
     if (frames < 1) {
         tsk_py_raise_arg("frame_offsets", "needs frame_count + 1 >= 2 entries");
-        goto fail;
+        goto done;
     }
-    const int32_t last = ((const int32_t*)fo.buf)[frames];
+    const int32_t last = fo[frames];
     if (last != total) {
         tsk_py_raise_arg("frame_offsets", "last entry %d must equal the %zd knots of frame_knots",
                          (int)last, total);
-        goto fail;
+        goto done;
     }
-    if (!tsk_py_buffer(oto, "out_trajectories", TSK_PY_F32, frames * n * 3, 1, &ot)) goto fail;
-    tsk_status s;
+    if (!tsk_py_views_get(&v, oto, "out_trajectories", TSK_PY_F32, frames * n * 3, 1, 0,
+                          (void**)&ot))
+        goto done;
+    got = 1;
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_refine_track(r.buf, (size_t)n, fk.buf, fo.buf, (size_t)frames, ot.buf);
+    s = tsk_refine_track(r, (size_t)n, fk, fo, (size_t)frames, ot);
     Py_END_ALLOW_THREADS
-    release_all(all, 4);
+done:
+    tsk_py_views_release(&v);
+    if (!got) return NULL;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
-fail:
-    release_all(all, 4);
-    return NULL;
 }
 
 static PyObject* py_refine_resample(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *ko, *wo, *oko, *owo;
     if (!PyArg_ParseTuple(args, "OOOO:refine_resample", &ko, &wo, &oko, &owo)) return NULL;
-    Py_buffer k = {0}, w = {0}, ok = {0}, ow = {0};
-    Py_buffer* all[] = {&k, &w, &ok, &ow};
+    tsk_py_views v = {.n = 0};
+    const float *k, *w;
+    float *ok, *ow;
     Py_ssize_t n, m;
-    if (!tsk_py_buffer(ko, "knots", TSK_PY_F32, -1, 0, &k)) return NULL;
-    if (!xyz_count(&k, "knots", &n)) goto fail;
-    if (!tsk_py_buffer(wo, "widths", TSK_PY_F32, n, 0, &w)) goto fail;
-    if (!tsk_py_buffer(oko, "out_knots", TSK_PY_F32, -1, 1, &ok)) goto fail;
-    if (!xyz_count(&ok, "out_knots", &m)) goto fail;
-    if (!tsk_py_buffer(owo, "out_widths", TSK_PY_F32, m, 1, &ow)) goto fail;
+    if (!tsk_py_views_get(&v, ko, "knots", TSK_PY_F32, -1, 0, 0, (void**)&k) ||
+        !xyz_count(&v, "knots", &n) ||
+        !tsk_py_views_get(&v, wo, "widths", TSK_PY_F32, n, 0, 0, (void**)&w) ||
+        !tsk_py_views_get(&v, oko, "out_knots", TSK_PY_F32, -1, 1, 0, (void**)&ok) ||
+        !xyz_count(&v, "out_knots", &m) ||
+        !tsk_py_views_get(&v, owo, "out_widths", TSK_PY_F32, m, 1, 0, (void**)&ow)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_refine_resample(k.buf, w.buf, (size_t)n, (size_t)m, ok.buf, ow.buf);
+    s = tsk_refine_resample(k, w, (size_t)n, (size_t)m, ok, ow);
     Py_END_ALLOW_THREADS
-    release_all(all, 4);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
-fail:
-    release_all(all, 4);
-    return NULL;
 }
 
 static PyObject* py_refine_simulate(PyObject* self, PyObject* args, PyObject* kw) {
@@ -212,23 +217,25 @@ static PyObject* py_refine_simulate(PyObject* self, PyObject* args, PyObject* kw
             &d.wind_direction[1], &d.wind_direction[2], &d.gust, &d.fps, &d.warmup, &d.time_step))
         return NULL;
     if (frames < 1) return tsk_py_raise_arg("frame_count", "must be at least 1, got %zd", frames);
-    Py_buffer k = {0}, w = {0}, ot = {0};
-    Py_buffer* all[] = {&k, &w, &ot};
+    tsk_py_views v = {.n = 0};
+    const float *k, *w;
+    float* ot;
     Py_ssize_t n;
-    if (!tsk_py_buffer(ko, "knots", TSK_PY_F32, -1, 0, &k)) return NULL;
-    if (!xyz_count(&k, "knots", &n)) goto fail;
-    if (!tsk_py_buffer(wo, "widths", TSK_PY_F32, n, 0, &w)) goto fail;
-    if (!tsk_py_buffer(oto, "out_trajectories", TSK_PY_F32, frames * n * 3, 1, &ot)) goto fail;
+    if (!tsk_py_views_get(&v, ko, "knots", TSK_PY_F32, -1, 0, 0, (void**)&k) ||
+        !xyz_count(&v, "knots", &n) ||
+        !tsk_py_views_get(&v, wo, "widths", TSK_PY_F32, n, 0, 0, (void**)&w) ||
+        !tsk_py_views_get(&v, oto, "out_trajectories", TSK_PY_F32, frames * n * 3, 1, 0,
+                          (void**)&ot)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_refine_simulate(&d, k.buf, w.buf, (size_t)n, (size_t)frames, ot.buf);
+    s = tsk_refine_simulate(&d, k, w, (size_t)n, (size_t)frames, ot);
     Py_END_ALLOW_THREADS
-    release_all(all, 3);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
-fail:
-    release_all(all, 3);
-    return NULL;
 }
 
 PyMethodDef tsk_py_refine_methods[] = {

@@ -267,40 +267,32 @@ static PyObject* py_provide_tile(PyObject* self, PyObject* args) {
     tsk_blade_sim_info info;
     tsk_blade_sim_get_info(sim, &info);
     const Py_ssize_t K = info.knot_count;
-    Py_buffer widths, knots, sides;
-    if (!tsk_py_buffer(widths_obj, "widths", TSK_PY_F32, -1, 0, &widths)) return NULL;
-    const Py_ssize_t nw = tsk_py_count(&widths);
+    tsk_py_views v = {.n = 0};
+    const float *widths, *knots, *sides;
+    if (!tsk_py_views_get(&v, widths_obj, "widths", TSK_PY_F32, -1, 0, 0, (void**)&widths))
+        return NULL;
+    const Py_ssize_t nw = tsk_py_count(&v.view[0]);
     if (nw % K != 0) {
-        PyBuffer_Release(&widths);
+        tsk_py_views_release(&v);
         return tsk_py_raise_arg("widths", "must hold %zd floats per blade, got %zd", K, nw);
     }
     const Py_ssize_t blades = nw / K;
     if (blades > TSK_BLADE_SIM_MAX_BLADES_PER_TILE) {
-        PyBuffer_Release(&widths);
+        tsk_py_views_release(&v);
         tsk_status s = tsk_blade_sim_provide_tile(sim, tile, TSK_BLADE_SIM_MAX_BLADES_PER_TILE + 1,
                                                   NULL, NULL, NULL);
         return tsk_py_raise(s);
     }
-    if (!tsk_py_buffer(knots_obj, "knots", TSK_PY_F32, 3 * nw, 0, &knots)) {
-        PyBuffer_Release(&widths);
+    if (!tsk_py_views_get(&v, knots_obj, "knots", TSK_PY_F32, 3 * nw, 0, 0, (void**)&knots) ||
+        !tsk_py_views_get(&v, sides_obj, "sides", TSK_PY_F32, 3 * blades, 0, 1, (void**)&sides)) {
+        tsk_py_views_release(&v);
         return NULL;
-    }
-    const float* sp = NULL;
-    if (sides_obj != Py_None) {
-        if (!tsk_py_buffer(sides_obj, "sides", TSK_PY_F32, 3 * blades, 0, &sides)) {
-            PyBuffer_Release(&widths);
-            PyBuffer_Release(&knots);
-            return NULL;
-        }
-        sp = sides.buf;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_blade_sim_provide_tile(sim, tile, (int32_t)blades, knots.buf, widths.buf, sp);
+    s = tsk_blade_sim_provide_tile(sim, tile, (int32_t)blades, knots, widths, sides);
     Py_END_ALLOW_THREADS
-    PyBuffer_Release(&widths);
-    PyBuffer_Release(&knots);
-    if (sp) PyBuffer_Release(&sides);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -364,15 +356,17 @@ static PyObject* py_get_active(PyObject* self, PyObject* args) {
     if (!sim) return NULL;
     tsk_blade_sim_info info;
     tsk_blade_sim_get_info(sim, &info);
-    Py_buffer tiles, counts;
-    if (!tsk_py_buffer(tiles_obj, "tiles", TSK_PY_I32, info.active_tiles, 1, &tiles)) return NULL;
-    if (!tsk_py_buffer(counts_obj, "blade_counts", TSK_PY_I32, info.active_tiles, 1, &counts)) {
-        PyBuffer_Release(&tiles);
+    tsk_py_views v = {.n = 0};
+    int32_t *tiles, *counts;
+    if (!tsk_py_views_get(&v, tiles_obj, "tiles", TSK_PY_I32, info.active_tiles, 1, 0,
+                          (void**)&tiles) ||
+        !tsk_py_views_get(&v, counts_obj, "blade_counts", TSK_PY_I32, info.active_tiles, 1, 0,
+                          (void**)&counts)) {
+        tsk_py_views_release(&v);
         return NULL;
     }
-    tsk_status s = tsk_blade_sim_get_active(sim, tiles.buf, counts.buf);
-    PyBuffer_Release(&tiles);
-    PyBuffer_Release(&counts);
+    tsk_status s = tsk_blade_sim_get_active(sim, tiles, counts);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }

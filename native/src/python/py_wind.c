@@ -330,32 +330,25 @@ static PyObject* py_wind_sample(PyObject* self, PyObject* args) {
         return NULL;
     if ((sxo == Py_None) != (syo == Py_None))
         return tsk_py_raise_arg("sway_x", "sway_x and sway_y must both be given or both be None");
-    Py_buffer x, y, vx, vy, sx, sy;
-    if (!tsk_py_buffer(xo, "x", TSK_PY_F32, -1, 0, &x)) return NULL;
-    const Py_ssize_t n = tsk_py_count(&x);
-    int got = 1, ny = 0, nvx = 0, nvy = 0, nsx = 0, nsy = 0;
-    got = got && (ny = tsk_py_buffer(yo, "y", TSK_PY_F32, n, 0, &y));
-    got = got && (nvx = tsk_py_buffer(vxo, "vx", TSK_PY_F32, n, 1, &vx));
-    got = got && (nvy = tsk_py_buffer(vyo, "vy", TSK_PY_F32, n, 1, &vy));
-    if (sxo != Py_None) {
-        got = got && (nsx = tsk_py_buffer(sxo, "sway_x", TSK_PY_F32, n, 1, &sx));
-        got = got && (nsy = tsk_py_buffer(syo, "sway_y", TSK_PY_F32, n, 1, &sy));
-    }
+    tsk_py_views v = {.n = 0};
+    const float *x, *y;
+    float *vx, *vy, *sx, *sy;
+    if (!tsk_py_views_get(&v, xo, "x", TSK_PY_F32, -1, 0, 0, (void**)&x)) return NULL;
+    const Py_ssize_t n = tsk_py_count(&v.view[0]);
+    const int got = tsk_py_views_get(&v, yo, "y", TSK_PY_F32, n, 0, 0, (void**)&y) &&
+                    tsk_py_views_get(&v, vxo, "vx", TSK_PY_F32, n, 1, 0, (void**)&vx) &&
+                    tsk_py_views_get(&v, vyo, "vy", TSK_PY_F32, n, 1, 0, (void**)&vy) &&
+                    tsk_py_views_get(&v, sxo, "sway_x", TSK_PY_F32, n, 1, 1, (void**)&sx) &&
+                    tsk_py_views_get(&v, syo, "sway_y", TSK_PY_F32, n, 1, 1, (void**)&sy);
     wind_box* box = got ? acquire(capsule) : NULL;
     tsk_status s = TSK_OK;
     if (box != NULL) {
         Py_BEGIN_ALLOW_THREADS
-        s = tsk_wind_sample(box->wind, t, (size_t)n, x.buf, y.buf, vx.buf, vy.buf,
-                            nsx ? sx.buf : NULL, nsy ? sy.buf : NULL);
+        s = tsk_wind_sample(box->wind, t, (size_t)n, x, y, vx, vy, sx, sy);
         Py_END_ALLOW_THREADS
         release(box);
     }
-    PyBuffer_Release(&x);
-    if (ny) PyBuffer_Release(&y);
-    if (nvx) PyBuffer_Release(&vx);
-    if (nvy) PyBuffer_Release(&vy);
-    if (nsx) PyBuffer_Release(&sx);
-    if (nsy) PyBuffer_Release(&sy);
+    tsk_py_views_release(&v);
     if (box == NULL) return NULL;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -366,27 +359,26 @@ static PyObject* py_wind_sample_xyz(PyObject* self, PyObject* args) {
     PyObject *capsule, *po, *vo, *so = Py_None;
     double t;
     if (!PyArg_ParseTuple(args, "OdOO|O:wind_sample_xyz", &capsule, &t, &po, &vo, &so)) return NULL;
-    Py_buffer p, v, sw;
-    if (!tsk_py_buffer(po, "xyz", TSK_PY_F32, -1, 0, &p)) return NULL;
-    const Py_ssize_t n3 = tsk_py_count(&p);
+    tsk_py_views v = {.n = 0};
+    const float* p;
+    float *vel, *sw;
+    if (!tsk_py_views_get(&v, po, "xyz", TSK_PY_F32, -1, 0, 0, (void**)&p)) return NULL;
+    const Py_ssize_t n3 = tsk_py_count(&v.view[0]);
     if (n3 % 3 != 0) {
-        PyBuffer_Release(&p);
+        tsk_py_views_release(&v);
         return tsk_py_raise_arg("xyz", "must hold 3 floats per point, got %zd floats", n3);
     }
-    int got = 1, nv = 0, ns = 0;
-    got = got && (nv = tsk_py_buffer(vo, "vel_xyz", TSK_PY_F32, n3, 1, &v));
-    if (so != Py_None) got = got && (ns = tsk_py_buffer(so, "sway_xyz", TSK_PY_F32, n3, 1, &sw));
+    const int got = tsk_py_views_get(&v, vo, "vel_xyz", TSK_PY_F32, n3, 1, 0, (void**)&vel) &&
+                    tsk_py_views_get(&v, so, "sway_xyz", TSK_PY_F32, n3, 1, 1, (void**)&sw);
     wind_box* box = got ? acquire(capsule) : NULL;
     tsk_status s = TSK_OK;
     if (box != NULL) {
         Py_BEGIN_ALLOW_THREADS
-        s = tsk_wind_sample_xyz(box->wind, t, (size_t)(n3 / 3), p.buf, v.buf, ns ? sw.buf : NULL);
+        s = tsk_wind_sample_xyz(box->wind, t, (size_t)(n3 / 3), p, vel, sw);
         Py_END_ALLOW_THREADS
         release(box);
     }
-    PyBuffer_Release(&p);
-    if (nv) PyBuffer_Release(&v);
-    if (ns) PyBuffer_Release(&sw);
+    tsk_py_views_release(&v);
     if (box == NULL) return NULL;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -400,24 +392,21 @@ static PyObject* read_grid(PyObject* args, const char* fmt, int continuum) {
     int nx, ny;
     tsk_wind_grid_size(box->wind, &nx, &ny);
     const Py_ssize_t n = (Py_ssize_t)nx * ny;
-    Py_buffer a, b;
-    if (!tsk_py_buffer(ao, continuum ? "px" : "vx", TSK_PY_F32, n, 1, &a)) {
-        release(box);
-        return NULL;
-    }
-    if (!tsk_py_buffer(bo, continuum ? "py" : "vy", TSK_PY_F32, n, 1, &b)) {
-        PyBuffer_Release(&a);
+    tsk_py_views v = {.n = 0};
+    float *a, *b;
+    if (!tsk_py_views_get(&v, ao, continuum ? "px" : "vx", TSK_PY_F32, n, 1, 0, (void**)&a) ||
+        !tsk_py_views_get(&v, bo, continuum ? "py" : "vy", TSK_PY_F32, n, 1, 0, (void**)&b)) {
+        tsk_py_views_release(&v);
         release(box);
         return NULL;
     }
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
-    s = continuum ? tsk_wind_read_continuum(box->wind, a.buf, b.buf, (size_t)n)
-                  : tsk_wind_read_fluid(box->wind, a.buf, b.buf, (size_t)n);
+    s = continuum ? tsk_wind_read_continuum(box->wind, a, b, (size_t)n)
+                  : tsk_wind_read_fluid(box->wind, a, b, (size_t)n);
     Py_END_ALLOW_THREADS
     release(box);
-    PyBuffer_Release(&a);
-    PyBuffer_Release(&b);
+    tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
