@@ -197,9 +197,9 @@ class Runner:
         return np.zeros((0, 3) if what == 3 else 0, np.float32)
 
     def step(self, frame, rows, fps, wind_at):
-        steps = steps_per_frame(fps)
         """Steps from frame - 1 to `frame` with the collider rows of `frame` and the wind
         wind_at(frame, xyz (n, 3)) -> (n, 3) m/s."""
+        steps = steps_per_frame(fps)
         lib, sim = self.lib, self.sim
         lib.blade_sim_set_colliders(sim, np.ascontiguousarray(rows, np.float32).ravel())
         self._provide_pending()
