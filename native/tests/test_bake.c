@@ -3,6 +3,8 @@
  * every frame and writes the layout Blender's Mesh Cache modifier reads. */
 #define _DEFAULT_SOURCE
 #include "test.h"
+#define TSK_TEST_TMP_NAME "bake"
+#include "test_tmp.h"
 #include "tussock/bake.h"
 
 #include <dirent.h>
@@ -11,20 +13,6 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-static char g_dir[256];
-
-static const char* tmp_path(const char* name) {
-    static char buf[4][512];
-    static int k;
-    k = (k + 1) % 4;
-    if (g_dir[0] == '\0') {
-        snprintf(g_dir, sizeof g_dir, "/tmp/tsk_test_bake_%d", (int)getpid());
-        mkdir(g_dir, 0755);
-    }
-    snprintf(buf[k], sizeof buf[k], "%s/%s", g_dir, name);
-    return buf[k];
-}
 
 static void fill(float* xyz, int n, int frame) {
     for (int i = 0; i < 3 * n; ++i) xyz[i] = (float)(i * 0.001 + frame * 0.5);

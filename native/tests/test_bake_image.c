@@ -4,6 +4,8 @@
  * read-only folder and a full disk are reported with the file's name. */
 #define _DEFAULT_SOURCE
 #include "test.h"
+#define TSK_TEST_TMP_NAME "bake_image"
+#include "test_tmp.h"
 #include "tussock/bake_image.h"
 #include "tussock/picture.h"
 
@@ -13,20 +15,6 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-static char g_dir[256];
-
-static const char* tmp_path(const char* name) {
-    static char buf[4][512];
-    static int k;
-    k = (k + 1) % 4;
-    if (g_dir[0] == '\0') {
-        snprintf(g_dir, sizeof g_dir, "/tmp/tsk_test_bake_image_%d", (int)getpid());
-        mkdir(g_dir, 0755);
-    }
-    snprintf(buf[k], sizeof buf[k], "%s/%s", g_dir, name);
-    return buf[k];
-}
 
 /* A UV-pass-like image: u, v at pixel centres plus a frame-dependent wobble, B = A = 1. */
 static float* uv_image(int w, int h, int frame) {

@@ -20,13 +20,14 @@
 #include "oni_writer.h"
 
 #include "test.h"
+#define TSK_TEST_TMP_NAME "capture"
+#include "test_tmp.h"
 #include "tussock/capture.h"
 
 #define W 640
 #define H 480
 
 static float g_depth[W * H];
-static char g_dir[256];
 
 /* OpenNI2's drivers (PS1080, PSLink, Dummy, OniFile) keep allocations that they never free
  * within a process; they are not Tussock's. */
@@ -34,34 +35,6 @@ const char* __lsan_default_suppressions(void);
 const char* __lsan_default_suppressions(void) {
     return "leak:libOpenNI2\nleak:libPS1080\nleak:libPSLink\nleak:libDummyDevice\n"
            "leak:libOniFile\n";
-}
-
-/* removes the test's temporary files at exit */
-static void remove_tmp_dir(void) {
-    DIR* d = opendir(g_dir);
-    if (d == NULL) return;
-    struct dirent* e;
-    char p[600];
-    while ((e = readdir(d)) != NULL) {
-        if (e->d_name[0] == '.') continue;
-        snprintf(p, sizeof p, "%s/%s", g_dir, e->d_name);
-        unlink(p);
-    }
-    closedir(d);
-    rmdir(g_dir);
-}
-
-static const char* tmp_path(const char* name) {
-    static char buf[4][512];
-    static int k;
-    k = (k + 1) % 4;
-    if (g_dir[0] == '\0') {
-        snprintf(g_dir, sizeof g_dir, "/tmp/tsk_test_capture_%d", (int)getpid());
-        mkdir(g_dir, 0700);
-        atexit(remove_tmp_dir);
-    }
-    snprintf(buf[k], sizeof buf[k], "%s/%s", g_dir, name);
-    return buf[k];
 }
 
 /* ---- comparison with the analytic blades ---------------------------------------------- */
