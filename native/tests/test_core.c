@@ -3,6 +3,7 @@
 
 #include "test.h"
 #include "tussock/core.h"
+#include "core/exr_header.h"
 
 #include <stdint.h>
 #include <string.h>
@@ -348,6 +349,142 @@ TEST(test_memory_budget_is_half_of_physical_memory_and_refuses_more) {
     CHECK(tsk_memory_check(1e6, "small") == TSK_OK);
 }
 
+/* ---- OpenEXR headers (core/exr_header.c) ----------------------------------------------- */
+
+typedef struct exr_buf {
+    uint8_t b[70000];
+    size_t n;
+} exr_buf;
+
+static void exr_put32(exr_buf* e, int32_t v) {
+    for (int k = 0; k < 4; ++k) e->b[e->n++] = (uint8_t)((uint32_t)v >> (8 * k));
+}
+
+static void exr_begin(exr_buf* e, uint32_t flags) {
+    const uint8_t magic[4] = {0x76, 0x2f, 0x31, 0x01};
+    e->n = 0;
+    memcpy(e->b, magic, 4);
+    e->n = 4;
+    e->b[e->n++] = 2;
+    for (int k = 0; k < 3; ++k) e->b[e->n++] = (uint8_t)(flags >> (8 * k));
+}
+
+/* name\0 type\0 size value (the value's bytes as given) */
+static void exr_attr(exr_buf* e, const char* name, const char* type, const void* value,
+                     int32_t size) {
+    memcpy(e->b + e->n, name, strlen(name) + 1);
+    e->n += strlen(name) + 1;
+    memcpy(e->b + e->n, type, strlen(type) + 1);
+    e->n += strlen(type) + 1;
+    exr_put32(e, size);
+    memcpy(e->b + e->n, value, (size_t)size);
+    e->n += (size_t)size;
+}
+
+static void exr_box(exr_buf* e, const char* name, int32_t x0, int32_t y0, int32_t x1,
+                    int32_t y1) {
+    exr_buf v = {.n = 0};
+    exr_put32(&v, x0), exr_put32(&v, y0), exr_put32(&v, x1), exr_put32(&v, y1);
+    exr_attr(e, name, "box2i", v.b, 16);
+}
+
+/* `count` channels "c0", "c1"... of pixel type `type` (0 uint, 1 half, 2 float) */
+static void exr_channels(exr_buf* e, int count, int type) {
+    exr_buf v = {.n = 0};
+    for (int c = 0; c < count; ++c) {
+        v.n += (size_t)snprintf((char*)v.b + v.n, 8, "c%d", c) + 1;
+        exr_put32(&v, type);
+        exr_put32(&v, 0); /* pLinear, reserved */
+        exr_put32(&v, 1), exr_put32(&v, 1);
+    }
+    v.b[v.n++] = 0;
+    exr_attr(e, "channels", "chlist", v.b, (int32_t)v.n);
+}
+
+static void exr_compression(exr_buf* e, uint8_t c) { exr_attr(e, "compression", "compression", &c, 1); }
+
+/* The header is read as OpenEXR reads it, so that OpenEXR's buffers (sized from the header
+ * alone) stay bounded: fuzz_depth_files found a file whose first dataWindow claimed 272 bytes
+ * (OpenEXR reads 16, a 33-million-pixel-wide window, and allocated 2.2 GB for ZIP blocks) while
+ * the old check skipped it and read a second, small one. */
+TEST(test_exr_header_is_read_as_openexr_reads_it) {
+    static exr_buf e;
+    tsk_exr_header h;
+    exr_begin(&e, 0);
+    exr_channels(&e, 1, 2);
+    exr_compression(&e, 3);
+    exr_box(&e, "dataWindow", 0, 0, 9, 7);
+    exr_box(&e, "displayWindow", 0, 0, 9, 7);
+    e.b[e.n++] = 0;
+    CHECK(tsk_exr_check_header(e.b, e.n, "good.exr", &h) == TSK_OK);
+    CHECK(h.width == 10 && h.height == 8 && h.channels == 1 && !h.tiled);
+    /* the header ends past the bytes given: not guessed */
+    CHECK_STATUS(tsk_exr_check_header(e.b, e.n - 1, "cut.exr", &h), TSK_ERR_FORMAT, "truncated");
+    /* the finding: a box2i of 272 bytes, then a small dataWindow */
+    exr_begin(&e, 0);
+    exr_channels(&e, 1, 2);
+    exr_compression(&e, 3);
+    {
+        uint8_t big[272] = {0};
+        const int32_t w[4] = {-16777138, -256, 16777215, 1};
+        memcpy(big, w, sizeof w);
+        exr_attr(&e, "dataWindow", "box2i", big, 272);
+    }
+    exr_box(&e, "dataWindow", 0, 0, 47, 39);
+    e.b[e.n++] = 0;
+    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "finding.exr", &h), TSK_ERR_FORMAT, "wrong size");
+    /* two well-formed dataWindows: which one OpenEXR keeps is not this check's guess */
+    exr_begin(&e, 0);
+    exr_box(&e, "dataWindow", 0, 0, 47, 39);
+    exr_box(&e, "dataWindow", 0, 0, 9, 9);
+    e.b[e.n++] = 0;
+    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "two.exr", &h), TSK_ERR_FORMAT, "second dataWindow");
+    /* 200 float channels 8192 wide: ZIP packs 16 lines (100 MiB), DWAB 256 (1.6 GiB) */
+    for (int c = 0; c < 2; ++c) {
+        exr_begin(&e, 0);
+        exr_channels(&e, 200, 2);
+        exr_compression(&e, c == 0 ? 3 : 9);
+        exr_box(&e, "dataWindow", 0, 0, 8191, 99);
+        e.b[e.n++] = 0;
+        if (c == 0) {
+            CHECK(tsk_exr_check_header(e.b, e.n, "wide.exr", &h) == TSK_OK && h.channels == 200);
+        } else {
+            CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "wide.exr", &h), TSK_ERR_LIMIT,
+                         "block of its scan lines");
+        }
+    }
+    /* unknown compression, multi-part, a preview of the wrong size */
+    exr_begin(&e, 0);
+    exr_compression(&e, 10);
+    exr_box(&e, "dataWindow", 0, 0, 9, 9);
+    e.b[e.n++] = 0;
+    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "c.exr", &h), TSK_ERR_FORMAT, "unknown compression");
+    exr_begin(&e, 0x1000);
+    exr_box(&e, "dataWindow", 0, 0, 9, 9);
+    e.b[e.n++] = 0;
+    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "mp.exr", &h), TSK_ERR_FORMAT, "multi-part");
+    exr_begin(&e, 0);
+    {
+        const int32_t pv[3] = {100000, 100000, 0}; /* claims 40 GB of preview pixels */
+        exr_attr(&e, "preview", "preview", pv, 12);
+    }
+    exr_box(&e, "dataWindow", 0, 0, 9, 9);
+    e.b[e.n++] = 0;
+    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "pv.exr", &h), TSK_ERR_FORMAT, "bad preview");
+    /* tiled: a tile of 65536 x 65536 floats would be 16 GiB */
+    exr_begin(&e, 0x200);
+    exr_channels(&e, 1, 2);
+    exr_box(&e, "dataWindow", 0, 0, 9, 9);
+    {
+        uint8_t td[9] = {0};
+        const int32_t t[2] = {65536, 65536};
+        memcpy(td, t, 8);
+        exr_attr(&e, "tiles", "tiledesc", td, 9);
+    }
+    e.b[e.n++] = 0;
+    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "tiled.exr", &h), TSK_ERR_LIMIT, "tile would take");
+}
+
 TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_more),
           TEST_ENTRY(test_mesh_edges_match_the_reference_and_count_a_tube),
           TEST_ENTRY(test_error_names_argument), TEST_ENTRY(test_error_long_message_truncates),
@@ -359,4 +496,5 @@ TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_m
           TEST_ENTRY(test_parallel_for_nested_covers_every_index_once),
           TEST_ENTRY(test_parallel_for_concurrent_callers_and_many_loops),
           TEST_ENTRY(test_set_threads_rejects_out_of_range),
-          TEST_ENTRY(test_vec3_lengths_and_nonfinite_rejected), TEST_ENTRY(test_version_is_semver))
+          TEST_ENTRY(test_vec3_lengths_and_nonfinite_rejected), TEST_ENTRY(test_version_is_semver),
+          TEST_ENTRY(test_exr_header_is_read_as_openexr_reads_it))

@@ -7,14 +7,11 @@
 #include <string.h>
 
 #include "bridge/opencv_capture_bridge.h"
+#include "core/exr_header.h"
 #include "depth_internal.h"
 
 static uint32_t be32(const unsigned char* p) {
     return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-}
-static int32_t le32(const unsigned char* p) {
-    return (int32_t)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-                     (uint32_t)p[3] << 24);
 }
 
 #define HEADER_BYTES 65536
@@ -48,41 +45,20 @@ tsk_status tsk_depth_check_header(const char* path, int* w, int* h) {
                                  "'%s' is a %d-bit PNG; depth must be a 16-bit grey PNG in "
                                  "millimetres", path, bit_depth);
     } else if (n >= 8 && buf[0] == 0x76 && buf[1] == 0x2f && buf[2] == 0x31 && buf[3] == 0x01) {
-        /* OpenEXR header: attributes name\0 type\0 size value ... until an empty name */
-        size_t at = 8;
-        int found = 0;
-        while (at < n && buf[at] != 0) {
-            const unsigned char* name = buf + at;
-            const void* z1 = memchr(name, 0, n - at);
-            if (z1 == NULL) break;
-            size_t p = (size_t)((const unsigned char*)z1 - buf) + 1;
-            const void* z2 = p < n ? memchr(buf + p, 0, n - p) : NULL;
-            if (z2 == NULL) break;
-            const unsigned char* type = buf + p;
-            p = (size_t)((const unsigned char*)z2 - buf) + 1;
-            if (p + 4 > n) break;
-            const int32_t size = le32(buf + p);
-            p += 4;
-            if (size < 0 || p + (size_t)size > n) break;
-            if (strcmp((const char*)name, "dataWindow") == 0 &&
-                strcmp((const char*)type, "box2i") == 0 && size == 16) {
-                const long long x0 = le32(buf + p), y0 = le32(buf + p + 4);
-                const long long x1 = le32(buf + p + 8), y1 = le32(buf + p + 12);
-                width = x1 - x0 + 1;
-                height = y1 - y0 + 1;
-                found = 1;
-            }
-            at = p + (size_t)size;
-        }
-        if (!found)
-            return tsk_error_arg(TSK_ERR_FORMAT, "path",
-                                 "'%s' is a truncated or malformed OpenEXR (no dataWindow)", path);
-        if (width <= 0 || height <= 0)
-            return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' has an empty data window", path);
+        /* the whole header, as OpenEXR will read it: its buffers are sized from it */
+        tsk_exr_header eh;
+        const tsk_status st = tsk_exr_check_header(buf, n, path, &eh);
+        if (st != TSK_OK) return st;
+        width = eh.width;
+        height = eh.height;
         if (width > TSK_DEPTH_MAX_SIDE || height > TSK_DEPTH_MAX_SIDE)
             return tsk_error_arg(TSK_ERR_LIMIT, "path",
                                  "'%s' is %lldx%lld; depth images are limited to %dx%d", path,
                                  width, height, TSK_DEPTH_MAX_SIDE, TSK_DEPTH_MAX_SIDE);
+        if (eh.channels > 4)
+            return tsk_error_arg(TSK_ERR_FORMAT, "path",
+                                 "'%s' has %d channels; depth must be one channel of metres",
+                                 path, eh.channels);
     } else {
         return tsk_error_arg(TSK_ERR_FORMAT, "path",
                              "'%s' is neither a PNG nor an OpenEXR file%s", path,

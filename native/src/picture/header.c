@@ -1,16 +1,13 @@
 /* Picture file headers: the width and height of PNG, JPEG and OpenEXR files read from their
  * first bytes, so that huge pictures are refused before anything is decoded. */
-#define _POSIX_C_SOURCE 200809L /* strnlen */
 #include "picture_internal.h"
+
+#include "core/exr_header.h"
 
 #include <string.h>
 
 static uint32_t be32(const uint8_t* p) {
     return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-}
-static int32_t le32(const uint8_t* p) {
-    return (int32_t)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-                     (uint32_t)p[3] << 24);
 }
 
 static tsk_status bad(const char* name, const char* what) {
@@ -56,28 +53,13 @@ static tsk_status jpeg_size(const uint8_t* b, size_t n, const char* name, long l
 
 static tsk_status exr_size(const uint8_t* b, size_t n, const char* name, long long* w,
                            long long* h) {
-    size_t i = 8; /* magic (4) + version and flags (4) */
-    while (i < n && b[i] != 0) {
-        const char* attr = (const char*)(b + i);
-        size_t an = strnlen(attr, n - i);
-        if (i + an + 1 >= n) break;
-        size_t t = i + an + 1;
-        size_t tn = strnlen((const char*)(b + t), n - t);
-        size_t s = t + tn + 1;
-        if (s + 4 > n) break;
-        int32_t size = le32(b + s);
-        if (size < 0 || (size_t)size > n - s - 4) break;
-        if (strcmp(attr, "dataWindow") == 0 && strcmp((const char*)(b + t), "box2i") == 0 &&
-            size == 16) {
-            long long x0 = le32(b + s + 4), y0 = le32(b + s + 8);
-            long long x1 = le32(b + s + 12), y1 = le32(b + s + 16);
-            *w = x1 - x0 + 1;
-            *h = y1 - y0 + 1;
-            return TSK_OK;
-        }
-        i = s + 4 + (size_t)size;
-    }
-    return bad(name, "is a truncated or corrupt OpenEXR file (no dataWindow)");
+    /* the whole header, as OpenEXR will read it: its buffers are sized from it */
+    tsk_exr_header eh;
+    const tsk_status s = tsk_exr_check_header(b, n, name, &eh);
+    if (s != TSK_OK) return s;
+    *w = eh.width;
+    *h = eh.height;
+    return TSK_OK;
 }
 
 tsk_status tsk_picture_check_size(int width, int height, int min_side, const char* arg) {
