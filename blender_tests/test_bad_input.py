@@ -33,6 +33,9 @@ NAN = float("nan")
 INF = float("inf")
 PNG = os.path.join(harness.REPO, "samples", "blades", "depth_0001.png")
 EXR = os.path.join(harness.REPO, "samples", "blades", "cluster.exr")
+# an OpenEXR header whose first dataWindow says 272 bytes (reliability.md, finding 16)
+BAD_EXR = os.path.join(harness.REPO, "native", "fuzz", "corpus", "depth_files",
+                       "regression-exr-datawindow-of-272-bytes")
 
 harness.enable_addon()
 from tussock import native  # noqa: E402
@@ -98,6 +101,7 @@ def test_capture_bad_files_cancel():
         ("16-bit", dict(filepath=tmp("eight.png", png_bytes(64, 48, 8)))),      # wrong format
         ("colour PNG", dict(filepath=tmp("rgb.png", png_bytes(64, 48, 16, 2)))),
         ("", dict(filepath=tmp("text.exr", b"not an image at all\n" * 50))),
+        ("malformed OpenEXR", dict(filepath=tmp("finding16.exr", open(BAD_EXR, "rb").read()))),
         ("8192", dict(filepath=tmp("huge.png", png_bytes(100000, 100000)))),    # extreme size
         ("", dict(filepath=tmp("zero.png", png_bytes(0, 0)))),
         ("all-zero", dict(filepath=tmp("zeros.png", png_bytes(64, 48)))),        # no data
@@ -679,6 +683,7 @@ def test_picture_bad_input_cancels():
         ("picture", tmp("pic_truncated.png", good[:60])),                # corrupt
         ("picture", tmp("pic_garbage.png", b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 4)),
         ("picture", tmp("pic_text.exr", b"not an image\n" * 40)),        # wrong format
+        ("malformed OpenEXR", tmp("pic_finding16.exr", open(BAD_EXR, "rb").read())),
         ("picture", tmp("pic_empty.png", b"")),
         ("", tmp("pic_huge.png", png_bytes(100000, 100000, 8, 2))),     # extreme size
         ("", tmp("pic_zero.png", png_bytes(0, 0, 8, 2))),
