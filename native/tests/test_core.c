@@ -471,6 +471,24 @@ TEST(test_exr_header_is_read_as_openexr_reads_it) {
     exr_box(&e, "dataWindow", 0, 0, 9, 9);
     e.b[e.n++] = 0;
     CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "pv.exr", &h), TSK_ERR_FORMAT, "bad preview");
+    /* a string vector whose second string claims 2 GB (OpenEXR would make room for it), and
+     * one that fits: (3, "abc"), (0, "") */
+    for (int c = 0; c < 2; ++c) {
+        exr_begin(&e, 0);
+        exr_buf sv = {.n = 0};
+        exr_put32(&sv, 3);
+        memcpy(sv.b + sv.n, "abc", 3), sv.n += 3;
+        exr_put32(&sv, c == 0 ? INT32_MAX : 0);
+        exr_attr(&e, "multiView", "stringvector", sv.b, (int32_t)sv.n);
+        exr_box(&e, "dataWindow", 0, 0, 9, 9);
+        e.b[e.n++] = 0;
+        if (c == 0) {
+            CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "sv.exr", &h), TSK_ERR_FORMAT,
+                         "bad string vector");
+        } else {
+            CHECK(tsk_exr_check_header(e.b, e.n, "sv.exr", &h) == TSK_OK && h.width == 10);
+        }
+    }
     /* tiled: a tile of 65536 x 65536 floats would be 16 GiB */
     exr_begin(&e, 0x200);
     exr_channels(&e, 1, 2);

@@ -112,6 +112,18 @@ tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name,
             const uint64_t pw = (uint32_t)le32(v), ph = (uint32_t)le32(v + 4);
             if (pw > n || ph > n || 8 + 4 * pw * ph != (uint64_t)size)
                 return bad(name, "bad preview");
+        } else if (strcmp(type, "floatvector") == 0) { /* OpenEXR reads size / 4 floats */
+            if (size % 4 != 0) return bad(name, "a float vector of the wrong size");
+        } else if (strcmp(type, "stringvector") == 0) {
+            /* (length, bytes) pairs: OpenEXR makes room for each length it reads */
+            size_t q = 0;
+            while (q < (size_t)size) {
+                if ((size_t)size - q < 4) return bad(name, "bad string vector");
+                const int32_t len = le32(v + q);
+                q += 4;
+                if (len < 0 || (size_t)len > (size_t)size - q) return bad(name, "bad string vector");
+                q += (size_t)len;
+            }
         }
         if (strcmp(attr, "dataWindow") == 0) {
             if (have_window || strcmp(type, "box2i") != 0)
