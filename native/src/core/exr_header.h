@@ -24,8 +24,9 @@ typedef struct tsk_exr_header {
 /// number). Refused, with TSK_ERR_FORMAT and a message naming `name`: a header that does
 /// not end within the bytes given; multi-part or deep files; an attribute whose size is not
 /// the size of its type (OpenEXR reads the type's size and would go on reading elsewhere than
-/// this check); a second dataWindow; a malformed channel list, tile description or preview;
-/// and with TSK_ERR_LIMIT a line block or tile over TSK_EXR_MAX_BLOCK_BYTES. The caller
+/// this check); a second dataWindow; a malformed channel list, tile description, preview,
+/// float vector or string vector (OpenEXR makes room for each string length it reads); and
+/// with TSK_ERR_LIMIT a line block or tile over TSK_EXR_MAX_BLOCK_BYTES. The caller
 /// checks width and height against its own limits.
 tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name,
                                 tsk_exr_header* out);
