@@ -29,7 +29,7 @@ import numpy as np
 ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 SAPLING_DIR = None  # found when the add-on is enabled
 SPECIES = ("quaking_aspen", "weeping_willow", "douglas_fir", "small_pine", "white_birch")
-REPEATS = 7
+REPEATS = 5
 
 
 def wanted(prefix):
@@ -144,8 +144,6 @@ def bench_generate():
         # Sapling: its own preset, as the operator's properties (do_update makes it build)
         kw = {k: v for k, v in sp.items() if k not in ("presetName", "limitImport")}
         kw["do_update"] = True
-        # alternately, so that both meet the same machine (this VM drifts by a quarter
-        # between minutes)
         ts, tt = [], []
         for _ in range(REPEATS):
             clear_objects()
@@ -153,15 +151,15 @@ def bench_generate():
             bpy.ops.curve.tree_add(**kw)
             evaluated()
             ts.append(time.perf_counter() - t0)
-            if len(ts) == 1:
-                sb, sl, sv = sapling_counts()
+        sb, sl, sv = sapling_counts()
+        for _ in range(REPEATS):
             clear_objects()
             t0 = time.perf_counter()
             bpy.ops.tussock.add_tree(preset="user:" + pname, seed=d["seed"], leaves=leaves)
             evaluated()
             tt.append(time.perf_counter() - t0)
-            obj = bpy.context.active_object
-            tb, tl, tv = obj["tussock_branches"], obj["tussock_leaves"], obj["tussock_vertices"]
+        obj = bpy.context.active_object
+        tb, tl, tv = obj["tussock_branches"], obj["tussock_leaves"], obj["tussock_vertices"]
         clear_objects()
         # the native part alone: grow, mesh topology and vertices (what Blender gets)
         dn = dict(d)
