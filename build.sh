@@ -81,14 +81,15 @@ build_fuzz() {
 # Runs each fuzzer (all, or those named) for `seconds`, one at a time at the lowest priority,
 # on a working copy of its seed corpus; prints executions per target and adds to
 # PASSED/FAILED (a run that finds nothing passes). Crashes land in build/fuzz/artifacts/.
-# An input counts as a hang after 300 s: the library lets one call work about a minute in a
-# Release build (e.g. the refine rod model, TSK_BEND_MAX_WORK), and the sanitizers make it
-# several times slower.
+# An input counts as a hang after 300 s (TSK_FUZZ_TIMEOUT): the library lets one call work
+# about a minute in a Release build (e.g. the refine rod model, TSK_BEND_MAX_WORK), and the
+# sanitizers make it several times slower; several fuzzers sharing the cores, slower still.
 run_fuzzers() { # seconds [name...]
   local secs="$1" f name log rc execs t0 t1 want runs=()
   shift
   # TSK_FUZZ_RUNS=N also stops each target after N executions (the reliability bar is
   # 10 million executions or one hour, whichever comes first).
+  case "${TSK_FUZZ_TIMEOUT:-300}" in ''|*[!0-9]*) die "TSK_FUZZ_TIMEOUT must be a whole number" ;; esac
   if [ -n "${TSK_FUZZ_RUNS:-}" ]; then
     case "$TSK_FUZZ_RUNS" in *[!0-9]*) die "TSK_FUZZ_RUNS must be a whole number" ;; esac
     runs=(-runs="$TSK_FUZZ_RUNS")
@@ -108,7 +109,7 @@ run_fuzzers() { # seconds [name...]
     rc=0
     ASAN_OPTIONS="detect_leaks=1:halt_on_error=1" UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
       LSAN_OPTIONS="suppressions=$ROOT/native/fuzz/lsan.supp:print_suppressions=0" \
-      nice -n 19 "$f" -max_total_time="$secs" "${runs[@]}" -timeout=300 -rss_limit_mb=2048 \
+      nice -n 19 "$f" -max_total_time="$secs" "${runs[@]}" -timeout="${TSK_FUZZ_TIMEOUT:-300}" -rss_limit_mb=2048 \
       -print_final_stats=1 -artifact_prefix="$BUILD/fuzz/artifacts/$name-" \
       "$BUILD/fuzz/corpus/$name" "$ROOT/native/fuzz/corpus/$name" >"$log" 2>&1 || rc=$?
     t1=$(date +%s)
