@@ -49,14 +49,17 @@ typedef struct gen {
     size_t ln, lcap;
     float scale_tree, z_scale;
     float split_error[TSK_TREE_MAX_LEVELS];
-    /* a tsk_tree shell used to pose stems with the shared pose function */
+} gen;
+
+/* What one thread needs to place stems: a tsk_tree shell to pose them with the shared pose
+ * function, and the Sloan frames of the last parent it placed a stem on with the points and
+ * end orientation they were built from (siblings are placed one after another). */
+typedef struct placer {
     struct tsk_tree pose_shell;
-    /* the Sloan frames of the last parent a stem was placed on, and the points and end
-     * orientation they were built from (siblings are placed one after another) */
     float frames_src[15];
     sloan_frames frames;
     int has_frames;
-} gen;
+} placer;
 
 static float rnd(const gen* g, int level, size_t idx, int purpose, size_t j) {
     return tsk_rand01(g->d->seed, ((uint64_t)(uint32_t)level << 40) ^ (uint64_t)idx,
@@ -196,21 +199,22 @@ static int shape_stem(const gen* g, const gstem* s, size_t idx, float L, v3 orig
 
 /* The rest points of stem p and their Sloan frames, built once for a run of siblings: the
  * cache is keyed by the points themselves, so it can never be stale. */
-static const sloan_frames* stem_frames(gen* g, const gstem* p, v3* Pp) {
+static const sloan_frames* stem_frames(placer* pl, const gstem* p, v3* Pp) {
     tree_load_points(p->P, 0, Pp);
-    if (!g->has_frames || memcmp(g->frames_src, p->P, 12 * sizeof(float)) != 0 ||
-        memcmp(g->frames_src + 12, p->O, 3 * sizeof(float)) != 0) {
-        sloan_build(Pp, v3_make(p->O[0], p->O[1], p->O[2]), &g->frames);
-        memcpy(g->frames_src, p->P, 12 * sizeof(float));
-        memcpy(g->frames_src + 12, p->O, 3 * sizeof(float));
-        g->has_frames = 1;
+    if (!pl->has_frames || memcmp(pl->frames_src, p->P, 12 * sizeof(float)) != 0 ||
+        memcmp(pl->frames_src + 12, p->O, 3 * sizeof(float)) != 0) {
+        sloan_build(Pp, v3_make(p->O[0], p->O[1], p->O[2]), &pl->frames);
+        memcpy(pl->frames_src, p->P, 12 * sizeof(float));
+        memcpy(pl->frames_src + 12, p->O, 3 * sizeof(float));
+        pl->has_frames = 1;
     }
-    return &g->frames;
+    return &pl->frames;
 }
 
 /* Attaches stem s (index idx) to its parent, shapes it, prunes it, stores its local points
- * and poses it with the shared pose function. */
-static void place_stem(gen* g, size_t idx) {
+ * and poses it with the shared pose function. Reads only stem idx and its parent, already
+ * placed, and writes only stem idx: stems of one generation are placed in parallel. */
+static void place_stem(const gen* g, placer* pl, size_t idx) {
     gstem* s = &g->s[idx];
     v3 origin, U, V;
     if (s->parent < 0) {
@@ -219,7 +223,7 @@ static void place_stem(gen* g, size_t idx) {
         V = v3_make(1, 0, 0);
     } else {
         v3 Pp[4];
-        const sloan_frames f = *stem_frames(g, &g->s[s->parent], Pp);
+        const sloan_frames f = *stem_frames(pl, &g->s[s->parent], Pp);
         tree_attach_frame(Pp, &f, s->v, cosf(s->theta), sinf(s->theta), &origin, &U, &V);
     }
     const float ca = cosf(s->alpha), sa = sinf(s->alpha); /* same as the tree's trig */
@@ -245,7 +249,7 @@ static void place_stem(gen* g, size_t idx) {
         s->Q[3 * (k - 1) + 2] = v3_dot(q, W);
     }
     /* pose through the shared function (zero force) so rest == wind step at zero force */
-    struct tsk_tree* t = &g->pose_shell;
+    struct tsk_tree* t = &pl->pose_shell;
     int32_t parent = s->parent, level = s->level;
     float av = s->v, at = s->theta, aa = s->alpha;
     float seg = 1.0f;
@@ -264,11 +268,31 @@ static void place_stem(gen* g, size_t idx) {
     v3 Pp[4] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
     sloan_frames fp;
     memset(&fp, 0, sizeof fp);
-    if (s->parent >= 0) fp = *stem_frames(g, &g->s[s->parent], Pp);
+    if (s->parent >= 0) fp = *stem_frames(pl, &g->s[s->parent], Pp);
     v3 Pout[4], Oout;
     tree_pose_branch(t, 0, Pp, &fp, v3_make(0, 0, 0), 1.8f, 0.0f, Pout, &Oout);
     tree_store_points(s->P, 0, Pout);
     s->O[0] = Oout.x, s->O[1] = Oout.y, s->O[2] = Oout.z;
+}
+
+typedef struct place_ctx {
+    const gen* g;
+    size_t first;
+} place_ctx;
+
+static void place_range(size_t begin, size_t end, size_t chunk, void* ctx) {
+    (void)chunk;
+    const place_ctx* c = ctx;
+    placer pl; /* each chunk its own frames cache: the same frames whoever builds them */
+    memset(&pl, 0, sizeof pl);
+    for (size_t i = begin; i < end; ++i) place_stem(c->g, &pl, c->first + i);
+}
+
+/* Places stems [first, end), made from stems already placed, on all threads. */
+static void place_generation(const gen* g, size_t first, size_t end) {
+    if (end <= first) return;
+    place_ctx c = {g, first};
+    tsk_parallel_for(end - first, 32, place_range, &c);
 }
 
 /* Clones of stem idx at its segment ends (0BaseSplits, nSegSplits). */
@@ -295,7 +319,6 @@ static tsk_status grow_clones(gen* g, size_t idx) {
             gstem* c = NULL;
             tsk_status st = push_stem(g, &c);
             if (st != TSK_OK) return st;
-            const size_t ci = g->n - 1;
             const gstem* b = &g->s[idx];
             c->parent = (int32_t)idx;
             c->level = b->level;
@@ -313,8 +336,7 @@ static tsk_status grow_clones(gen* g, size_t idx) {
             c->len_max = b->len_max;
             c->wp_parent_len = b->wp_parent_len;
             c->wp_offset = b->wp_offset;
-            c->base_frac = 0.0f;
-            place_stem(g, ci);
+            c->base_frac = 0.0f; /* placed with its generation (place_generation) */
         }
     }
     const float share = 1.0f / (float)(1 + g->n - first_clone);
@@ -388,7 +410,6 @@ static tsk_status grow_children(gen* g, size_t idx) {
         gstem* ch = NULL;
         tsk_status st = push_stem(g, &ch);
         if (st != TSK_OK) return st;
-        const size_t ci = g->n - 1;
         const gstem* p = &g->s[idx];
         ch->parent = (int32_t)idx;
         ch->level = c;
@@ -404,8 +425,7 @@ static tsk_status grow_children(gen* g, size_t idx) {
         ch->len_max = len_max;
         ch->wp_parent_len = p->length;
         ch->wp_offset = offset;
-        ch->base_frac = 0.0f;
-        place_stem(g, ci);
+        ch->base_frac = 0.0f; /* placed with its generation (place_generation) */
     }
     return TSK_OK;
 }
@@ -449,9 +469,10 @@ void tsk_tree_destroy(tsk_tree* tree) {
     tsk_free(tree);
 }
 
-/* Sloan frames of the rest pose for every branch that carries children or leaves. */
-void tree_rest_frames(tsk_tree* t) {
-    for (size_t i = 0; i < t->n; ++i) {
+static void rest_frames_range(size_t begin, size_t end, size_t chunk, void* ctx) {
+    (void)chunk;
+    tsk_tree* t = ctx;
+    for (size_t i = begin; i < end; ++i) {
         if (!t->has_kids[i]) continue;
         v3 P[4];
         tree_load_points(t->rest, i, P);
@@ -459,8 +480,75 @@ void tree_rest_frames(tsk_tree* t) {
     }
 }
 
-static tsk_status build_tree(gen* g, tsk_tree** out) {
+/* Sloan frames of the rest pose for every branch that carries children or leaves. */
+void tree_rest_frames(tsk_tree* t) { tsk_parallel_for(t->n, 256, rest_frames_range, t); }
+
+typedef struct build_ctx {
+    const gen* g;
+    tsk_tree* t;
+} build_ctx;
+
+/* The tree's arrays from the generator's stems [begin, end). */
+static void build_branches(size_t begin, size_t end, size_t chunk, void* ctx) {
+    (void)chunk;
+    const build_ctx* c = ctx;
+    const gen* g = c->g;
     const tsk_tree_def* d = g->d;
+    tsk_tree* t = c->t;
+    for (size_t i = begin; i < end; ++i) {
+        const gstem* s = &g->s[i];
+        t->parent[i] = s->parent;
+        t->level[i] = s->level;
+        t->depth[i] = s->depth;
+        t->attach_v[i] = s->v;
+        t->attach_theta[i] = s->theta;
+        t->attach_alpha[i] = s->alpha;
+        t->trig[4 * i] = cosf(s->theta);
+        t->trig[4 * i + 1] = sinf(s->theta);
+        t->trig[4 * i + 2] = cosf(s->alpha);
+        t->trig[4 * i + 3] = sinf(s->alpha);
+        t->length[i] = s->length;
+        memcpy(t->local + 9 * i, s->Q, sizeof s->Q);
+        memcpy(t->root + 3 * i, s->root, sizeof s->root);
+        memcpy(t->rest + 12 * i, s->P, sizeof s->P);
+        memcpy(t->rest_O + 3 * i, s->O, sizeof s->O);
+        const float dq[3] = {s->Q[6] - s->Q[3], s->Q[7] - s->Q[4], s->Q[8] - s->Q[5]};
+        t->rest_seg[i] = sqrtf(dq[0] * dq[0] + dq[1] * dq[1] + dq[2] * dq[2]);
+        const float dp[3] = {s->Q[3] - s->Q[0], s->Q[4] - s->Q[1], s->Q[5] - s->Q[2]};
+        t->seg12[i] = sqrtf(dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2]);
+        tsk_branch_shape* sh = &t->shape[i];
+        sh->radius = s->radius;
+        sh->taper = s->taper;
+        sh->taper_power = d->taper_power;
+        sh->flare = s->level == 0 ? d->flare : 0.0f;
+        sh->bulges = (float)d->bulges;
+        sh->bulge_depth = d->bulge_depth;
+        sh->lobes = s->level == 0 ? (float)d->lobes : 0.0f;
+        sh->lobe_depth = s->level == 0 ? d->lobe_depth : 0.0f;
+        sh->lobe_fade = d->lobe_fade;
+    }
+}
+
+static void build_leaves(size_t begin, size_t end, size_t chunk, void* ctx) {
+    (void)chunk;
+    const build_ctx* c = ctx;
+    tsk_tree* t = c->t;
+    for (size_t j = begin; j < end; ++j) {
+        const gleaf* l = &c->g->l[j];
+        t->leaf_parent[j] = l->parent;
+        t->leaf_attach[3 * j] = l->v;
+        t->leaf_attach[3 * j + 1] = l->theta;
+        t->leaf_attach[3 * j + 2] = l->alpha;
+        t->leaf_size[2 * j] = l->length;
+        t->leaf_size[2 * j + 1] = l->width;
+        t->leaf_trig[4 * j] = cosf(l->theta);
+        t->leaf_trig[4 * j + 1] = sinf(l->theta);
+        t->leaf_trig[4 * j + 2] = cosf(l->alpha);
+        t->leaf_trig[4 * j + 3] = sinf(l->alpha);
+    }
+}
+
+static tsk_status build_tree(gen* g, tsk_tree** out) {
     tsk_tree* t = tsk_calloc(1, sizeof(tsk_tree), "tree");
     if (t == NULL) return TSK_ERR_MEMORY;
     const size_t n = g->n, m = g->ln;
@@ -504,60 +592,22 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
     int depth = -1;
     for (size_t i = 0; i < n; ++i) {
         const gstem* s = &g->s[i];
-        t->parent[i] = s->parent;
-        t->level[i] = s->level;
-        t->depth[i] = s->depth;
         while (depth < s->depth) {
             ++depth;
             if (depth < 65) t->depth_start[depth] = i;
         }
         t->level_count[s->level]++;
-        t->attach_v[i] = s->v;
-        t->attach_theta[i] = s->theta;
-        t->attach_alpha[i] = s->alpha;
-        t->trig[4 * i] = cosf(s->theta);
-        t->trig[4 * i + 1] = sinf(s->theta);
-        t->trig[4 * i + 2] = cosf(s->alpha);
-        t->trig[4 * i + 3] = sinf(s->alpha);
-        if (s->parent >= 0) t->has_kids[s->parent] = 1;
-        t->length[i] = s->length;
-        memcpy(t->local + 9 * i, s->Q, sizeof s->Q);
-        memcpy(t->root + 3 * i, s->root, sizeof s->root);
-        memcpy(t->rest + 12 * i, s->P, sizeof s->P);
-        memcpy(t->rest_O + 3 * i, s->O, sizeof s->O);
-        const float dq[3] = {s->Q[6] - s->Q[3], s->Q[7] - s->Q[4], s->Q[8] - s->Q[5]};
-        t->rest_seg[i] = sqrtf(dq[0] * dq[0] + dq[1] * dq[1] + dq[2] * dq[2]);
-        const float dp[3] = {s->Q[3] - s->Q[0], s->Q[4] - s->Q[1], s->Q[5] - s->Q[2]};
-        t->seg12[i] = sqrtf(dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2]);
-        tsk_branch_shape* sh = &t->shape[i];
-        sh->radius = s->radius;
-        sh->taper = s->taper;
-        sh->taper_power = d->taper_power;
-        sh->flare = s->level == 0 ? d->flare : 0.0f;
-        sh->bulges = (float)d->bulges;
-        sh->bulge_depth = d->bulge_depth;
-        sh->lobes = s->level == 0 ? (float)d->lobes : 0.0f;
-        sh->lobe_depth = s->level == 0 ? d->lobe_depth : 0.0f;
-        sh->lobe_fade = d->lobe_fade;
     }
     t->depth_count = depth + 1;
     t->depth_start[t->depth_count] = n;
+    build_ctx c = {g, t};
+    tsk_parallel_for(n, 256, build_branches, &c);
+    tsk_parallel_for(m, 4096, build_leaves, &c);
     memcpy(t->cur, t->rest, 12 * n * sizeof(float));
     memcpy(t->cur_O, t->rest_O, 3 * n * sizeof(float));
-    for (size_t j = 0; j < m; ++j) {
-        const gleaf* l = &g->l[j];
-        t->leaf_parent[j] = l->parent;
-        t->has_kids[l->parent] = 1;
-        t->leaf_attach[3 * j] = l->v;
-        t->leaf_attach[3 * j + 1] = l->theta;
-        t->leaf_attach[3 * j + 2] = l->alpha;
-        t->leaf_size[2 * j] = l->length;
-        t->leaf_size[2 * j + 1] = l->width;
-        t->leaf_trig[4 * j] = cosf(l->theta);
-        t->leaf_trig[4 * j + 1] = sinf(l->theta);
-        t->leaf_trig[4 * j + 2] = cosf(l->alpha);
-        t->leaf_trig[4 * j + 3] = sinf(l->alpha);
-    }
+    for (size_t i = 0; i < n; ++i)
+        if (t->parent[i] >= 0) t->has_kids[t->parent[i]] = 1;
+    for (size_t j = 0; j < m; ++j) t->has_kids[t->leaf_parent[j]] = 1;
     tree_rest_frames(t);
     tree_set_length_power(t, 1.0f);
     *out = t;
@@ -594,16 +644,22 @@ tsk_status tsk_tree_create(const tsk_tree_def* def, tsk_tree** out) {
     trunk->len_max = def->level[0].length;
     trunk->wp_parent_len = trunk->length;
     trunk->base_frac = def->base_size;
-    place_stem(&g, 0);
-    /* breadth first: parents before children, depths non-decreasing */
-    for (size_t i = 0; i < g.n; ++i) {
-        if (g.s[i].depth >= 64) continue; /* cannot happen with <= 4 levels and 1 clone step */
-        st = grow_clones(&g, i);
-        if (st != TSK_OK) goto done;
-        st = grow_children(&g, i);
-        if (st != TSK_OK) goto done;
-        st = grow_leaves(&g, i);
-        if (st != TSK_OK) goto done;
+    place_generation(&g, 0, 1);
+    /* breadth first, a generation at a time: parents before children, depths
+     * non-decreasing. Creating a stem needs only its parent, placed with the generation
+     * before, so the stems are numbered and drawn in the same order as if each were
+     * placed as soon as it was made, and a generation is placed in parallel after. */
+    for (size_t first = 0, end = g.n; first < end; first = end, end = g.n) {
+        for (size_t i = first; i < end; ++i) {
+            if (g.s[i].depth >= 64) continue; /* not with <= 4 levels and 1 clone step */
+            st = grow_clones(&g, i);
+            if (st != TSK_OK) goto done;
+            st = grow_children(&g, i);
+            if (st != TSK_OK) goto done;
+            st = grow_leaves(&g, i);
+            if (st != TSK_OK) goto done;
+        }
+        place_generation(&g, end, g.n);
     }
     st = build_tree(&g, out);
 done:
