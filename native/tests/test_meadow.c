@@ -871,6 +871,61 @@ TEST(test_blade_expand_straight_blade_closed_form) {
     CHECK_STATUS(tsk_blade_expand(knots, widths, 70, side, pos, nrm, uv), TSK_ERR_LIMIT, "knot_count");
 }
 
+/* Bent blades of every length from 2 to 19 knots (the four-knot SIMD steps and the scalar
+ * tail), with repeated knots (no tangent) and tangents along the side, against the ribbon's
+ * definition recomputed here in double: tangent by central differences, side made
+ * perpendicular to it and unit, vertices half a width either side, normal = side x tangent. */
+TEST(test_blades_expand_follows_the_ribbon_definition) {
+    enum { NB = 6, KMAX = 19 };
+    uint64_t state = 12345;
+    float knots[NB * KMAX * 3], widths[NB * KMAX], sides[NB * 3];
+    float pos[NB * KMAX * 6], nrm[NB * KMAX * 6];
+    for (int K = 2; K <= KMAX; ++K) {
+        for (int b = 0; b < NB; ++b) {
+            for (int k = 0; k < K; ++k) {
+                const float z = 0.05f * (float)k;
+                float* q = &knots[3 * (K * b + k)];
+                q[0] = 0.3f * (float)b + 0.4f * z * z * (float)(b % 3 - 1);
+                q[1] = 0.02f * (float)((state = state * 6364136223846793005ull + 1442695040888963407ull) >> 40) / (float)(1 << 24);
+                q[2] = b == 4 ? 0.0f : z; /* blade 4: along +x below */
+                if (b == 4) q[0] = z;
+                if (b == 5 && k >= K / 2) memcpy(q, q - 3, 3 * sizeof(float)); /* repeated knots */
+                widths[K * b + k] = 0.01f * (float)(K - k) / (float)K;
+            }
+            sides[3 * b] = 1.0f, sides[3 * b + 2] = 0.0f;
+            sides[3 * b + 1] = b == 4 ? 0.0f : 0.3f * (float)b; /* 4: along its tangent */
+        }
+        CHECK(tsk_blades_expand(knots, widths, sides, NB, K, pos, nrm, NULL) == TSK_OK);
+        for (int b = 0; b < NB; ++b)
+            for (int k = 0; k < K; ++k) {
+                const int a = k > 0 ? k - 1 : 0, c = k < K - 1 ? k + 1 : K - 1;
+                const float* P = &knots[3 * K * b];
+                double t[3], s0[3], s[3], tl = 0, sl = 0, d = 0;
+                for (int q = 0; q < 3; ++q) t[q] = (double)P[3 * c + q] - (double)P[3 * a + q];
+                for (int q = 0; q < 3; ++q) tl += t[q] * t[q];
+                if (tl > 0) for (int q = 0; q < 3; ++q) t[q] /= sqrt(tl);
+                else t[0] = 0, t[1] = 0, t[2] = 1;
+                for (int q = 0; q < 3; ++q) sl += (double)sides[3 * b + q] * sides[3 * b + q];
+                for (int q = 0; q < 3; ++q) s0[q] = sides[3 * b + q] / sqrt(sl);
+                for (int q = 0; q < 3; ++q) d += s0[q] * t[q];
+                double ssl = 0;
+                for (int q = 0; q < 3; ++q) s[q] = s0[q] - d * t[q], ssl += s[q] * s[q];
+                for (int q = 0; q < 3; ++q) s[q] = ssl > 1e-12 ? s[q] / sqrt(ssl) : s0[q];
+                const double h = 0.5 * widths[K * b + k];
+                const double n[3] = {s[1] * t[2] - s[2] * t[1], s[2] * t[0] - s[0] * t[2],
+                                     s[0] * t[1] - s[1] * t[0]};
+                const float* v = &pos[6 * (K * b + k)];
+                const float* m = &nrm[6 * (K * b + k)];
+                for (int q = 0; q < 3; ++q) {
+                    CHECK_NEAR(v[q], P[3 * k + q] - h * s[q], 1e-6);
+                    CHECK_NEAR(v[3 + q], P[3 * k + q] + h * s[q], 1e-6);
+                    CHECK_NEAR(m[q], n[q], 1e-5);
+                    CHECK_NEAR(m[3 + q], n[q], 1e-5);
+                }
+            }
+    }
+}
+
 static uint64_t patch_digest(int threads, uint64_t seed) {
     CHECK(tsk_set_threads(threads) == TSK_OK);
     tsk_patch* p = make_patch(seed, 16384);
@@ -1153,6 +1208,7 @@ TEST_MAIN(TEST_ENTRY(test_meadow_and_patch_over_memory_budget_are_refused),
           TEST_ENTRY(test_realise_identical_bytes_1_and_2_threads),
           TEST_ENTRY(test_expansion_widths_equal_model_widths_times_scale),
           TEST_ENTRY(test_blade_expand_straight_blade_closed_form),
+          TEST_ENTRY(test_blades_expand_follows_the_ribbon_definition),
           TEST_ENTRY(test_patch_mesh_identical_bytes_1_and_2_threads),
           TEST_ENTRY(test_realised_tile_expands_to_the_patch_mesh_moved_to_the_tile),
           TEST_ENTRY(test_blades_expand_reports_first_bad_blade_and_writes_nothing),

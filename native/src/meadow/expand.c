@@ -4,12 +4,85 @@
 #include "meadow_internal.h"
 
 #include <math.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 size_t tsk_blade_vertex_count(int32_t knot_count) {
     return knot_count >= 2 ? 2 * (size_t)knot_count : 0;
 }
 size_t tsk_blade_triangle_count(int32_t knot_count) {
     return knot_count >= 2 ? 2 * (size_t)(knot_count - 1) : 0;
+}
+
+/* Unit tangent T and unit side S of every knot of a blade (columns x, y, z; room for
+ * EXPAND_ROOM knots): the tangent by central differences (one-sided at the ends), the side
+ * s0 made perpendicular to it (Gram-Schmidt). Four knots at a time with SSE2: the same IEEE
+ * operations in the same order as the scalar path, so the same bits. */
+#define EXPAND_ROOM (((TSK_BLADE_MAX_KNOTS) + 3) & ~3)
+
+static void knot_frame(float tx, float ty, float tz, const float s0[3], float* T, float* S) {
+    const float tl2 = tx * tx + ty * ty + tz * tz;
+    if (tl2 > 0.0f) {
+        const float inv = 1.0f / sqrtf(tl2);
+        tx *= inv, ty *= inv, tz *= inv;
+    } else {
+        tx = 0.0f, ty = 0.0f, tz = 1.0f;
+    }
+    const float d = s0[0] * tx + s0[1] * ty + s0[2] * tz;
+    float sx = s0[0] - d * tx, sy = s0[1] - d * ty, sz = s0[2] - d * tz;
+    const float ssl2 = sx * sx + sy * sy + sz * sz;
+    if (ssl2 > 1e-12f) {
+        const float inv = 1.0f / sqrtf(ssl2);
+        sx *= inv, sy *= inv, sz *= inv;
+    } else { /* tangent along the side: keep the side as given */
+        sx = s0[0], sy = s0[1], sz = s0[2];
+    }
+    T[0] = tx, T[EXPAND_ROOM] = ty, T[2 * EXPAND_ROOM] = tz;
+    S[0] = sx, S[EXPAND_ROOM] = sy, S[2 * EXPAND_ROOM] = sz;
+}
+
+static void blade_frames(const float* knots, int32_t n, const float s0[3],
+                         float T[3 * EXPAND_ROOM], float S[3 * EXPAND_ROOM]) {
+    float D[3][EXPAND_ROOM]; /* knot b - knot a, per axis */
+    for (int32_t k = 0; k < n; ++k) {
+        const int32_t a = k > 0 ? k - 1 : 0, b = k < n - 1 ? k + 1 : n - 1;
+        for (int q = 0; q < 3; ++q) D[q][k] = knots[3 * b + q] - knots[3 * a + q];
+    }
+    int32_t k = 0;
+#if defined(__SSE2__)
+    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), eps = _mm_set1_ps(1e-12f);
+    const __m128 sx0 = _mm_set1_ps(s0[0]), sy0 = _mm_set1_ps(s0[1]), sz0 = _mm_set1_ps(s0[2]);
+    for (; k + 4 <= n; k += 4) {
+        __m128 tx = _mm_loadu_ps(&D[0][k]), ty = _mm_loadu_ps(&D[1][k]), tz = _mm_loadu_ps(&D[2][k]);
+        const __m128 tl2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(tx, tx), _mm_mul_ps(ty, ty)),
+                                      _mm_mul_ps(tz, tz));
+        const __m128 tok = _mm_cmpgt_ps(tl2, zero);
+        /* lanes with tl2 <= 0 take (0, 0, 1); their quotient is never used */
+        const __m128 tinv = _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(tok, tl2),
+                                                                  _mm_andnot_ps(tok, one))));
+        tx = _mm_and_ps(tok, _mm_mul_ps(tx, tinv));
+        ty = _mm_and_ps(tok, _mm_mul_ps(ty, tinv));
+        tz = _mm_or_ps(_mm_and_ps(tok, _mm_mul_ps(tz, tinv)), _mm_andnot_ps(tok, one));
+        const __m128 d = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx0, tx), _mm_mul_ps(sy0, ty)),
+                                    _mm_mul_ps(sz0, tz));
+        __m128 sx = _mm_sub_ps(sx0, _mm_mul_ps(d, tx)), sy = _mm_sub_ps(sy0, _mm_mul_ps(d, ty)),
+               sz = _mm_sub_ps(sz0, _mm_mul_ps(d, tz));
+        const __m128 ssl2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx, sx), _mm_mul_ps(sy, sy)),
+                                       _mm_mul_ps(sz, sz));
+        const __m128 sok = _mm_cmpgt_ps(ssl2, eps);
+        const __m128 sinv = _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(sok, ssl2),
+                                                                  _mm_andnot_ps(sok, one))));
+        sx = _mm_or_ps(_mm_and_ps(sok, _mm_mul_ps(sx, sinv)), _mm_andnot_ps(sok, sx0));
+        sy = _mm_or_ps(_mm_and_ps(sok, _mm_mul_ps(sy, sinv)), _mm_andnot_ps(sok, sy0));
+        sz = _mm_or_ps(_mm_and_ps(sok, _mm_mul_ps(sz, sinv)), _mm_andnot_ps(sok, sz0));
+        _mm_storeu_ps(&T[k], tx), _mm_storeu_ps(&T[EXPAND_ROOM + k], ty);
+        _mm_storeu_ps(&T[2 * EXPAND_ROOM + k], tz);
+        _mm_storeu_ps(&S[k], sx), _mm_storeu_ps(&S[EXPAND_ROOM + k], sy);
+        _mm_storeu_ps(&S[2 * EXPAND_ROOM + k], sz);
+    }
+#endif
+    for (; k < n; ++k) knot_frame(D[0][k], D[1][k], D[2][k], s0, &T[k], &S[k]);
 }
 
 /* Unchecked expansion of one blade; `side` need not be unit length but must be non-zero.
@@ -31,36 +104,12 @@ static void expand_blade(const float* knots, const float* widths, int32_t n, con
         }
     }
     const float inv_total = total > 0.0f ? 1.0f / total : 0.0f;
+    float T[3 * EXPAND_ROOM], S[3 * EXPAND_ROOM];
+    blade_frames(knots, n, s0, T, S);
     float along = 0.0f;
     for (int32_t k = 0; k < n; ++k) {
-        const int32_t a = k > 0 ? k - 1 : 0, b = k < n - 1 ? k + 1 : n - 1;
-        float t[3] = {knots[3 * b] - knots[3 * a], knots[3 * b + 1] - knots[3 * a + 1],
-                      knots[3 * b + 2] - knots[3 * a + 2]};
-        const float tl2 = t[0] * t[0] + t[1] * t[1] + t[2] * t[2];
-        if (tl2 > 0.0f) {
-            const float inv = 1.0f / sqrtf(tl2);
-            t[0] *= inv;
-            t[1] *= inv;
-            t[2] *= inv;
-        } else {
-            t[0] = 0.0f;
-            t[1] = 0.0f;
-            t[2] = 1.0f;
-        }
-        /* side made perpendicular to the tangent (Gram-Schmidt), then unit length */
-        const float d = s0[0] * t[0] + s0[1] * t[1] + s0[2] * t[2];
-        float s[3] = {s0[0] - d * t[0], s0[1] - d * t[1], s0[2] - d * t[2]};
-        const float ssl2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
-        if (ssl2 > 1e-12f) {
-            const float inv = 1.0f / sqrtf(ssl2);
-            s[0] *= inv;
-            s[1] *= inv;
-            s[2] *= inv;
-        } else { /* tangent along the side: keep the side as given */
-            s[0] = s0[0];
-            s[1] = s0[1];
-            s[2] = s0[2];
-        }
+        const float t[3] = {T[k], T[EXPAND_ROOM + k], T[2 * EXPAND_ROOM + k]};
+        const float s[3] = {S[k], S[EXPAND_ROOM + k], S[2 * EXPAND_ROOM + k]};
         const float h = 0.5f * widths[k];
         if (pos) {
             float* l = &pos[6 * k];
