@@ -33,3 +33,15 @@ def set_faces(mesh, faces, edges=None):
     mesh.loops.foreach_set("edge_index", compat.mesh_indices(corner_edges))
     mesh.polygons.add(nf)
     compat.set_face_corners(mesh.polygons, k)
+
+
+def fix_texture_space(mesh, lo, hi):
+    """Gives `mesh` the fixed texture space lo..hi (world-size box corners) instead of an
+    automatic one. Blender recomputes an automatic texture space from every vertex each time
+    the mesh changes: for a mesh rewritten every frame (swaying trees, simulated blades)
+    that was a whole extra pass over its vertices per frame, and it made Generated texture
+    coordinates swim as the mesh moved."""
+    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+    mesh.use_auto_texspace = False
+    mesh.texspace_location = tuple((lo + hi) / 2)
+    mesh.texspace_size = tuple(np.maximum((hi - lo) / 2, 1e-4))

@@ -404,6 +404,31 @@ def test_chunk_meshes_fit_their_blades_once_the_tiles_hold_still():
 
 
 @test
+def test_dynamic_meshes_keep_the_meadows_texture_space():
+    """The simulated blades' meshes have a fixed texture space, the meadow's ground and a
+    metre above it, instead of one Blender recomputes from every vertex each frame (a whole
+    pass over the vertices per frame)."""
+    scene, meadow, ball = rolling_ball_scene()
+    origin, size = meadow["tussock_origin"], meadow["tussock_size"]
+    boxes = []
+    for f in range(1, 13):
+        scene.frame_set(f)
+        assert meadow.tussock_meadow.last_error == "", meadow.tussock_meadow.last_error
+        chunks = [bpy.data.objects[f"{meadow.name} blades"]] + simulate.extra_chunks(meadow)
+        live = [o.data for o in chunks if o.data.get("tussock_layout") == "live"]
+        boxes += [(tuple(m.texspace_location), tuple(m.texspace_size), m.use_auto_texspace)
+                  for m in live]
+    assert meadow["tussock_active_blades"] > 0 and boxes
+    want_loc = (origin[0] + size[0] / 2, origin[1] + size[1] / 2, origin[2] + 0.5)
+    want_size = (size[0] / 2, size[1] / 2, 0.5)
+    for loc, half, auto in boxes:
+        assert not auto
+        assert np.allclose(loc, want_loc, atol=1e-5) and np.allclose(half, want_size, atol=1e-5), \
+            (loc, half, want_loc, want_size)
+    simulate.forget()
+
+
+@test
 def test_slow_motion_frame_rates_take_more_steps_not_an_error():
     """Two solver steps per frame at ordinary rates, more when a step would exceed 1/20 s
     (a 5 fps time-lapse takes 4), and the blades still bend under the ball."""

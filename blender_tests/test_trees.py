@@ -132,6 +132,29 @@ def test_tree_sways_children_stay_attached_frames_repeat():
 
 
 @test
+def test_swaying_tree_keeps_its_texture_space():
+    """A tree's texture space is fixed when it is grown (its box then), not recomputed from
+    every vertex at each frame: Generated coordinates stay on the bark as it sways."""
+    fresh()
+    scene = bpy.context.scene
+    windy(scene)
+    obj = add("black_tupelo", seed=3)
+    me = obj.data
+    assert not me.use_auto_texspace
+    v = co(obj).reshape(-1, 3)
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    box = (tuple(me.texspace_location), tuple(me.texspace_size))
+    assert np.allclose(box[0], (lo + hi) / 2, atol=1e-4), (box, lo, hi)
+    assert np.allclose(box[1], (hi - lo) / 2, atol=1e-4), (box, lo, hi)
+    moved = 0.0
+    for f in (5, 12):
+        scene.frame_set(f)
+        moved = max(moved, float(np.abs(co(obj).reshape(-1, 3) - v).max()))
+        assert (tuple(me.texspace_location), tuple(me.texspace_size)) == box
+    assert moved > 0.01  # the tree did sway
+
+
+@test
 def test_new_tree_away_from_the_origin_is_posed_where_it_stands():
     """add_tree writes the tree already bent by the wind where it stands (the 3D cursor),
     the same bytes the frame handler gives for that frame: the wind is sampled at its tips

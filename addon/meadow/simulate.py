@@ -243,6 +243,9 @@ class Playback:
         k = lib.patch_info(patch)["knot_count"]
         self.runner = Runner(patch, meadow,
                              sim_definition(s, info, k, wind_runtime.fps_of(scene)), blade_rand)
+        # the dynamic meshes' fixed texture space: the meadow's ground, a metre high
+        o, sz = np.asarray(origin, np.float64), np.asarray(size, np.float64)
+        self.texture_space = (o, o + np.array([sz[0], sz[1], 1.0]))
         self.key = key
         self.frame_start = scene.frame_start
         self.colliders = {}  # frame -> collider rows recorded when it was played
@@ -573,6 +576,7 @@ def _write_chunk(child, pb, i, blades, k, knots, rand, ribbon, layout_changed, f
              or len(mesh.vertices) != capacity * 2 * k)
     if fresh:
         ribbon_topology(mesh, capacity, k)
+        meshes.fix_texture_space(mesh, *pb.texture_space)
         mesh["tussock_layout"] = "live"
         mesh["tussock_capacity"] = capacity
     pos = pb.pos.get(i)
