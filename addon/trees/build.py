@@ -127,9 +127,9 @@ def write(obj, data, positions=None):
     if uvs is not None:
         layer = mesh.uv_layers.new(name="UVMap", do_init=False)  # all set just below
         layer.data.foreach_set("uv", uvs)
-    if len(verts):
-        v = np.asarray(verts).reshape(-1, 3)
-        meshes.fix_texture_space(mesh, v.min(axis=0), v.max(axis=0))  # not redone per frame
+    if len(verts):  # (numpy's min(axis=0) of (n, 3) took 9 ms for 250,000 vertices)
+        lo, hi = native.require().vec3_bounds(np.ascontiguousarray(verts, np.float32).ravel())
+        meshes.fix_texture_space(mesh, lo, hi)  # not redone per frame
     mesh.update()
     if len(mesh.materials) == 0:
         mesh.materials.append(materials.bark())

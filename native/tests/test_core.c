@@ -234,6 +234,34 @@ TEST(test_set_threads_rejects_out_of_range) {
     CHECK(tsk_get_threads() >= 1);
 }
 
+/* Bounds of points on many chunks, against a loop here; the same with 1 and 2 threads;
+ * a non-finite point is named and no points is refused. */
+TEST(test_vec3_bounds_of_many_points) {
+    const size_t n = 100003;
+    float* xyz = malloc(3 * n * sizeof(float));
+    float want_lo[3] = {INFINITY, INFINITY, INFINITY}, want_hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < 3 * n; ++i) {
+        xyz[i] = (float)((double)((i * 2654435761u) % 1000003u) / 1000.0 - 500.0) * (1.0f + (float)(i % 3));
+        const int q = (int)(i % 3);
+        want_lo[q] = fminf(want_lo[q], xyz[i]), want_hi[q] = fmaxf(want_hi[q], xyz[i]);
+    }
+    for (int threads = 1; threads <= 2; ++threads) {
+        CHECK(tsk_set_threads(threads) == TSK_OK);
+        float lo[3], hi[3];
+        CHECK(tsk_vec3_bounds(xyz, n, lo, hi) == TSK_OK);
+        for (int q = 0; q < 3; ++q) CHECK(lo[q] == want_lo[q] && hi[q] == want_hi[q]);
+        CHECK(tsk_vec3_bounds(xyz + 3 * 7, 1, lo, hi) == TSK_OK); /* one point: itself */
+        for (int q = 0; q < 3; ++q) CHECK(lo[q] == xyz[21 + q] && hi[q] == xyz[21 + q]);
+    }
+    tsk_set_threads(0);
+    float lo[3], hi[3];
+    xyz[3 * 70000 + 1] = NAN;
+    CHECK_STATUS(tsk_vec3_bounds(xyz, n, lo, hi), TSK_ERR_ARGUMENT, "point 70000");
+    CHECK_STATUS(tsk_vec3_bounds(xyz, 0, lo, hi), TSK_ERR_ARGUMENT, "count");
+    CHECK_STATUS(tsk_vec3_bounds(NULL, 3, lo, hi), TSK_ERR_ARGUMENT, "xyz");
+    free(xyz);
+}
+
 TEST(test_vec3_lengths_and_nonfinite_rejected) {
     float xyz[6] = {3, 4, 0, 1, 2, 2};
     float out[2];
@@ -514,5 +542,6 @@ TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_m
           TEST_ENTRY(test_parallel_for_nested_covers_every_index_once),
           TEST_ENTRY(test_parallel_for_concurrent_callers_and_many_loops),
           TEST_ENTRY(test_set_threads_rejects_out_of_range),
-          TEST_ENTRY(test_vec3_lengths_and_nonfinite_rejected), TEST_ENTRY(test_version_is_semver),
+          TEST_ENTRY(test_vec3_lengths_and_nonfinite_rejected),
+          TEST_ENTRY(test_vec3_bounds_of_many_points), TEST_ENTRY(test_version_is_semver),
           TEST_ENTRY(test_exr_header_is_read_as_openexr_reads_it))

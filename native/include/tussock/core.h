@@ -119,6 +119,10 @@ size_t tsk_chunk_count(size_t count, size_t grain);
 /// out[i] = |xyz[3i..3i+2]| for i in [0, count). Non-finite input yields TSK_ERR_ARGUMENT.
 tsk_status tsk_vec3_lengths(const float* xyz, size_t count, float* out);
 
+/// Bounding box of `count` >= 1 points xyz (3 floats each): lo and hi per axis, on all
+/// threads. Non-finite input or no points yields TSK_ERR_ARGUMENT.
+tsk_status tsk_vec3_bounds(const float* xyz, size_t count, float lo[3], float hi[3]);
+
 /// Edges of a mesh of `face_count` faces of `face_size` corners each (corner c of face f is
 /// corners[f * face_size + c], a vertex in [0, vertex_count)). Writes each distinct edge once,
 /// in the order of the first corner that draws it, as that corner's vertex and the next one

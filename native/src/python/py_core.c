@@ -67,6 +67,29 @@ static PyObject* py_vec3_lengths(PyObject* self, PyObject* args) {
     Py_RETURN_NONE;
 }
 
+static PyObject* py_vec3_bounds(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject* xyz_obj;
+    if (!PyArg_ParseTuple(args, "O:vec3_bounds", &xyz_obj)) return NULL;
+    Py_buffer xyz;
+    if (!tsk_py_buffer(xyz_obj, "xyz", TSK_PY_F32, -1, 0, &xyz)) return NULL;
+    const Py_ssize_t n = tsk_py_count(&xyz);
+    if (n % 3 != 0) {
+        PyBuffer_Release(&xyz);
+        PyErr_Format(PyExc_ValueError, "xyz: %zd floats is not a whole number of points", n);
+        return NULL;
+    }
+    float lo[3], hi[3];
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_vec3_bounds(xyz.buf, (size_t)(n / 3), lo, hi);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&xyz);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    return Py_BuildValue("((ddd)(ddd))", (double)lo[0], (double)lo[1], (double)lo[2],
+                         (double)hi[0], (double)hi[1], (double)hi[2]);
+}
+
 static PyObject* py_mesh_edges(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *corners_obj, *edges_obj, *ce_obj;
@@ -143,6 +166,9 @@ PyMethodDef tsk_py_core_methods[] = {
      "rand_fill(seed, stream, out): out[i] = uniform [0,1) of (seed, stream, i); out float32."},
     {"vec3_lengths", py_vec3_lengths, METH_VARARGS,
      "vec3_lengths(xyz, out): out[i] = |xyz[i]|; xyz float32 (3n), out float32 (n)."},
+    {"vec3_bounds", py_vec3_bounds, METH_VARARGS,
+     "vec3_bounds(xyz) -> ((lo x, y, z), (hi x, y, z)): bounding box of float32 points (3n, "
+     "n >= 1); non-finite points are refused."},
     {"mesh_edges", py_mesh_edges, METH_VARARGS,
      "mesh_edges(corners, face_size, vertex_count, edges, corner_edges) -> int: the distinct "
      "edges of faces of face_size corners (int32), in first-use order; edges int32 (room for "
