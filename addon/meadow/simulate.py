@@ -576,11 +576,12 @@ def _write_chunk(child, pb, i, blades, k, knots, rand, ribbon, layout_changed, f
              or len(mesh.vertices) != capacity * 2 * k)
     if fresh:
         ribbon_topology(mesh, capacity, k)
-        meshes.fix_texture_space(mesh, *pb.texture_space)
         mesh["tussock_layout"] = "live"
         mesh["tussock_capacity"] = capacity
     pos = pb.pos.get(i)
     if fresh or layout_changed or pos is None or len(pos) != capacity * 2 * k * 3:
+        # (a new Playback, e.g. after the meadow's ground moved, brings its own box)
+        meshes.fix_texture_space(mesh, *pb.texture_space)
         set_blade_rand(mesh, rand[blades.start:blades.stop], k)
         pos = pb.pos[i] = np.zeros(capacity * 2 * k * 3, np.float32)
     if nb:
