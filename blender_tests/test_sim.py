@@ -425,6 +425,12 @@ def test_dynamic_meshes_keep_the_meadows_texture_space():
         assert not auto
         assert np.allclose(loc, want_loc, atol=1e-5) and np.allclose(half, want_size, atol=1e-5), \
             (loc, half, want_loc, want_size)
+    # a new Playback (as after the meadow's ground moved) sets it again, topology kept
+    first = bpy.data.objects[f"{meadow.name} blades"].data
+    first.texspace_location = (9.0, 9.0, 9.0)
+    simulate.forget(meadow.name)
+    scene.frame_set(13)
+    assert np.allclose(tuple(first.texspace_location), want_loc, atol=1e-5)
     simulate.forget()
 
 
