@@ -152,6 +152,13 @@ def test_swaying_tree_keeps_its_texture_space():
         moved = max(moved, float(np.abs(co(obj).reshape(-1, 3) - v).max()))
         assert (tuple(me.texspace_location), tuple(me.texspace_size)) == box
     assert moved > 0.01  # the tree did sway
+    # a non-finite vertex (never made by the deformer) leaves Blender's automatic box, not
+    # half a mesh
+    data = build._cache[obj.name]
+    bad = co(obj).reshape(-1, 3).copy()
+    bad[7, 1] = np.nan
+    build.write(obj, data, bad)
+    assert me.use_auto_texspace and len(me.vertices) == len(bad) and len(me.polygons) > 0
 
 
 @test

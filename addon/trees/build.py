@@ -128,8 +128,11 @@ def write(obj, data, positions=None):
         layer = mesh.uv_layers.new(name="UVMap", do_init=False)  # all set just below
         layer.data.foreach_set("uv", uvs)
     if len(verts):  # (numpy's min(axis=0) of (n, 3) took 9 ms for 250,000 vertices)
-        lo, hi = native.require().vec3_bounds(np.ascontiguousarray(verts, np.float32).ravel())
-        meshes.fix_texture_space(mesh, lo, hi)  # not redone per frame
+        try:
+            lo, hi = native.require().vec3_bounds(np.ascontiguousarray(verts, np.float32).ravel())
+            meshes.fix_texture_space(mesh, lo, hi)  # not redone per frame
+        except native.Error:
+            mesh.use_auto_texspace = True  # a non-finite vertex: never half a mesh for it
     mesh.update()
     if len(mesh.materials) == 0:
         mesh.materials.append(materials.bark())
