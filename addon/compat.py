@@ -31,6 +31,32 @@ def set_face_corners(polygons, corners_per_face):
         polygons.foreach_set("loop_total", np.full(nf, k, np.uint32))
 
 
+def shade_smooth(obj, by_operator=False):
+    """Marks every face of `obj`'s mesh smooth.
+
+    Blender 4.1+: Mesh.shade_smooth(), which drops the sharp_face attribute. Before that,
+    MeshPolygon.use_smooth is a bit of each face's flags, which foreach_set writes face by
+    face (Blender 3.4: 2.8 ms for 99,000 faces). The Shade Smooth operator sets them in one
+    loop (0.2 ms); it is used when `by_operator` (the caller runs in an operator or a
+    property update, never in a frame handler) and no render is running. It is called on
+    this object alone and directly: bpy.ops would update the view layer before and after,
+    which evaluates the mesh being written. Anything unexpected falls back to foreach_set."""
+    mesh = obj.data
+    if hasattr(mesh, "shade_smooth"):
+        mesh.shade_smooth()
+        return
+    if by_operator and not bpy.app.is_job_running("RENDER"):
+        try:
+            from _bpy import ops as _ops
+            with bpy.context.temp_override(selected_editable_objects=[obj]):
+                done = _ops.call("object.shade_smooth", None, {})
+        except (ImportError, AttributeError, RuntimeError, TypeError):
+            done = ()
+        if "FINISHED" in done:
+            return
+    mesh.polygons.foreach_set("use_smooth", np.ones(len(mesh.polygons), bool))
+
+
 def node_group_add_socket(group, in_out, socket_type, name):
     """Adds an input ('INPUT') or output ('OUTPUT') socket to a node group's interface.
 

@@ -61,8 +61,9 @@ def test_every_preset_grows_with_native_counts():
 
 @test
 def test_leaves_off_and_on_again_keep_materials_right():
-    """A tree without leaves is all bark (material 0, smooth, and no material_index layer to
-    carry); turning leaves on and off rebuilds the mesh and its materials each time."""
+    """A tree without leaves is all bark (material 0 and no material_index layer to carry);
+    turning leaves on and off rebuilds the mesh and its materials each time. Every face is
+    smooth, leaf cards included (flat cards of their own four vertices)."""
     fresh()
     obj = add("black_tupelo", seed=3)
     leaves = obj["tussock_leaves"]
@@ -76,14 +77,42 @@ def test_leaves_off_and_on_again_keep_materials_right():
         return m, smooth
 
     m, smooth = materials()
-    assert int((m == 1).sum()) == leaves and np.array_equal(smooth, m == 0)
+    assert int((m == 1).sum()) == leaves and smooth.all()
     obj.tussock_tree.leaves = False
     m, smooth = materials()
     assert obj["tussock_leaves"] == 0 and not m.any() and smooth.all()
     assert obj.data.attributes.get("material_index") is None
     obj.tussock_tree.leaves = True
     m, smooth = materials()
-    assert int((m == 1).sum()) == leaves and np.array_equal(smooth, m == 0)
+    assert int((m == 1).sum()) == leaves and smooth.all()
+
+
+def _smooth_flags(obj):
+    s = np.empty(len(obj.data.polygons), bool)
+    obj.data.polygons.foreach_get("use_smooth", s)
+    return s
+
+
+@test
+def test_shading_a_tree_smooth_leaves_the_artists_selection_alone():
+    """compat.shade_smooth marks every face of the tree smooth, by the operator (add_tree,
+    a change in the panel) or face by face (a frame handler), and never the other objects
+    that happen to be selected."""
+    fresh()
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=6, y_subdivisions=6)
+    grid = bpy.context.active_object
+    grid.select_set(True)
+    assert not _smooth_flags(grid).any()  # a new grid is flat
+    tree = add("black_tupelo", seed=2)
+    assert _smooth_flags(tree).all() and not _smooth_flags(grid).any()
+    grid.select_set(True)
+    tree.select_set(True)
+    tree.tussock_tree.seed = 4  # rebuilt from a property update, both objects selected
+    assert _smooth_flags(tree).all() and not _smooth_flags(grid).any()
+    for by_operator in (False, True):
+        tree.data.polygons.foreach_set("use_smooth", np.zeros(len(tree.data.polygons), bool))
+        compat.shade_smooth(tree, by_operator)
+        assert _smooth_flags(tree).all() and not _smooth_flags(grid).any(), by_operator
 
 
 @test

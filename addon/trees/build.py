@@ -10,7 +10,7 @@ import json
 import bpy
 import numpy as np
 
-from .. import meshes, native
+from .. import compat, meshes, native
 from ..wind import runtime as wind_runtime
 from . import materials, params
 
@@ -102,9 +102,10 @@ def _vertices(data, positions):
     return np.concatenate([refined.reshape(-1, 3), leaves_pos])
 
 
-def write(obj, data, positions=None):
+def write(obj, data, positions=None, by_operator=False):
     """Replaces the object's mesh with the tree's (materials: bark 0, leaves 1), its vertices
-    at `positions` (mesh vertices from posed_vertices) or else at rest."""
+    at `positions` (mesh vertices from posed_vertices) or else at rest. `by_operator`: the
+    caller is an operator or a property update, not a frame handler (compat.shade_smooth)."""
     quads, uvs, edges = _topology(data)
     verts = positions if positions is not None else _vertices(data, rest_positions(data))
     mesh = obj.data
@@ -123,7 +124,9 @@ def write(obj, data, positions=None):
         if attr is None:
             attr = mesh.attributes.new("material_index", "INT", "FACE")
         attr.data.foreach_set("value", index)
-    mesh.polygons.foreach_set("use_smooth", index == 0)
+    # every face smooth: bark is round, and a leaf card is flat with four vertices of its
+    # own, so its smooth normals are its face normal
+    compat.shade_smooth(obj, by_operator)
     if uvs is not None:
         layer = mesh.uv_layers.new(name="UVMap", do_init=False)  # all set just below
         layer.data.foreach_set("uv", uvs)
@@ -144,8 +147,9 @@ def write(obj, data, positions=None):
 
 
 def rebuild(obj):
+    """Regrows the tree after a change in the panel or a preset (not from a frame handler)."""
     data = compute(obj.tussock_tree)
-    write_posed(obj, data, bpy.context.scene, bpy.context.scene.frame_current)
+    write_posed(obj, data, bpy.context.scene, bpy.context.scene.frame_current, by_operator=True)
 
 
 def _data(obj):
@@ -203,13 +207,13 @@ def pose(obj, scene, frame):
     mesh.update()
 
 
-def write_posed(obj, data, scene, frame, matrix_world=None):
+def write_posed(obj, data, scene, frame, matrix_world=None, by_operator=False):
     """Writes the tree's mesh already bent by the wind at `frame`: one deform and one copy
     of the vertices, not a rest mesh then a pose. `matrix_world`: where the tree stands
     when the object is not evaluated yet (a new object: its matrix_basis); else its
     evaluated matrix_world."""
     m = obj.matrix_world if matrix_world is None else matrix_world
-    write(obj, data, _posed(obj, data, scene, frame, m))
+    write(obj, data, _posed(obj, data, scene, frame, m), by_operator)
 
 
 def forget(name=None):

@@ -39,7 +39,7 @@ class TUSSOCK_OT_add_tree(bpy.types.Operator):
         context.collection.objects.link(obj)
         # a new object is not evaluated yet: its own transform is where it stands
         build.write_posed(obj, data, context.scene, context.scene.frame_current,
-                          obj.matrix_basis.copy())
+                          obj.matrix_basis.copy(), by_operator=True)
         s.is_tree = True
         for o in context.selected_objects:
             o.select_set(False)
