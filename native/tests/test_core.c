@@ -259,7 +259,34 @@ TEST(test_vec3_bounds_of_many_points) {
     CHECK_STATUS(tsk_vec3_bounds(xyz, n, lo, hi), TSK_ERR_ARGUMENT, "point 70000");
     CHECK_STATUS(tsk_vec3_bounds(xyz, 0, lo, hi), TSK_ERR_ARGUMENT, "count");
     CHECK_STATUS(tsk_vec3_bounds(NULL, 3, lo, hi), TSK_ERR_ARGUMENT, "xyz");
+    xyz[3 * 70000 + 1] = 0.0f;
+    xyz[3 * 90001 + 2] = -INFINITY; /* a later chunk: the earlier point is still named */
+    xyz[3 * 5 + 0] = INFINITY;
+    CHECK_STATUS(tsk_vec3_bounds(xyz, n, lo, hi), TSK_ERR_ARGUMENT, "point 5 ");
     free(xyz);
+}
+
+/* Every short count (whole four-point steps and tails), with the extremes of each component
+ * and then a non-finite value at every point in turn: the extremes are found wherever they
+ * sit, and the bad point is the one named. */
+TEST(test_vec3_bounds_every_position) {
+    float xyz[3 * 19];
+    char want[32];
+    for (size_t n = 1; n <= 19; ++n)
+        for (size_t j = 0; j < n; ++j) {
+            for (size_t i = 0; i < 3 * n; ++i) xyz[i] = (float)(i % 7) - 3.0f;
+            for (int q = 0; q < 3; ++q) xyz[3 * j + q] = (q == 1 ? -100.0f : 100.0f) * (float)(q + 1);
+            float lo[3], hi[3];
+            CHECK(tsk_vec3_bounds(xyz, n, lo, hi) == TSK_OK);
+            float wl[3] = {INFINITY, INFINITY, INFINITY}, wh[3] = {-INFINITY, -INFINITY, -INFINITY};
+            for (size_t i = 0; i < 3 * n; ++i)
+                wl[i % 3] = fminf(wl[i % 3], xyz[i]), wh[i % 3] = fmaxf(wh[i % 3], xyz[i]);
+            for (int q = 0; q < 3; ++q) CHECK(lo[q] == wl[q] && hi[q] == wh[q]);
+            CHECK(hi[0] == 100.0f && lo[1] == -200.0f && hi[2] == 300.0f);
+            xyz[3 * j + (j % 3)] = (j % 2) ? NAN : INFINITY;
+            snprintf(want, sizeof want, "point %zu ", j);
+            CHECK_STATUS(tsk_vec3_bounds(xyz, n, lo, hi), TSK_ERR_ARGUMENT, want);
+        }
 }
 
 TEST(test_vec3_lengths_and_nonfinite_rejected) {
@@ -543,5 +570,6 @@ TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_m
           TEST_ENTRY(test_parallel_for_concurrent_callers_and_many_loops),
           TEST_ENTRY(test_set_threads_rejects_out_of_range),
           TEST_ENTRY(test_vec3_lengths_and_nonfinite_rejected),
-          TEST_ENTRY(test_vec3_bounds_of_many_points), TEST_ENTRY(test_version_is_semver),
+          TEST_ENTRY(test_vec3_bounds_of_many_points), TEST_ENTRY(test_vec3_bounds_every_position),
+          TEST_ENTRY(test_version_is_semver),
           TEST_ENTRY(test_exr_header_is_read_as_openexr_reads_it))

@@ -4,6 +4,10 @@
 #include <math.h>
 #include <string.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 tsk_status tsk_vec3_lengths(const float* xyz, size_t count, float* out) {
     if (count > 0 && (xyz == NULL || out == NULL))
         return tsk_error_arg(TSK_ERR_ARGUMENT, xyz == NULL ? "xyz" : "out", "is NULL");
@@ -16,7 +20,7 @@ tsk_status tsk_vec3_lengths(const float* xyz, size_t count, float* out) {
     return TSK_OK;
 }
 
-enum { BOUNDS_GRAIN = 16384 };
+enum { BOUNDS_GRAIN = 65536 };
 
 typedef struct bounds_ctx {
     const float* xyz;
@@ -25,21 +29,57 @@ typedef struct bounds_ctx {
     size_t count;
 } bounds_ctx;
 
-static void bounds_range(size_t begin, size_t end, size_t chunk, void* vctx) {
-    const bounds_ctx* c = vctx;
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    c->first_bad[chunk] = c->count;
+/* min/max of points [begin, end) into lo/hi; the index of the first non-finite point, or
+ * `bad_none` when all are finite. */
+static size_t bounds_scalar(const float* xyz, size_t begin, size_t end, float lo[3],
+                            float hi[3], size_t bad_none) {
     for (size_t i = begin; i < end; ++i) {
-        const float* p = &c->xyz[3 * i];
-        if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) {
-            c->first_bad[chunk] = i;
-            return;
-        }
+        const float* p = &xyz[3 * i];
+        if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) return i;
         for (int q = 0; q < 3; ++q) {
             lo[q] = p[q] < lo[q] ? p[q] : lo[q];
             hi[q] = p[q] > hi[q] ? p[q] : hi[q];
         }
     }
+    return bad_none;
+}
+
+static void bounds_range(size_t begin, size_t end, size_t chunk, void* vctx) {
+    const bounds_ctx* c = vctx;
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    size_t i = begin;
+#if defined(__SSE2__)
+    /* four points (twelve floats) a step, in three registers whose lanes hold
+     * x y z x | y z x y | z x y z. A non-finite value turns v * 0 into NaN, which the sum
+     * `odd` keeps; then the scalar pass below finds the first such point. */
+    if (end - begin >= 4) {
+        const __m128 zero = _mm_setzero_ps();
+        __m128 lo0 = _mm_set1_ps(INFINITY), lo1 = lo0, lo2 = lo0;
+        __m128 hi0 = _mm_set1_ps(-INFINITY), hi1 = hi0, hi2 = hi0;
+        __m128 odd = zero;
+        for (; i + 4 <= end; i += 4) {
+            const float* p = &c->xyz[3 * i];
+            const __m128 a = _mm_loadu_ps(p), b = _mm_loadu_ps(p + 4), d = _mm_loadu_ps(p + 8);
+            lo0 = _mm_min_ps(a, lo0), lo1 = _mm_min_ps(b, lo1), lo2 = _mm_min_ps(d, lo2);
+            hi0 = _mm_max_ps(a, hi0), hi1 = _mm_max_ps(b, hi1), hi2 = _mm_max_ps(d, hi2);
+            odd = _mm_add_ps(odd, _mm_add_ps(_mm_mul_ps(a, zero),
+                                             _mm_add_ps(_mm_mul_ps(b, zero), _mm_mul_ps(d, zero))));
+        }
+        if (_mm_movemask_ps(_mm_cmpunord_ps(odd, odd)) != 0) {
+            c->first_bad[chunk] = bounds_scalar(c->xyz, begin, end, lo, hi, c->count);
+            return;
+        }
+        float l[12], h[12];
+        _mm_storeu_ps(l, lo0), _mm_storeu_ps(l + 4, lo1), _mm_storeu_ps(l + 8, lo2);
+        _mm_storeu_ps(h, hi0), _mm_storeu_ps(h + 4, hi1), _mm_storeu_ps(h + 8, hi2);
+        for (int k = 0; k < 12; ++k) { /* lane k holds component k mod 3 */
+            lo[k % 3] = l[k] < lo[k % 3] ? l[k] : lo[k % 3];
+            hi[k % 3] = h[k] > hi[k % 3] ? h[k] : hi[k % 3];
+        }
+    }
+#endif
+    c->first_bad[chunk] = bounds_scalar(c->xyz, i, end, lo, hi, c->count);
+    if (c->first_bad[chunk] < c->count) return;
     memcpy(&c->part[6 * chunk], lo, sizeof lo);
     memcpy(&c->part[6 * chunk + 3], hi, sizeof hi);
 }
