@@ -852,6 +852,67 @@ TEST(test_wind_children_stay_attached) {
     tsk_tree_destroy(lag), tsk_tree_destroy(ex);
 }
 
+/* Mesh positions and normals of a tree's current pose, hashed. */
+static uint64_t pose_hash(const tsk_tree* t) {
+    tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
+    size_t nv = 0, nf = 0;
+    CHECK(tsk_tree_mesh_count(t, &m, &nv, &nf) == TSK_OK);
+    float* pos = malloc(3 * nv * sizeof(float) + 4);
+    float* nrm = malloc(3 * nv * sizeof(float) + 4);
+    CHECK(tsk_tree_mesh_deform(t, &m, pos, nrm) == TSK_OK);
+    uint64_t h = fnv(pos, 3 * nv * sizeof(float), 1469598103934665603ull);
+    h = fnv(nrm, 3 * nv * sizeof(float), h);
+    free(pos), free(nrm);
+    return h;
+}
+
+/* A reset skips its work when the tree is already at rest (new, or reset since its last
+ * step): the pose it leaves, and the steps after it, are the same bytes either way, in both
+ * wind modes; a refused step leaves the pose as it was. */
+TEST(test_wind_reset_of_a_resting_tree_changes_nothing) {
+    tsk_tree_def def;
+    CHECK(tsk_tree_preset("black_tupelo", &def) == TSK_OK);
+    def.level[2].branches = 6, def.level[3].branches = 4;
+    tsk_tree* t = NULL;
+    CHECK(tsk_tree_create(&def, &t) == TSK_OK);
+    if (!t) return;
+    const size_t n = tsk_tree_branch_count(t);
+    float* tips = malloc(3 * n * sizeof(float));
+    float* force = malloc(3 * n * sizeof(float));
+    CHECK(tsk_tree_tip_positions(t, tips) == TSK_OK);
+    sines_force(tips, n, 0.7, force);
+    const uint64_t rest = pose_hash(t);
+    tsk_tree_reset_pose(t); /* new tree: nothing to do */
+    CHECK(pose_hash(t) == rest);
+    for (int mode = 0; mode < 2; ++mode) {
+        tsk_tree_wind_def w = tsk_default_tree_wind_def();
+        w.mode = mode;
+        CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
+        const uint64_t bent = pose_hash(t);
+        CHECK_MSG(bent != rest, "mode %d: the wind moved nothing", mode);
+        force[5] = NAN;
+        CHECK_STATUS(tsk_tree_wind_step(t, force, &w), TSK_ERR_ARGUMENT, "force");
+        force[5] = 0.25f;
+        CHECK(pose_hash(t) == bent);
+        tsk_tree_reset_pose(t);
+        CHECK(pose_hash(t) == rest);
+        tsk_tree_reset_pose(t); /* already at rest */
+        CHECK(pose_hash(t) == rest);
+        CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
+        const uint64_t again = pose_hash(t);
+        tsk_tree_reset_pose(t);
+        tsk_tree* fresh = NULL; /* the same step from a new tree */
+        CHECK(tsk_tree_create(&def, &fresh) == TSK_OK);
+        if (fresh) {
+            CHECK(tsk_tree_wind_step(fresh, force, &w) == TSK_OK);
+            CHECK_MSG(pose_hash(fresh) == again, "mode %d: a step after a reset differs", mode);
+            tsk_tree_destroy(fresh);
+        }
+    }
+    free(tips), free(force);
+    tsk_tree_destroy(t);
+}
+
 /* The 8-wide AVX2 path (where the CPU has it), the 4-wide SSE path and the one-branch path
  * give the same bytes, for both modes. */
 TEST(test_wind_simd_path_equals_scalar_path) {
@@ -1247,6 +1308,7 @@ TEST_MAIN(TEST_ENTRY(test_tree_and_mesh_over_memory_budget_are_refused),
           TEST_ENTRY(test_wind_zero_force_keeps_rest_pose_exactly),
           TEST_ENTRY(test_wind_bend_matches_eq_16_17),
           TEST_ENTRY(test_wind_children_stay_attached),
+          TEST_ENTRY(test_wind_reset_of_a_resting_tree_changes_nothing),
           TEST_ENTRY(test_wind_simd_path_equals_scalar_path),
           TEST_ENTRY(test_wind_rejects_bad_force),
           TEST_ENTRY(test_tree_bad_parameters_are_named),

@@ -609,6 +609,7 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
         if (t->parent[i] >= 0) t->has_kids[t->parent[i]] = 1;
     for (size_t j = 0; j < m; ++j) t->has_kids[t->leaf_parent[j]] = 1;
     tree_rest_frames(t);
+    t->at_rest = 1;
     tree_set_length_power(t, 1.0f);
     *out = t;
     return TSK_OK;

@@ -129,6 +129,7 @@ struct tsk_tree {
     float* rest_O;   /* 3n */
     float* cur;      /* 12n: current pose */
     float* cur_O;    /* 3n */
+    int at_rest;     /* cur, cur_O and frames hold the rest pose: a reset has nothing to do */
     float* prev;     /* 12n: scratch for the lagged step (pose of the last step) */
     float* prev_O;   /* 3n */
     /* leaves */

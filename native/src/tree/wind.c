@@ -563,6 +563,7 @@ tsk_status tsk_tree_wind_step(tsk_tree* t, const float* force, const tsk_tree_wi
                                  i % 3, i / 3, (double)force[i]);
     }
     if (w.length_power != t->inv_l_power) tree_set_length_power(t, w.length_power);
+    t->at_rest = 0;
     step_ctx c = {t, force, NULL, NULL, w.strength, w.bend_power,
                   powf(1.0f / 3.0f, w.bend_power), 0};
     if (w.mode == TSK_TREE_WIND_LAGGED) {
@@ -592,10 +593,11 @@ tsk_status tsk_tree_wind_step(tsk_tree* t, const float* force, const tsk_tree_wi
 }
 
 void tsk_tree_reset_pose(tsk_tree* t) {
-    if (t == NULL) return;
+    if (t == NULL || t->at_rest) return; /* a new tree, or reset since its last step */
     memcpy(t->cur, t->rest, 12 * t->n * sizeof(float));
     memcpy(t->cur_O, t->rest_O, 3 * t->n * sizeof(float));
     tree_rest_frames(t);
+    t->at_rest = 1;
 }
 
 tsk_status tsk_tree_attachment_gap(const tsk_tree* t, double* max_relative_gap,
