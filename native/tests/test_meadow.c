@@ -1038,6 +1038,32 @@ TEST(test_blades_expand_reports_first_bad_blade_and_writes_nothing) {
     widths[300 * K + 4] = 0.01f;
     CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL),
                  TSK_ERR_ARGUMENT, "knot 2 of blade 700");
+    knots[3 * (700 * K + 2) + 1] = 0.0f;
+    /* each kind of bad value alone, wherever it sits in a chunk of the parallel check */
+    const int at[4] = {0, 255, 256, 999};
+    for (int i = 0; i < 4; ++i) {
+        const int b = at[i];
+        char want[64];
+        knots[3 * (b * K + K - 1) + 2] = -INFINITY;
+        snprintf(want, sizeof want, "knot %d of blade %d ", K - 1, b);
+        CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL),
+                     TSK_ERR_ARGUMENT, want);
+        knots[3 * (b * K + K - 1) + 2] = 0.05f * (K - 1);
+        widths[b * K] = NAN;
+        snprintf(want, sizeof want, "width 0 of blade %d ", b);
+        CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL),
+                     TSK_ERR_ARGUMENT, want);
+        widths[b * K] = 0.0f; /* a zero width is fine */
+        sides[3 * b + 1] = 0.0f;
+        snprintf(want, sizeof want, "side of blade %d ", b);
+        CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL),
+                     TSK_ERR_ARGUMENT, want);
+        sides[3 * b + 1] = INFINITY;
+        CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL),
+                     TSK_ERR_ARGUMENT, want);
+        sides[3 * b + 1] = 1.0f;
+        CHECK(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL) == TSK_OK);
+    }
     free(knots), free(widths), free(sides), free(pos);
 }
 

@@ -3,6 +3,7 @@
  * ribbon of triangles; and the whole patch expanded into one mesh for instancing. */
 #include "meadow_internal.h"
 
+#include <float.h>
 #include <math.h>
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -231,6 +232,20 @@ static void check_many(size_t begin, size_t end, size_t chunk, void* vctx) {
     const size_t K = c->K;
     size_t k;
     c->first_bad[chunk] = c->n;
+    /* one branch-free pass over the chunk that vectorizes (NaN fails every comparison);
+     * blade by blade only when it finds something */
+    int bad = 0;
+    const float* kn = &c->knots[3 * K * begin];
+    for (size_t i = 0; i < 3 * K * (end - begin); ++i) bad |= !(fabsf(kn[i]) <= FLT_MAX);
+    const float* w = &c->widths[K * begin];
+    for (size_t i = 0; i < K * (end - begin); ++i) bad |= !(w[i] >= 0.0f && w[i] <= FLT_MAX);
+    const float* sd = &c->sides[3 * begin];
+    for (size_t b = 0; b < end - begin; ++b) {
+        const float l2 = sd[3 * b] * sd[3 * b] + sd[3 * b + 1] * sd[3 * b + 1] +
+                         sd[3 * b + 2] * sd[3 * b + 2];
+        bad |= !(l2 > 1e-20f && l2 <= FLT_MAX);
+    }
+    if (!bad) return;
     for (size_t b = begin; b < end; ++b)
         if (bad_input(&c->knots[3 * K * b], &c->widths[K * b], &c->sides[3 * b], K, &k) !=
             BAD_NONE) {
