@@ -43,8 +43,11 @@ def shade_smooth(obj, by_operator=False):
     which evaluates the mesh being written. Anything unexpected falls back to foreach_set."""
     mesh = obj.data
     if hasattr(mesh, "shade_smooth"):
-        mesh.shade_smooth()
-        return
+        try:
+            mesh.shade_smooth()
+            return
+        except (TypeError, RuntimeError):
+            pass
     if by_operator and not bpy.app.is_job_running("RENDER"):
         try:
             from _bpy import ops as _ops
