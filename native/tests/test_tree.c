@@ -866,6 +866,50 @@ static uint64_t pose_hash(const tsk_tree* t) {
     return h;
 }
 
+/* The strongest wind the step accepts (|F| 1e6, strength 1e6, bend power 4, length power 3)
+ * on every path (AVX2, SSE, one branch at a time), and a force on a branch only a micrometre
+ * long: every point stays finite and each moved segment keeps its rest length (found by
+ * fuzz_tree: the bend vector overflowed to infinity and its normalisation gave NaN). */
+TEST(test_wind_at_the_limits_stays_finite) {
+    tsk_tree_def def;
+    CHECK(tsk_tree_preset("black_tupelo", &def) == TSK_OK);
+    def.level[2].branches = 6, def.level[3].branches = 4;
+    for (int path = 0; path < 3; ++path)
+        for (int mode = 0; mode < 2; ++mode) {
+            tree_wind_force_scalar = path;
+            tsk_tree* t = NULL;
+            CHECK(tsk_tree_create(&def, &t) == TSK_OK);
+            if (!t) continue;
+            const size_t n = tsk_tree_branch_count(t);
+            float* force = malloc(3 * n * sizeof(float));
+            for (size_t i = 0; i < 3 * n; ++i) force[i] = (i % 3 == 1) ? -1e6f : 1e6f;
+            tsk_tree_wind_def w = tsk_default_tree_wind_def();
+            w.mode = mode, w.strength = 1e6f, w.bend_power = 4.0f, w.length_power = 3.0f;
+            for (int s = 0; s < 2; ++s) CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
+            tree_data d = read_tree(t);
+            int finite = 1;
+            double worst = 0;
+            for (size_t i = 0; i < n; ++i) {
+                for (int k = 0; k < 12; ++k) finite &= isfinite(d.points[12 * i + k]) != 0;
+                /* |P3 - P2| is kept (seed 001, eq. 17) */
+                double a[3], b[3];
+                for (int k = 0; k < 3; ++k)
+                    a[k] = d.points[12 * i + 9 + k] - d.points[12 * i + 6 + k],
+                    b[k] = d.rest[12 * i + 9 + k] - d.rest[12 * i + 6 + k];
+                const double la = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+                const double lb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+                if (fabs(la - lb) > worst) worst = fabs(la - lb);
+            }
+            CHECK_MSG(finite, "path %d mode %d: a point is not finite", path, mode);
+            CHECK_MSG(worst < 1e-4, "path %d mode %d: a segment changed length by %g m", path, mode,
+                      worst);
+            free_tree_data(&d);
+            free(force);
+            tsk_tree_destroy(t);
+        }
+    tree_wind_force_scalar = 0;
+}
+
 /* A reset skips its work when the tree is already at rest (new, or reset since its last
  * step): the pose it leaves, and the steps after it, are the same bytes either way, in both
  * wind modes; a refused step leaves the pose as it was. */
@@ -1309,6 +1353,7 @@ TEST_MAIN(TEST_ENTRY(test_tree_and_mesh_over_memory_budget_are_refused),
           TEST_ENTRY(test_wind_bend_matches_eq_16_17),
           TEST_ENTRY(test_wind_children_stay_attached),
           TEST_ENTRY(test_wind_reset_of_a_resting_tree_changes_nothing),
+          TEST_ENTRY(test_wind_at_the_limits_stays_finite),
           TEST_ENTRY(test_wind_simd_path_equals_scalar_path),
           TEST_ENTRY(test_wind_rejects_bad_force),
           TEST_ENTRY(test_tree_bad_parameters_are_named),

@@ -200,6 +200,11 @@ static inline void tree_attach_frame(const v3* P, const sloan_frames* f, float v
     *V = v3_norm_or(D, v3_any_perp(*U));
 }
 
+/* The largest |f| (force over length^power, seed 001, eq. 14) that bends a branch further: a
+ * bend vector of TREE_BEND_MAX^power (at most 1e16 m) already points the segment along f. The
+ * wind step's vector paths hand a block with a larger one to the scalar path. */
+#define TREE_BEND_MAX 1e4f
+
 static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3* Pp, const sloan_frames* fp,
                       v3 force, float bend_power, float b2_scale, v3* P_out, v3* O_out) {
     const float* trig = t->trig + 4 * i;
@@ -226,7 +231,16 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
         const float inv_l = t->inv_l[i];
         v3 f = v3_make(v3_dot(force, axis), v3_dot(force, side), v3_dot(force, W));
         f = v3_scale(f, inv_l);
-        const float m = v3_len(f);
+        float m = v3_len(f);
+        if (!(m <= TREE_BEND_MAX)) {
+            /* beyond this the bend only turns the segment further toward f, and m^power
+             * would leave float range (inf - inf: NaN points). f / its largest component is
+             * finite whatever m is (inv_l <= 1e12, |force| <= 1e12). */
+            const float a = fmaxf(fabsf(f.x), fmaxf(fabsf(f.y), fabsf(f.z)));
+            f = v3_scale(f, 1.0f / a);
+            f = v3_scale(f, TREE_BEND_MAX / v3_len(f));
+            m = TREE_BEND_MAX;
+        }
         /* seed 001, eq. 16: b3 = F^1.8 (magnitude raised, direction kept), b2 = F (1/3)^1.8 */
         const float mag = m > 0.0f ? bend_pow(m, bend_power - 1.0f) : 0.0f;
         const v3 b3 = v3_scale(f, mag);

@@ -20,7 +20,8 @@ tsk_tree_wind_def tsk_default_tree_wind_def(void) {
 void tree_set_length_power(tsk_tree* t, float power) {
     for (size_t i = 0; i < t->n; ++i) {
         const float l = t->rest_seg[i];
-        t->inv_l[i] = l > 1e-12f ? (power == 1.0f ? 1.0f / l : 1.0f / powf(l, power)) : 0.0f;
+        float inv = l > 1e-12f ? (power == 1.0f ? 1.0f / l : 1.0f / powf(l, power)) : 0.0f;
+        t->inv_l[i] = inv <= 1e12f ? inv : 1e12f; /* a micrometre twig, power 3: still finite */
     }
     t->inv_l_power = power;
 }
@@ -242,6 +243,7 @@ static int step_block4(const step_ctx* c, size_t i) {
         v4 f = {v4_dot(F, axis), v4_dot(F, side), v4_dot(F, W)};
         f = v4_scale(f, inv_l);
         const f4 m = _mm_sqrt_ps(v4_dot(f, f));
+        if (_mm_movemask_ps(_mm_cmpnle_ps(m, _mm_set1_ps(TREE_BEND_MAX)))) return 0; /* scalar clamps */
         const f4 mag = _mm_and_ps(_mm_cmpgt_ps(m, zero), bend_pow4(m, c->power - 1.0f));
         const v4 bb3 = v4_scale(f, mag);
         const v4 bb2 = v4_scale(bb3, _mm_set1_ps(c->b2_scale));
@@ -457,6 +459,7 @@ AVX static int step_block8(const step_ctx* c, size_t i) {
         v8 f = {v8_dot(F, axis), v8_dot(F, side), v8_dot(F, W)};
         f = v8_scale(f, inv_l);
         const f8 m = _mm256_sqrt_ps(v8_dot(f, f));
+        if (_mm256_movemask_ps(_mm256_cmp_ps(m, _mm256_set1_ps(TREE_BEND_MAX), _CMP_NLE_UQ))) return 0;
         const f8 mag = _mm256_and_ps(_mm256_cmp_ps(m, zero, _CMP_GT_OQ), bend_pow8(m, c->power - 1.0f));
         const v8 bb3 = v8_scale(f, mag);
         const v8 bb2 = v8_scale(bb3, _mm256_set1_ps(c->b2_scale));
