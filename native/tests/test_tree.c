@@ -77,6 +77,21 @@ static uint64_t fnv(const void* p, size_t n, uint64_t h) {
     for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
     return h;
 }
+static const uint64_t FNV_START = 1469598103934665603ull;
+
+/* Mesh positions and normals of a tree's current pose, hashed (FNV-1a from h). */
+static uint64_t pose_hash(const tsk_tree* t, uint64_t h) {
+    tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
+    size_t nv = 0, nf = 0;
+    CHECK(tsk_tree_mesh_count(t, &m, &nv, &nf) == TSK_OK);
+    float* pos = malloc(3 * nv * sizeof(float) + 4);
+    float* nrm = malloc(3 * nv * sizeof(float) + 4);
+    CHECK(tsk_tree_mesh_deform(t, &m, pos, nrm) == TSK_OK);
+    h = fnv(pos, 3 * nv * sizeof(float), h);
+    h = fnv(nrm, 3 * nv * sizeof(float), h);
+    free(pos), free(nrm);
+    return h;
+}
 
 /* Sum of sines, seed 001 eq. 14, as ground-truth wind (horizontal): F = sum D_i A_i/l
  * ((sin(D_i.(x,y) w_i + t phi_i) + 1)/2)^k. The /l is applied by the tree itself. The +1
@@ -119,7 +134,7 @@ static uint64_t tree_hash(const tsk_tree_def* def, int threads, int steps) {
     CHECK(tsk_tree_create(def, &t) == TSK_OK);
     if (!t) return 0;
     tree_data d = read_tree(t);
-    uint64_t h = 1469598103934665603ull;
+    uint64_t h = FNV_START;
     h = fnv(d.parent, d.n * 4, h);
     h = fnv(d.points, d.n * 48, h);
     h = fnv(d.attach, d.n * 12, h);
@@ -134,15 +149,8 @@ static uint64_t tree_hash(const tsk_tree_def* def, int threads, int steps) {
         w.mode = s & 1;
         CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
     }
-    tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
-    size_t nv = 0, nf = 0;
-    CHECK(tsk_tree_mesh_count(t, &m, &nv, &nf) == TSK_OK);
-    float* pos = malloc(3 * nv * sizeof(float) + 4);
-    float* nrm = malloc(3 * nv * sizeof(float) + 4);
-    CHECK(tsk_tree_mesh_deform(t, &m, pos, nrm) == TSK_OK);
-    h = fnv(pos, 3 * nv * sizeof(float), h);
-    h = fnv(nrm, 3 * nv * sizeof(float), h);
-    free(pos), free(nrm), free(tips), free(force);
+    h = pose_hash(t, h);
+    free(tips), free(force);
     free_tree_data(&d);
     tsk_tree_destroy(t);
     tsk_set_threads(0);
@@ -721,10 +729,16 @@ TEST(test_mesh_simd_path_equals_scalar_path) {
 
 /* ---- wind ---------------------------------------------------------------------------------- */
 
-TEST(test_wind_zero_force_keeps_rest_pose_exactly) {
+/* The black tupelo preset with fewer twigs: four levels, a few hundred branches. */
+static tsk_tree_def small_tupelo(void) {
     tsk_tree_def def;
     CHECK(tsk_tree_preset("black_tupelo", &def) == TSK_OK);
     def.level[2].branches = 6, def.level[3].branches = 4;
+    return def;
+}
+
+TEST(test_wind_zero_force_keeps_rest_pose_exactly) {
+    const tsk_tree_def def = small_tupelo();
     tsk_tree* t = NULL;
     CHECK(tsk_tree_create(&def, &t) == TSK_OK);
     if (!t) return;
@@ -852,28 +866,12 @@ TEST(test_wind_children_stay_attached) {
     tsk_tree_destroy(lag), tsk_tree_destroy(ex);
 }
 
-/* Mesh positions and normals of a tree's current pose, hashed. */
-static uint64_t pose_hash(const tsk_tree* t) {
-    tsk_tree_mesh_def m = tsk_default_tree_mesh_def();
-    size_t nv = 0, nf = 0;
-    CHECK(tsk_tree_mesh_count(t, &m, &nv, &nf) == TSK_OK);
-    float* pos = malloc(3 * nv * sizeof(float) + 4);
-    float* nrm = malloc(3 * nv * sizeof(float) + 4);
-    CHECK(tsk_tree_mesh_deform(t, &m, pos, nrm) == TSK_OK);
-    uint64_t h = fnv(pos, 3 * nv * sizeof(float), 1469598103934665603ull);
-    h = fnv(nrm, 3 * nv * sizeof(float), h);
-    free(pos), free(nrm);
-    return h;
-}
-
 /* The strongest wind the step accepts (|F| 1e6, strength 1e6, bend power 4, length power 3)
  * on every path (AVX2, SSE, one branch at a time), and a force on a branch only a micrometre
  * long: every point stays finite and each moved segment keeps its rest length (found by
  * fuzz_tree: the bend vector overflowed to infinity and its normalisation gave NaN). */
 TEST(test_wind_at_the_limits_stays_finite) {
-    tsk_tree_def def;
-    CHECK(tsk_tree_preset("black_tupelo", &def) == TSK_OK);
-    def.level[2].branches = 6, def.level[3].branches = 4;
+    const tsk_tree_def def = small_tupelo();
     for (int path = 0; path < 3; ++path)
         for (int mode = 0; mode < 2; ++mode) {
             tree_wind_force_scalar = path;
@@ -914,9 +912,7 @@ TEST(test_wind_at_the_limits_stays_finite) {
  * step): the pose it leaves, and the steps after it, are the same bytes either way, in both
  * wind modes; a refused step leaves the pose as it was. */
 TEST(test_wind_reset_of_a_resting_tree_changes_nothing) {
-    tsk_tree_def def;
-    CHECK(tsk_tree_preset("black_tupelo", &def) == TSK_OK);
-    def.level[2].branches = 6, def.level[3].branches = 4;
+    const tsk_tree_def def = small_tupelo();
     tsk_tree* t = NULL;
     CHECK(tsk_tree_create(&def, &t) == TSK_OK);
     if (!t) return;
@@ -925,31 +921,31 @@ TEST(test_wind_reset_of_a_resting_tree_changes_nothing) {
     float* force = malloc(3 * n * sizeof(float));
     CHECK(tsk_tree_tip_positions(t, tips) == TSK_OK);
     sines_force(tips, n, 0.7, force);
-    const uint64_t rest = pose_hash(t);
+    const uint64_t rest = pose_hash(t, FNV_START);
     tsk_tree_reset_pose(t); /* new tree: nothing to do */
-    CHECK(pose_hash(t) == rest);
+    CHECK(pose_hash(t, FNV_START) == rest);
     for (int mode = 0; mode < 2; ++mode) {
         tsk_tree_wind_def w = tsk_default_tree_wind_def();
         w.mode = mode;
         CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
-        const uint64_t bent = pose_hash(t);
+        const uint64_t bent = pose_hash(t, FNV_START);
         CHECK_MSG(bent != rest, "mode %d: the wind moved nothing", mode);
         force[5] = NAN;
         CHECK_STATUS(tsk_tree_wind_step(t, force, &w), TSK_ERR_ARGUMENT, "force");
         force[5] = 0.25f;
-        CHECK(pose_hash(t) == bent);
+        CHECK(pose_hash(t, FNV_START) == bent);
         tsk_tree_reset_pose(t);
-        CHECK(pose_hash(t) == rest);
+        CHECK(pose_hash(t, FNV_START) == rest);
         tsk_tree_reset_pose(t); /* already at rest */
-        CHECK(pose_hash(t) == rest);
+        CHECK(pose_hash(t, FNV_START) == rest);
         CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
-        const uint64_t again = pose_hash(t);
+        const uint64_t again = pose_hash(t, FNV_START);
         tsk_tree_reset_pose(t);
         tsk_tree* fresh = NULL; /* the same step from a new tree */
         CHECK(tsk_tree_create(&def, &fresh) == TSK_OK);
         if (fresh) {
             CHECK(tsk_tree_wind_step(fresh, force, &w) == TSK_OK);
-            CHECK_MSG(pose_hash(fresh) == again, "mode %d: a step after a reset differs", mode);
+            CHECK_MSG(pose_hash(fresh, FNV_START) == again, "mode %d: a step after a reset differs", mode);
             tsk_tree_destroy(fresh);
         }
     }
@@ -982,7 +978,7 @@ TEST(test_wind_simd_path_equals_scalar_path) {
                 CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
             }
             tree_data d = read_tree(t);
-            h[path] = fnv(d.points, 48 * n, fnv(d.orient, 12 * n, 1469598103934665603ull));
+            h[path] = fnv(d.points, 48 * n, fnv(d.orient, 12 * n, FNV_START));
             free_tree_data(&d);
             free(tips), free(force);
             tsk_tree_destroy(t);
