@@ -29,6 +29,14 @@ typedef struct bounds_ctx {
     size_t count;
 } bounds_ctx;
 
+/* lo/hi widened by a box plo..phi (a point: plo == phi) */
+static void bounds_fold(float lo[3], float hi[3], const float plo[3], const float phi[3]) {
+    for (int q = 0; q < 3; ++q) {
+        lo[q] = plo[q] < lo[q] ? plo[q] : lo[q];
+        hi[q] = phi[q] > hi[q] ? phi[q] : hi[q];
+    }
+}
+
 /* min/max of points [begin, end) into lo/hi; the index of the first non-finite point, or
  * `bad_none` when all are finite. */
 static size_t bounds_scalar(const float* xyz, size_t begin, size_t end, float lo[3],
@@ -36,10 +44,7 @@ static size_t bounds_scalar(const float* xyz, size_t begin, size_t end, float lo
     for (size_t i = begin; i < end; ++i) {
         const float* p = &xyz[3 * i];
         if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) return i;
-        for (int q = 0; q < 3; ++q) {
-            lo[q] = p[q] < lo[q] ? p[q] : lo[q];
-            hi[q] = p[q] > hi[q] ? p[q] : hi[q];
-        }
+        bounds_fold(lo, hi, p, p);
     }
     return bad_none;
 }
@@ -69,13 +74,11 @@ static void bounds_range(size_t begin, size_t end, size_t chunk, void* vctx) {
             c->first_bad[chunk] = bounds_scalar(c->xyz, begin, end, lo, hi, c->count);
             return;
         }
+        /* stored one after another, the registers are four boxes x y z | x y z | ... */
         float l[12], h[12];
         _mm_storeu_ps(l, lo0), _mm_storeu_ps(l + 4, lo1), _mm_storeu_ps(l + 8, lo2);
         _mm_storeu_ps(h, hi0), _mm_storeu_ps(h + 4, hi1), _mm_storeu_ps(h + 8, hi2);
-        for (int k = 0; k < 12; ++k) { /* lane k holds component k mod 3 */
-            lo[k % 3] = l[k] < lo[k % 3] ? l[k] : lo[k % 3];
-            hi[k % 3] = h[k] > hi[k % 3] ? h[k] : hi[k % 3];
-        }
+        for (int k = 0; k < 4; ++k) bounds_fold(lo, hi, l + 3 * k, h + 3 * k);
     }
 #endif
     c->first_bad[chunk] = bounds_scalar(c->xyz, i, end, lo, hi, c->count);
@@ -106,11 +109,7 @@ tsk_status tsk_vec3_bounds(const float* xyz, size_t count, float lo[3], float hi
     if (s == TSK_OK) {
         memcpy(lo, part, 3 * sizeof(float));
         memcpy(hi, part + 3, 3 * sizeof(float));
-        for (size_t k = 1; k < chunks; ++k)
-            for (int q = 0; q < 3; ++q) {
-                lo[q] = part[6 * k + q] < lo[q] ? part[6 * k + q] : lo[q];
-                hi[q] = part[6 * k + 3 + q] > hi[q] ? part[6 * k + 3 + q] : hi[q];
-            }
+        for (size_t k = 1; k < chunks; ++k) bounds_fold(lo, hi, &part[6 * k], &part[6 * k + 3]);
     }
     tsk_free(part), tsk_free(first_bad);
     return s;
