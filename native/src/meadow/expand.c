@@ -155,16 +155,23 @@ static void blade_indices(int32_t n, int32_t base, int32_t* tris) {
 /* What is wrong with one blade's input, checked knot by knot (its position, then its width)
  * and then its side: BAD_NONE, or which input with the knot in *at. */
 enum { BAD_NONE, BAD_KNOT, BAD_WIDTH, BAD_SIDE };
+/* What good input is, written without branches (NaN fails every comparison), so that the
+ * chunk-wide pass of check_many vectorizes and says exactly what bad_input says. */
+static inline int coord_ok(float x) { return fabsf(x) <= FLT_MAX; }
+static inline int width_ok(float w) { return w >= 0.0f && w <= FLT_MAX; }
+static inline int side_ok(const float* side) {
+    const float l2 = side[0] * side[0] + side[1] * side[1] + side[2] * side[2];
+    return l2 > 1e-20f && l2 <= FLT_MAX;
+}
 static int bad_input(const float* knots, const float* widths, const float* side, size_t K,
                      size_t* at) {
     for (size_t k = 0; k < K; ++k) {
         *at = k;
-        if (!isfinite(knots[3 * k]) || !isfinite(knots[3 * k + 1]) || !isfinite(knots[3 * k + 2]))
+        if (!coord_ok(knots[3 * k]) || !coord_ok(knots[3 * k + 1]) || !coord_ok(knots[3 * k + 2]))
             return BAD_KNOT;
-        if (!isfinite(widths[k]) || widths[k] < 0.0f) return BAD_WIDTH;
+        if (!width_ok(widths[k])) return BAD_WIDTH;
     }
-    const float l2 = side[0] * side[0] + side[1] * side[1] + side[2] * side[2];
-    return isfinite(l2) && l2 > 1e-20f ? BAD_NONE : BAD_SIDE;
+    return side_ok(side) ? BAD_NONE : BAD_SIDE;
 }
 
 tsk_status tsk_blade_expand(const float* knots, const float* widths, int32_t knot_count,
@@ -236,15 +243,10 @@ static void check_many(size_t begin, size_t end, size_t chunk, void* vctx) {
      * blade by blade only when it finds something */
     int bad = 0;
     const float* kn = &c->knots[3 * K * begin];
-    for (size_t i = 0; i < 3 * K * (end - begin); ++i) bad |= !(fabsf(kn[i]) <= FLT_MAX);
+    for (size_t i = 0; i < 3 * K * (end - begin); ++i) bad |= !coord_ok(kn[i]);
     const float* w = &c->widths[K * begin];
-    for (size_t i = 0; i < K * (end - begin); ++i) bad |= !(w[i] >= 0.0f && w[i] <= FLT_MAX);
-    const float* sd = &c->sides[3 * begin];
-    for (size_t b = 0; b < end - begin; ++b) {
-        const float l2 = sd[3 * b] * sd[3 * b] + sd[3 * b + 1] * sd[3 * b + 1] +
-                         sd[3 * b + 2] * sd[3 * b + 2];
-        bad |= !(l2 > 1e-20f && l2 <= FLT_MAX);
-    }
+    for (size_t i = 0; i < K * (end - begin); ++i) bad |= !width_ok(w[i]);
+    for (size_t b = begin; b < end; ++b) bad |= !side_ok(&c->sides[3 * b]);
     if (!bad) return;
     for (size_t b = begin; b < end; ++b)
         if (bad_input(&c->knots[3 * K * b], &c->widths[K * b], &c->sides[3 * b], K, &k) !=
