@@ -480,8 +480,14 @@ static void rest_frames_range(size_t begin, size_t end, size_t chunk, void* ctx)
     }
 }
 
-/* Sloan frames of the rest pose for every branch that carries children or leaves. */
-void tree_rest_frames(tsk_tree* t) { tsk_parallel_for(t->n, 256, rest_frames_range, t); }
+/* The rest pose as the current one, with the Sloan frames of every branch that carries
+ * children or leaves (has_kids set). */
+void tree_pose_rest(tsk_tree* t) {
+    memcpy(t->cur, t->rest, 12 * t->n * sizeof(float));
+    memcpy(t->cur_O, t->rest_O, 3 * t->n * sizeof(float));
+    tsk_parallel_for(t->n, 256, rest_frames_range, t);
+    t->at_rest = 1;
+}
 
 typedef struct build_ctx {
     const gen* g;
@@ -603,13 +609,10 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
     build_ctx c = {g, t};
     tsk_parallel_for(n, 256, build_branches, &c);
     tsk_parallel_for(m, 4096, build_leaves, &c);
-    memcpy(t->cur, t->rest, 12 * n * sizeof(float));
-    memcpy(t->cur_O, t->rest_O, 3 * n * sizeof(float));
     for (size_t i = 0; i < n; ++i)
         if (t->parent[i] >= 0) t->has_kids[t->parent[i]] = 1;
     for (size_t j = 0; j < m; ++j) t->has_kids[t->leaf_parent[j]] = 1;
-    tree_rest_frames(t);
-    t->at_rest = 1;
+    tree_pose_rest(t);
     tree_set_length_power(t, 1.0f);
     *out = t;
     return TSK_OK;

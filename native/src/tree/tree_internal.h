@@ -273,8 +273,9 @@ extern int tree_mesh_force_scalar;
 /* Makes t->inv_l for a length power (seed 001, eq. 14: power 1). */
 void tree_set_length_power(struct tsk_tree* t, float power);
 
-/* Recomputes the Sloan frames of the rest pose (branches with children or leaves). */
-void tree_rest_frames(struct tsk_tree* t);
+/* Puts the tree in its rest pose: points, orientations and the Sloan frames of branches with
+ * children or leaves; sets at_rest. */
+void tree_pose_rest(struct tsk_tree* t);
 
 /* Weber–Penn ShapeRatio (shape 0..7). */
 float tree_shape_ratio(int shape, float ratio);

@@ -596,11 +596,7 @@ tsk_status tsk_tree_wind_step(tsk_tree* t, const float* force, const tsk_tree_wi
 }
 
 void tsk_tree_reset_pose(tsk_tree* t) {
-    if (t == NULL || t->at_rest) return; /* a new tree, or reset since its last step */
-    memcpy(t->cur, t->rest, 12 * t->n * sizeof(float));
-    memcpy(t->cur_O, t->rest_O, 3 * t->n * sizeof(float));
-    tree_rest_frames(t);
-    t->at_rest = 1;
+    if (t != NULL && !t->at_rest) tree_pose_rest(t); /* else new, or reset since its last step */
 }
 
 tsk_status tsk_tree_attachment_gap(const tsk_tree* t, double* max_relative_gap,
