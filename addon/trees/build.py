@@ -111,7 +111,8 @@ def write(obj, data, positions=None, by_operator=False):
     mesh = obj.data
     mesh.clear_geometry()
     mesh.vertices.add(len(verts))
-    mesh.vertices.foreach_set("co", np.ascontiguousarray(verts, np.float32).ravel())
+    flat = np.ascontiguousarray(verts, np.float32).ravel()  # one float32 copy at most
+    mesh.vertices.foreach_set("co", flat)
     nq = len(quads)
     meshes.set_faces(mesh, quads, edges)
     index = np.zeros(nq, np.int32)
@@ -132,7 +133,7 @@ def write(obj, data, positions=None, by_operator=False):
         layer.data.foreach_set("uv", uvs)
     if len(verts):  # (numpy's min(axis=0) of (n, 3) took 9 ms for 250,000 vertices)
         try:
-            lo, hi = native.require().vec3_bounds(np.ascontiguousarray(verts, np.float32).ravel())
+            lo, hi = native.require().vec3_bounds(flat)
             meshes.fix_texture_space(mesh, lo, hi)  # not redone per frame
         except native.Error:
             mesh.use_auto_texspace = True  # a non-finite vertex: never half a mesh for it
