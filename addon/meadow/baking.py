@@ -249,7 +249,6 @@ class MeadowJob:
     def frame_positions(self, runner):
         """The baked mesh's vertex positions for the runner's current frame: the rest
         ribbons, with those of simulated tiles replaced by their current ribbons."""
-        lib = native.require()
         k = self.K
         pos = self.layout["rest"].copy()
         tiles, counts = runner.active()
@@ -259,8 +258,7 @@ class MeadowJob:
             if np.any(slot >= len(self.tiles)) or np.any(self.tiles[np.minimum(slot, len(self.tiles) - 1)] != tiles):
                 raise ValueError("internal: a tile outside the baked layout woke up")
             ribbon = np.empty(n * 2 * k * 3, np.float32)
-            lib.blades_expand(runner.knots(), runner.per_blade(tiles, 0),
-                              runner.per_blade(tiles, 1), k, ribbon, None, None)
+            runner.ribbons(0, runner.per_blade(tiles, 0), runner.per_blade(tiles, 1), ribbon)
             first = np.concatenate([[0], np.cumsum(counts)[:-1]])
             index = np.repeat(self.offsets[slot] - first, counts) + np.arange(n)
             pos.reshape(-1, 2 * k * 3)[index] = ribbon.reshape(-1, 2 * k * 3)

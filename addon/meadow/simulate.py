@@ -188,6 +188,12 @@ class Runner:
             self.lib.blade_sim_get_knots(self.sim, out)
         return out
 
+    def ribbons(self, first, widths, sides, out):
+        """Ribbon vertices of active blades first .. first + len(sides) / 3 into `out`
+        (float32, 2 * K * 3 per blade), made in C straight from the solver's state: the
+        bytes blades_expand gives on the same blades' knots(), without copying them out."""
+        self.lib.blade_sim_ribbons(self.sim, first, widths, sides, out)
+
     def per_blade(self, tiles, what):
         """Concatenation of one rest array (0 widths, 1 sides, 2 blade rand, 3 roots) over
         `tiles`."""
@@ -562,10 +568,9 @@ def chunk_capacity(capacity, nb, fit=False):
     return capacity
 
 
-def _write_chunk(child, pb, i, blades, k, knots, rand, ribbon, layout_changed, fit=False):
+def _write_chunk(child, pb, i, blades, k, rand, ribbon, layout_changed, fit=False):
     """Writes blades [blades.start, blades.stop) of the active ones into chunk `child`;
     `fit`: see chunk_capacity."""
-    lib = native.require()
     mesh = child.data
     nb = blades.stop - blades.start
     if nb == 0 and mesh.get("tussock_layout") == "live":
@@ -586,8 +591,8 @@ def _write_chunk(child, pb, i, blades, k, knots, rand, ribbon, layout_changed, f
         pos = pb.pos[i] = np.zeros(capacity * 2 * k * 3, np.float32)
     if nb:
         a, b = blades.start, blades.stop
-        lib.blades_expand(knots[a * k * 3:b * k * 3], ribbon[0][a:b].ravel(),
-                          ribbon[1][a:b].ravel(), k, pos[:nb * 2 * k * 3], None, None)
+        pb.runner.ribbons(a, ribbon[0][a:b].ravel(), ribbon[1][a:b].ravel(),
+                          pos[:nb * 2 * k * 3])
     mesh.vertices.foreach_set("co", pos)
     mesh.update()
 
@@ -614,9 +619,8 @@ def write(obj, pb):
     if pb.pos is None:
         pb.pos = {}
     set_hidden(obj, pb.hidden)  # (checked every frame: rebuilding the meadow clears it)
-    knots = r.knots() if nb else None
     for i, blades in enumerate(chunk_ranges(nb)):
-        _write_chunk(chunk_object(obj, i), pb, i, blades, k, knots, pb.rand, pb.ribbon,
+        _write_chunk(chunk_object(obj, i), pb, i, blades, k, pb.rand, pb.ribbon,
                      layout_changed, fit=pb.steady == FIT_AFTER_FRAMES)
     for i, child in enumerate(extra_chunks(obj)[CHUNKS - 1:], start=CHUNKS):
         _collapse(child, pb, i)  # chunks of a larger CHUNKS: unused

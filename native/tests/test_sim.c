@@ -2,6 +2,7 @@
  * capsule, ground), recovery to the rest shape, segment lengths in contact, determinism across
  * thread counts, tile activation and release with memory freed, and argument checks. */
 #include "test.h"
+#include "tussock/meadow.h"
 #include "tussock/sim.h"
 #include "sim/sim_internal.h"
 
@@ -668,6 +669,96 @@ TEST(test_sim_all_knots_are_the_tiles_knots_in_order) {
     tsk_blade_sim_destroy(sim);
 }
 
+/* Ribbons made from the solver's blocks are the bytes tsk_blades_expand makes from the knots
+ * tsk_blade_sim_get_knots gives, for any range of the active blades (tiles of 70, 1 and 64
+ * blades: ranges that start and end inside blocks and tiles), with every kernel; bad widths
+ * and sides are reported for the first bad blade, ranges beyond the active blades refused. */
+TEST(test_sim_ribbons_are_the_expanded_knots) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.tiles_x = def.tiles_y = 4;
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    if (!sim) return;
+    enum { NB = 70, NA = 135 };
+    static float knots[NB * K16 * 3], widths[NB * K16], sides[NB * 3];
+    const int32_t want[3] = {5, 6, 10};
+    for (int i = 0; i < 3; ++i) CHECK(tsk_blade_sim_activate_tile(sim, want[i]) == TSK_OK);
+    int32_t pend[16];
+    const int32_t np = tsk_blade_sim_pending_count(sim);
+    CHECK(np == 3 && tsk_blade_sim_get_pending(sim, pend) == TSK_OK);
+    for (int i = 0; i < np && i < 3; ++i) {
+        const int32_t n = pend[i] == 5 ? 70 : pend[i] == 6 ? 1 : 64;
+        tile_blades(&def, pend[i], n, knots, widths, sides);
+        CHECK(tsk_blade_sim_provide_tile(sim, pend[i], n, knots, widths, sides) == TSK_OK);
+    }
+    static float rest[NA * K16 * 3];
+    CHECK(tsk_blade_sim_get_knots(sim, rest) == TSK_OK);
+    /* a sphere pressing the first tile's blades, and wind: knots away from any rest pose */
+    tsk_blade_collider c = {TSK_COLLIDER_SPHERE, 0.2f, {0.3f, 0.4f, 0.15f}, {0, 0, 0}};
+    CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+    const float wind[3] = {4.0f, -1.0f, 0.0f};
+    for (int s = 0; s < 12; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    tsk_blade_sim_info info;
+    CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
+    CHECK(info.active_blades == NA);
+    static float all[NA * K16 * 3], w[NA * K16], sd[NA * 3], want_pos[NA * K16 * 6], got[NA * K16 * 6];
+    CHECK(tsk_blade_sim_get_knots(sim, all) == TSK_OK);
+    for (int b = 0; b < NA; ++b) { /* widths of every size and zero, sides of any length */
+        for (int k = 0; k < K16; ++k) w[b * K16 + k] = 0.02f * tsk_rand01(5, (uint64_t)b, (uint64_t)k, 0);
+        w[b * K16 + K16 - 1] = 0.0f;
+        const float a = 6.28f * tsk_rand01(5, (uint64_t)b, 0, 1), l = 0.1f + 3.0f * tsk_rand01(5, (uint64_t)b, 0, 2);
+        sd[3 * b] = l * cosf(a), sd[3 * b + 1] = l * sinf(a), sd[3 * b + 2] = 0.3f * l;
+    }
+    sd[3 * 7] = 0.0f, sd[3 * 7 + 1] = 0.0f, sd[3 * 7 + 2] = 1.0f; /* along the blade */
+    const int64_t ranges[][2] = {{0, NA}, {3, 70}, {69, 2}, {70, 1}, {100, 35}, {134, 1}, {31, 34}};
+    size_t moved = 0;
+    for (int path = 0; path <= 2; ++path) {
+        tsk_sim_kernel_path = path; /* 0 the best, 1 portable, 2 at most AVX2 */
+        for (size_t r = 0; r < sizeof ranges / sizeof ranges[0]; ++r) {
+            const int64_t f = ranges[r][0], n = ranges[r][1];
+            CHECK(tsk_blades_expand(all + f * K16 * 3, w + f * K16, sd + 3 * f, (size_t)n, K16,
+                                    want_pos, NULL, NULL) == TSK_OK);
+            memset(got, 0xff, sizeof got);
+            CHECK(tsk_blade_sim_get_ribbons(sim, f, n, w + f * K16, sd + 3 * f, got) == TSK_OK);
+            CHECK_MSG(memcmp(got, want_pos, sizeof(float) * (size_t)n * K16 * 6) == 0,
+                      "path %d, blades %lld + %lld differ from tsk_blades_expand", path,
+                      (long long)f, (long long)n);
+            if (n < NA) { /* got has room for NA blades: nothing after the n asked for */
+                uint32_t past;
+                memcpy(&past, got + n * K16 * 6, sizeof past);
+                CHECK_MSG(past == 0xffffffffu, "wrote past blade %lld", (long long)(f + n));
+            }
+        }
+    }
+    tsk_sim_kernel_path = 0;
+    for (int i = 0; i < NA * K16 * 3; ++i) moved += all[i] != rest[i];
+    CHECK_MSG(moved > NA * K16, "only %zu knot coordinates moved", moved);
+    /* bad input: the first bad blade, in the caller's numbering */
+    w[80 * K16 + 3] = -1.0f;
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT, "width 3 of blade 80");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 10, NA - 10, w + 10 * K16, sd + 30, got), TSK_ERR_ARGUMENT,
+                 "width 3 of blade 70");
+    w[80 * K16 + 3] = NAN;
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT, "width 3 of blade 80");
+    w[80 * K16 + 3] = 0.01f;
+    sd[3 * 120] = sd[3 * 120 + 1] = sd[3 * 120 + 2] = 0.0f;
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT, "side of blade 120");
+    sd[3 * 120] = INFINITY;
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 100, 35, w + 100 * K16, sd + 300, got), TSK_ERR_ARGUMENT,
+                 "side of blade 20");
+    CHECK(tsk_blade_sim_get_ribbons(sim, 0, 100, w, sd, got) == TSK_OK); /* blade 120 not asked */
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, -1, 2, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 100, 36, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, NA + 1, 0, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, INT64_MAX, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
+    CHECK(tsk_blade_sim_get_ribbons(sim, NA, 0, NULL, NULL, NULL) == TSK_OK);
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, 1, NULL, sd, got), TSK_ERR_ARGUMENT, "widths");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, 1, w, NULL, got), TSK_ERR_ARGUMENT, "sides");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, 1, w, sd, NULL), TSK_ERR_ARGUMENT, "positions");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(NULL, 0, 1, w, sd, got), TSK_ERR_ARGUMENT, "sim");
+    tsk_blade_sim_destroy(sim);
+}
+
 TEST(test_sim_touched_tile_never_releases) {
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
     def.tiles_x = def.tiles_y = 2;
@@ -1037,6 +1128,7 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),
           TEST_ENTRY(test_sim_all_knots_are_the_tiles_knots_in_order),
+         TEST_ENTRY(test_sim_ribbons_are_the_expanded_knots),
           TEST_ENTRY(test_sim_tile_in_steady_wind_settles_and_is_freed),
           TEST_ENTRY(test_sim_clone_resumes_with_identical_bytes),
           TEST_ENTRY(test_sim_bad_input_names_the_argument),

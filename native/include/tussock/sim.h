@@ -223,6 +223,17 @@ tsk_status tsk_blade_sim_get_active(const tsk_blade_sim* sim, int32_t* tiles,
 /// K knots root first, xyz interleaved: info.active_blades * K * 3 floats (caller-owned).
 tsk_status tsk_blade_sim_get_knots(const tsk_blade_sim* sim, float* knots);
 
+/// Ribbon vertices (seed 000 §4.5) of `count` active blades from active blade `first` on, in
+/// the order of tsk_blade_sim_get_knots: the bytes tsk_blades_expand(knots, widths, sides,
+/// count, K, positions, NULL, NULL) gives on those blades' knots, made without copying the
+/// knots out of the solver. widths: count * K floats (finite, >= 0), sides: count * 3 (finite,
+/// non-zero), positions: count * 2K * 3 floats (caller-owned). A bad width or side, or a
+/// non-finite knot, is reported for the first such blade (its index in widths and sides);
+/// positions are then partly written.
+tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, int64_t count,
+                                     const float* widths, const float* sides,
+                                     float* positions);
+
 /// Current knots of one active tile: its blade_count * K * 3 floats. TSK_ERR_ARGUMENT if the
 /// tile is not active.
 tsk_status tsk_blade_sim_get_tile_knots(const tsk_blade_sim* sim, int32_t tile, float* knots);

@@ -392,6 +392,41 @@ static PyObject* py_get_knots(PyObject* self, PyObject* args) {
     Py_RETURN_NONE;
 }
 
+static PyObject* py_get_ribbons(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *sim_obj, *widths_o, *sides_o, *out_o;
+    long long first;
+    if (!PyArg_ParseTuple(args, "OLOOO:blade_sim_ribbons", &sim_obj, &first, &widths_o, &sides_o,
+                          &out_o))
+        return NULL;
+    tsk_blade_sim* sim = get_sim(sim_obj);
+    if (!sim) return NULL;
+    tsk_blade_sim_info info;
+    tsk_blade_sim_get_info(sim, &info);
+    const Py_ssize_t K = info.knot_count;
+    tsk_py_views v = {.n = 0};
+    float *sides, *widths, *out;
+    if (!tsk_py_views_get(&v, sides_o, "sides", TSK_PY_F32, -1, 0, 0, (void**)&sides)) return NULL;
+    const Py_ssize_t n3 = tsk_py_count(&v.view[0]);
+    if (n3 % 3 != 0) {
+        tsk_py_views_release(&v);
+        return tsk_py_raise_arg("sides", "length %zd is not a multiple of 3", n3);
+    }
+    const Py_ssize_t n = n3 / 3;
+    if (!tsk_py_views_get(&v, widths_o, "widths", TSK_PY_F32, K * n, 0, 0, (void**)&widths) ||
+        !tsk_py_views_get(&v, out_o, "positions", TSK_PY_F32, 6 * K * n, 1, 0, (void**)&out)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_blade_sim_get_ribbons(sim, (int64_t)first, (int64_t)n, widths, sides, out);
+    Py_END_ALLOW_THREADS
+    tsk_py_views_release(&v);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
 static PyObject* py_tile_state(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* sim_obj;
@@ -426,6 +461,10 @@ PyMethodDef tsk_py_sim_methods[] = {
     {"blade_sim_info", py_info, METH_VARARGS, "blade_sim_info(sim) -> dict."},
     {"blade_sim_get_active", py_get_active, METH_VARARGS,
      "blade_sim_get_active(sim, tiles, blade_counts): int32 arrays of info['active_tiles']."},
+    {"blade_sim_ribbons", py_get_ribbons, METH_VARARGS,
+     "blade_sim_ribbons(sim, first, widths, sides, positions): ribbon vertices of n active blades "
+     "from `first` on (n = len(sides) / 3; widths n*K, positions n*2K*3 float32), the bytes "
+     "blades_expand gives on their knots."},
     {"blade_sim_get_knots", py_get_knots, METH_VARARGS,
      "blade_sim_get_knots(sim, out): float32 out of info['active_blades'] * K * 3."},
     {"blade_sim_tile_state", py_tile_state, METH_VARARGS,

@@ -40,3 +40,14 @@ void tsk_sim_block_rest(int32_t K, float* block) {
     default: tsk_sim_block_rest_generic(K, block); return;
     }
 }
+
+int tsk_sim_block_ribbons(int32_t K, const float* P, int l0, int l1, const float* widths,
+                          const float* sides, float* out) {
+    switch (kernel_isa()) {
+#if SIM_HAVE_X86_PATHS
+    case 2: return tsk_sim_block_ribbons_avx512(K, P, l0, l1, widths, sides, out);
+    case 1: return tsk_sim_block_ribbons_avx2(K, P, l0, l1, widths, sides, out);
+#endif
+    default: return tsk_sim_block_ribbons_generic(K, P, l0, l1, widths, sides, out);
+    }
+}

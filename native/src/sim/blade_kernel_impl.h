@@ -18,6 +18,7 @@
  * set computes the same bits (test_sim_kernel_paths_give_identical_bytes). */
 #include "sim/sim_internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -883,6 +884,108 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
     }
     stats->max_disp2 = m1;
     stats->max_step2 = m2;
+}
+
+/* Transposes an LN x LN block of floats held as LN rows: r[i][x] becomes r[x][i]. log2(LN)
+ * stages, each exchanging the halves of 2b x 2b sub-blocks with two-vector shuffles. */
+#if !defined(__clang__)
+INL void transpose_rows(vf* r) {
+    for (int b = 1; b < LN; b *= 2) {
+        vi lo, hi;
+        for (int x = 0; x < LN; ++x) {
+            lo[x] = (x & b) ? LN + x - b : x;
+            hi[x] = (x & b) ? LN + x : x + b;
+        }
+        for (int i = 0; i < LN; ++i)
+            if (!(i & b)) {
+                const vf A = r[i], B = r[i + b];
+                r[i] = __builtin_shuffle(A, B, lo);
+                r[i + b] = __builtin_shuffle(A, B, hi);
+            }
+    }
+}
+#endif
+
+/* Ribbon vertices of lanes [l0, l1) of a block (seed 000 §4.5, Fig. 7-8: each knot becomes two
+ * vertices half a width either side of the blade), read straight from the block's knots: the
+ * same IEEE operations in the same order as tsk_blades_expand on the knots
+ * tsk_blade_sim_get_knots gives (the tangent by central differences, the side made
+ * perpendicular to it and unit, knot -/+ width / 2 * side), so the same bytes, but with the
+ * blades in the vector lanes. widths (K per blade) and sides (3 per blade) start at lane l0's
+ * blade, and so does out (2K vertices, 6K floats per blade). A slice's vertices are gathered
+ * as 6K rows of LN lanes and turned into each blade's 6K floats by LN x LN transposes.
+ * Returns 1, writing nothing, when a knot, width or side of these lanes is not good input for
+ * tsk_blades_expand. */
+int SIM_KFN(tsk_sim_block_ribbons)(int32_t K, const float* P, int l0, int l1,
+                                   const float* widths, const float* sides, float* out) {
+    const int n = l1 - l0;
+    int bad = 0;
+    for (int32_t r = 0; r < 3 * K; ++r)
+        for (int l = l0; l < l1; ++l) bad |= !(fabsf(P[(size_t)r * W + l]) <= FLT_MAX);
+    for (size_t i = 0; i < (size_t)n * (size_t)K; ++i)
+        bad |= !((widths[i] >= 0.0f) & (widths[i] <= FLT_MAX)); /* & : no branch */
+    for (int i = 0; i < n; ++i) {
+        const float* s = &sides[3 * i];
+        const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+        bad |= !((l2 > 1e-20f) & (l2 <= FLT_MAX));
+    }
+    if (bad) return 1;
+    const vf zero = splat(0.0f), one = splat(1.0f), eps = splat(1e-12f), half = splat(0.5f);
+    const size_t rows = 6 * (size_t)K; /* floats per blade */
+    float tmp[6 * TSK_BLADE_SIM_MAX_KNOTS][LN] __attribute__((aligned(64)));
+    for (int j = l0 - l0 % LN; j < l1; j += LN) {
+        /* lanes of this slice that are asked for: [a, b) of the block */
+        const int a = j > l0 ? j : l0, b = j + LN < l1 ? j + LN : l1;
+        float sl[3][LN];
+        for (int i = 0; i < LN; ++i) sl[0][i] = 1.0f, sl[1][i] = 0.0f, sl[2][i] = 0.0f;
+        for (int l = a; l < b; ++l)
+            for (int q = 0; q < 3; ++q) sl[q][l - j] = sides[3 * (l - l0) + q];
+        const vf sx = ld(sl[0]), sy = ld(sl[1]), sz = ld(sl[2]);
+        const vf inv_sl = one / vsqrt(sx * sx + sy * sy + sz * sz);
+        const vf sx0 = sx * inv_sl, sy0 = sy * inv_sl, sz0 = sz * inv_sl;
+        for (int32_t k = 0; k < K; ++k) {
+            const int32_t ka = k > 0 ? k - 1 : 0, kb = k < K - 1 ? k + 1 : K - 1;
+            const float* pa = P + (size_t)ka * 3 * W + j;
+            const float* pb = P + (size_t)kb * 3 * W + j;
+            const float* pk = P + (size_t)k * 3 * W + j;
+            vf tx = ld(pb) - ld(pa), ty = ld(pb + W) - ld(pa + W), tz = ld(pb + 2 * W) - ld(pa + 2 * W);
+            const vf tl2 = tx * tx + ty * ty + tz * tz;
+            const vi tok = gt(tl2, zero);
+            const vf tinv = one / vsqrt(sel(tok, tl2, one));
+            tx = sel(tok, tx * tinv, zero);
+            ty = sel(tok, ty * tinv, zero);
+            tz = sel(tok, tz * tinv, one);
+            const vf d = sx0 * tx + sy0 * ty + sz0 * tz;
+            vf rx = sx0 - d * tx, ry = sy0 - d * ty, rz = sz0 - d * tz;
+            const vf ssl2 = rx * rx + ry * ry + rz * rz;
+            const vi sok = gt(ssl2, eps);
+            const vf sinv = one / vsqrt(sel(sok, ssl2, one));
+            rx = sel(sok, rx * sinv, sx0);
+            ry = sel(sok, ry * sinv, sy0);
+            rz = sel(sok, rz * sinv, sz0);
+            float hw[LN] = {0};
+            for (int l = a; l < b; ++l) hw[l - j] = widths[(size_t)(l - l0) * K + k];
+            const vf h = half * ld(hw);
+            const vf hx = h * rx, hy = h * ry, hz = h * rz;
+            const vf kx = ld(pk), ky = ld(pk + W), kz = ld(pk + 2 * W);
+            float(*v)[LN] = &tmp[6 * k];
+            st(v[0], kx - hx), st(v[1], ky - hy), st(v[2], kz - hz);
+            st(v[3], kx + hx), st(v[4], ky + hy), st(v[5], kz + hz);
+        }
+        /* row r of tmp is float r of every lane's blade */
+        size_t r0 = 0;
+#if !defined(__clang__)
+        for (; r0 + LN <= rows; r0 += LN) {
+            vf tr[LN];
+            for (int i = 0; i < LN; ++i) tr[i] = ld(tmp[r0 + (size_t)i]);
+            transpose_rows(tr);
+            for (int l = a; l < b; ++l) st(out + (size_t)(l - l0) * rows + r0, tr[l - j]);
+        }
+#endif
+        for (int l = a; l < b; ++l)
+            for (size_t r = r0; r < rows; ++r) out[(size_t)(l - l0) * rows + r] = tmp[r][l - j];
+    }
+    return 0;
 }
 
 #undef LN

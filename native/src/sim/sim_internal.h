@@ -183,6 +183,12 @@ void tsk_sim_block_step(const sim_step_params* p, float* block, const float* win
  * the solver rebuilds it every step) and sets V to zero. */
 void tsk_sim_block_rest(int32_t K, float* block);
 
+/* Ribbon vertices of lanes [l0, l1) of a block's knots P, as tsk_blades_expand makes them from
+ * the same knots (the same bytes); widths, sides and out start at lane l0's blade. 1 (nothing
+ * written) when a knot, width or side is not good input. */
+int tsk_sim_block_ribbons(int32_t K, const float* P, int l0, int l1, const float* widths,
+                          const float* sides, float* out);
+
 /* Validates a definition (messages name the field). */
 tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def);
 
@@ -192,13 +198,16 @@ tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def);
 void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* knots,
                              const float* widths, const float* side);
 
-/* The kernels per instruction set, behind tsk_sim_block_step and tsk_sim_block_rest. */
+/* The kernels per instruction set, behind tsk_sim_block_step, tsk_sim_block_rest and
+ * tsk_sim_block_ribbons. */
 #define SIM_KERNEL_DECL(sfx)                                                                 \
     void tsk_sim_block_step_##sfx(const sim_step_params* p, float* block, const float* wind,  \
                                   size_t wind_stride, const sim_collider* const* cols,        \
                                   int ncol, float blend, const float* next,                   \
                                   sim_block_stats* stats);                                    \
-    void tsk_sim_block_rest_##sfx(int32_t K, float* block);
+    void tsk_sim_block_rest_##sfx(int32_t K, float* block);                                 \
+    int tsk_sim_block_ribbons_##sfx(int32_t K, const float* P, int l0, int l1,                \
+                                    const float* widths, const float* sides, float* out);
 SIM_KERNEL_DECL(generic)
 #if SIM_HAVE_X86_PATHS
 SIM_KERNEL_DECL(avx2)

@@ -4,6 +4,7 @@
  * not active holds no memory. */
 #include "sim/sim_internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -900,6 +901,115 @@ tsk_status tsk_blade_sim_get_knots(const tsk_blade_sim* sim, float* knots) {
         tsk_free(offset);
     }
     return TSK_OK;
+}
+
+typedef struct ribbon_job {
+    int32_t slot, block, l0, l1;
+    int64_t at; /* index, in the caller's widths and sides, of lane l0's blade */
+} ribbon_job;
+
+typedef struct ribbons_ctx {
+    const tsk_blade_sim* sim;
+    const ribbon_job* jobs;
+    const float *widths, *sides;
+    float* out;
+    int* bad; /* per job */
+} ribbons_ctx;
+
+static void ribbons_range(size_t begin, size_t end, size_t chunk, void* vctx) {
+    (void)chunk;
+    const ribbons_ctx* c = vctx;
+    const int32_t K = c->sim->K;
+    const size_t bf = SIM_BLOCK_FLOATS(K);
+    for (size_t i = begin; i < end; ++i) {
+        const ribbon_job* j = &c->jobs[i];
+        const float* P = c->sim->tiles[j->slot].blocks + (size_t)j->block * bf + SIM_OFF_P(K);
+        c->bad[i] = tsk_sim_block_ribbons(K, P, j->l0, j->l1, c->widths + j->at * K,
+                                          c->sides + 3 * j->at, c->out + j->at * 6 * K);
+    }
+}
+
+/* The error for the first bad blade of a job that tsk_sim_block_ribbons refused. */
+static tsk_status report_bad_ribbon(const tsk_blade_sim* sim, const ribbon_job* j,
+                                    const float* widths, const float* sides) {
+    const int32_t K = sim->K;
+    const float* P = sim->tiles[j->slot].blocks + (size_t)j->block * SIM_BLOCK_FLOATS(K) +
+                     SIM_OFF_P(K);
+    for (int32_t l = j->l0; l < j->l1; ++l) {
+        const int64_t b = j->at + (l - j->l0);
+        for (int32_t k = 0; k < K; ++k) {
+            for (int q = 0; q < 3; ++q)
+                if (!(fabsf(P[((size_t)k * 3 + q) * SIM_W + l]) <= FLT_MAX))
+                    return tsk_error_arg(TSK_ERR_ARGUMENT, "knots",
+                                         "knot %d of blade %lld is not finite", (int)k,
+                                         (long long)b);
+            const float w = widths[b * K + k];
+            if (!(w >= 0.0f && w <= FLT_MAX))
+                return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
+                                     "width %d of blade %lld must be finite and >= 0", (int)k,
+                                     (long long)b);
+        }
+        const float* s = &sides[3 * b];
+        const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+        if (!(l2 > 1e-20f && l2 <= FLT_MAX))
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "sides",
+                                 "side of blade %lld must be a finite non-zero vector",
+                                 (long long)b);
+    }
+    return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "a blade's ribbon could not be made");
+}
+
+tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, int64_t count,
+                                     const float* widths, const float* sides,
+                                     float* positions) {
+    if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
+    int64_t total = 0;
+    for (int32_t i = 0; i < sim->tile_count; ++i) total += sim->tiles[i].blade_count;
+    if (first < 0 || count < 0 || first > total || count > total - first)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "first",
+                             "blades %lld..%lld are not among the %lld active ones",
+                             (long long)first, (long long)first + count - 1, (long long)total);
+    if (count == 0) return TSK_OK;
+    if (!widths) return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "is NULL");
+    if (!sides) return tsk_error_arg(TSK_ERR_ARGUMENT, "sides", "is NULL");
+    if (!positions) return tsk_error_arg(TSK_ERR_ARGUMENT, "positions", "is NULL");
+    /* one job per block that holds some of the blades asked for */
+    const int64_t end = first + count;
+    size_t nj = 0;
+    int64_t fb = 0;
+    for (int32_t i = 0; i < sim->tile_count; fb += sim->tiles[i++].blade_count) {
+        const int64_t a = first > fb ? first : fb;
+        const int64_t b = end < fb + sim->tiles[i].blade_count ? end : fb + sim->tiles[i].blade_count;
+        if (a < b) nj += (size_t)((b - 1 - fb) / SIM_W - (a - fb) / SIM_W + 1);
+    }
+    ribbon_job* jobs = tsk_alloc(nj * sizeof *jobs, "ribbon jobs");
+    int* bad = tsk_calloc(nj, sizeof *bad, "ribbon checks");
+    if (!jobs || !bad) {
+        tsk_free(jobs);
+        tsk_free(bad);
+        return TSK_ERR_MEMORY;
+    }
+    size_t w = 0;
+    fb = 0;
+    for (int32_t i = 0; i < sim->tile_count; fb += sim->tiles[i++].blade_count) {
+        const int64_t a = first > fb ? first : fb;
+        const int64_t b = end < fb + sim->tiles[i].blade_count ? end : fb + sim->tiles[i].blade_count;
+        for (int64_t x = a; x < b;) { /* x: the next blade, as an index of the active ones */
+            const int64_t in = x - fb, blk = in / SIM_W;
+            const int64_t stop = fb + (blk + 1) * SIM_W < b ? fb + (blk + 1) * SIM_W : b;
+            jobs[w++] = (ribbon_job){i, (int32_t)blk, (int32_t)(in - blk * SIM_W),
+                                     (int32_t)(stop - fb - blk * SIM_W), x - first};
+            x = stop;
+        }
+    }
+    ribbons_ctx c = {sim, jobs, widths, sides, positions, bad};
+    tsk_parallel_for(nj, 4, ribbons_range, &c);
+    tsk_status s = TSK_OK;
+    for (size_t i = 0; i < nj && s == TSK_OK; ++i)
+        if (bad[i]) s = report_bad_ribbon(sim, &jobs[i], widths, sides);
+    tsk_free(jobs);
+    tsk_free(bad);
+    return s;
 }
 
 tsk_status tsk_blade_sim_get_tile_knots(const tsk_blade_sim* sim, int32_t tile, float* knots) {
