@@ -22,6 +22,14 @@ static tsk_blade_sim* get_sim(PyObject* obj) {
     return PyCapsule_GetPointer(obj, SIM_CAPSULE);
 }
 
+/* The simulation behind handle `obj` (NULL, with the exception set, when it is none) and its
+ * current info. */
+static tsk_blade_sim* get_sim_info(PyObject* obj, tsk_blade_sim_info* info) {
+    tsk_blade_sim* sim = get_sim(obj);
+    if (sim) tsk_blade_sim_get_info(sim, info);
+    return sim;
+}
+
 /* The definition's fields by name, for keyword arguments and the defaults dict. */
 typedef enum { F_FLOAT, F_INT, F_VEC3 } field_kind;
 typedef struct field {
@@ -262,10 +270,9 @@ static PyObject* py_provide_tile(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OiOO|O:blade_sim_provide_tile", &sim_obj, &tile, &knots_obj,
                           &widths_obj, &sides_obj))
         return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
-    if (!sim) return NULL;
     tsk_blade_sim_info info;
-    tsk_blade_sim_get_info(sim, &info);
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    if (!sim) return NULL;
     const Py_ssize_t K = info.knot_count;
     tsk_py_views v = {.n = 0};
     const float *widths, *knots, *sides;
@@ -352,10 +359,9 @@ static PyObject* py_get_active(PyObject* self, PyObject* args) {
     PyObject *sim_obj, *tiles_obj, *counts_obj;
     if (!PyArg_ParseTuple(args, "OOO:blade_sim_get_active", &sim_obj, &tiles_obj, &counts_obj))
         return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
-    if (!sim) return NULL;
     tsk_blade_sim_info info;
-    tsk_blade_sim_get_info(sim, &info);
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    if (!sim) return NULL;
     tsk_py_views v = {.n = 0};
     int32_t *tiles, *counts;
     if (!tsk_py_views_get(&v, tiles_obj, "tiles", TSK_PY_I32, info.active_tiles, 1, 0,
@@ -375,10 +381,9 @@ static PyObject* py_get_knots(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *sim_obj, *out_obj;
     if (!PyArg_ParseTuple(args, "OO:blade_sim_get_knots", &sim_obj, &out_obj)) return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
-    if (!sim) return NULL;
     tsk_blade_sim_info info;
-    tsk_blade_sim_get_info(sim, &info);
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    if (!sim) return NULL;
     Py_buffer out;
     if (!tsk_py_buffer(out_obj, "knots", TSK_PY_F32,
                        3 * (Py_ssize_t)info.active_blades * info.knot_count, 1, &out))
@@ -399,10 +404,9 @@ static PyObject* py_get_ribbons(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OLOOO:blade_sim_ribbons", &sim_obj, &first, &widths_o, &sides_o,
                           &out_o))
         return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
-    if (!sim) return NULL;
     tsk_blade_sim_info info;
-    tsk_blade_sim_get_info(sim, &info);
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    if (!sim) return NULL;
     const Py_ssize_t K = info.knot_count;
     tsk_py_views v = {.n = 0};
     float *sides, *widths, *out;

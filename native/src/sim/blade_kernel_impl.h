@@ -906,6 +906,17 @@ INL void transpose_rows(vf* r) {
 }
 #endif
 
+/* (x, y, z) made unit in the lanes where its squared length is above `above`, (fx, fy, fz)
+ * in the others: x * (1 / sqrt(l2)), as tsk_blades_expand does it. */
+INL void unit_or(vf* x, vf* y, vf* z, vf above, vf fx, vf fy, vf fz) {
+    const vf l2 = *x * *x + *y * *y + *z * *z;
+    const vi ok = gt(l2, above);
+    const vf inv = splat(1.0f) / vsqrt(sel(ok, l2, splat(1.0f)));
+    *x = sel(ok, *x * inv, fx);
+    *y = sel(ok, *y * inv, fy);
+    *z = sel(ok, *z * inv, fz);
+}
+
 /* Ribbon vertices of lanes [l0, l1) of a block (seed 000 §4.5, Fig. 7-8: each knot becomes two
  * vertices half a width either side of the blade), read straight from the block's knots: the
  * same IEEE operations in the same order as tsk_blades_expand on the knots
@@ -949,20 +960,10 @@ int SIM_KFN(tsk_sim_block_ribbons)(int32_t K, const float* P, int l0, int l1,
             const float* pb = P + (size_t)kb * 3 * W + j;
             const float* pk = P + (size_t)k * 3 * W + j;
             vf tx = ld(pb) - ld(pa), ty = ld(pb + W) - ld(pa + W), tz = ld(pb + 2 * W) - ld(pa + 2 * W);
-            const vf tl2 = tx * tx + ty * ty + tz * tz;
-            const vi tok = gt(tl2, zero);
-            const vf tinv = one / vsqrt(sel(tok, tl2, one));
-            tx = sel(tok, tx * tinv, zero);
-            ty = sel(tok, ty * tinv, zero);
-            tz = sel(tok, tz * tinv, one);
+            unit_or(&tx, &ty, &tz, zero, zero, zero, one); /* the tangent, else +z */
             const vf d = sx0 * tx + sy0 * ty + sz0 * tz;
             vf rx = sx0 - d * tx, ry = sy0 - d * ty, rz = sz0 - d * tz;
-            const vf ssl2 = rx * rx + ry * ry + rz * rz;
-            const vi sok = gt(ssl2, eps);
-            const vf sinv = one / vsqrt(sel(sok, ssl2, one));
-            rx = sel(sok, rx * sinv, sx0);
-            ry = sel(sok, ry * sinv, sy0);
-            rz = sel(sok, rz * sinv, sz0);
+            unit_or(&rx, &ry, &rz, eps, sx0, sy0, sz0); /* the side, else the side given */
             float hw[LN] = {0};
             for (int l = a; l < b; ++l) hw[l - j] = widths[(size_t)(l - l0) * K + k];
             const vf h = half * ld(hw);
