@@ -7,9 +7,11 @@
  * layout), moving the colliders between steps. After every step that succeeds the contracts
  * are checked: every knot finite, no knot but the pinned roots below ground_height (within
  * float rounding), a provided tile starting at its rest pose (within rounding), info
- * consistent with the active list, and nothing left allocated after destroy. Cost only: at
+ * consistent with the active list, ribbons made from the solver's blocks the same bits as
+ * tsk_blades_expand makes of its knots, and nothing left allocated after destroy. Cost only: at
  * most 4 tiles are given blades. */
 #include "fuzz.h"
+#include "tussock/meadow.h"
 #include "tussock/sim.h"
 
 int LLVMFuzzerInitialize(int* argc, char*** argv) {
@@ -163,6 +165,30 @@ static void check_state(const tsk_blade_sim* sim, const tsk_blade_sim_def* d) {
             abort();
         }
     }
+    /* the ribbons made from the blocks are those tsk_blades_expand makes of the knots (same
+     * bits; where a huge value overflowed, NaN in both) for a range not starting at 0 */
+    const size_t nb = (size_t)info.active_blades, K = (size_t)d->knot_count;
+    const size_t f = nb / 3, c = nb - f;
+    float* w = malloc(nb * K * sizeof *w);
+    float* sd = malloc(nb * 3 * sizeof *sd);
+    float* ra = malloc(c * K * 6 * sizeof *ra);
+    float* rb = malloc(c * K * 6 * sizeof *rb);
+    for (size_t i = 0; i < nb * K; ++i) w[i] = 0.002f * (float)(i % 7);
+    for (size_t b = 0; b < nb; ++b) sd[3 * b] = 1.0f, sd[3 * b + 1] = 0.5f, sd[3 * b + 2] = 0.0f;
+    if (tsk_blade_sim_get_ribbons(sim, (int64_t)f, (int64_t)c, w + f * K, sd + 3 * f, ra) != TSK_OK ||
+        tsk_blades_expand(knots + f * K * 3, w + f * K, sd + 3 * f, c, (int32_t)K, rb, NULL, NULL) !=
+            TSK_OK) {
+        fprintf(stderr, "sim: ribbons refused: %s\n", tsk_last_error());
+        abort();
+    }
+    for (size_t i = 0; i < c * K * 6; ++i)
+        if (memcmp(&ra[i], &rb[i], sizeof(float)) != 0 && !(isnan(ra[i]) && isnan(rb[i]))) {
+            fprintf(stderr, "sim: ribbon value %zu is %g, tsk_blades_expand says %g\n", i,
+                    (double)ra[i], (double)rb[i]);
+            dump_def(d);
+            abort();
+        }
+    free(w), free(sd), free(ra), free(rb);
     free(knots);
 }
 
