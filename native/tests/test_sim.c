@@ -751,6 +751,10 @@ TEST(test_sim_ribbons_are_the_expanded_knots) {
     CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 100, 36, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
     CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, NA + 1, 0, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
     CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, INT64_MAX, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 100, INT64_MAX, w, sd, got), TSK_ERR_ARGUMENT,
+                 "from blade 100 on");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, INT64_MAX, INT64_MAX, w, sd, got), TSK_ERR_ARGUMENT,
+                 "active ones");
     CHECK(tsk_blade_sim_get_ribbons(sim, NA, 0, NULL, NULL, NULL) == TSK_OK);
     CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, 1, NULL, sd, got), TSK_ERR_ARGUMENT, "widths");
     CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, 1, w, NULL, got), TSK_ERR_ARGUMENT, "sides");

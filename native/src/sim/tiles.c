@@ -967,8 +967,8 @@ tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, in
     for (int32_t i = 0; i < sim->tile_count; ++i) total += sim->tiles[i].blade_count;
     if (first < 0 || count < 0 || first > total || count > total - first)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "first",
-                             "blades %lld..%lld are not among the %lld active ones",
-                             (long long)first, (long long)first + count - 1, (long long)total);
+                             "%lld blades from blade %lld on are not among the %lld active ones",
+                             (long long)count, (long long)first, (long long)total);
     if (count == 0) return TSK_OK;
     if (!widths) return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "is NULL");
     if (!sides) return tsk_error_arg(TSK_ERR_ARGUMENT, "sides", "is NULL");
