@@ -2,8 +2,8 @@
  * width either side of the blade, so the skeleton the simulation moves is rendered as a
  * ribbon of triangles; and the whole patch expanded into one mesh for instancing. */
 #include "meadow_internal.h"
+#include "ribbon_input.h"
 
-#include <float.h>
 #include <math.h>
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -155,23 +155,16 @@ static void blade_indices(int32_t n, int32_t base, int32_t* tris) {
 /* What is wrong with one blade's input, checked knot by knot (its position, then its width)
  * and then its side: BAD_NONE, or which input with the knot in *at. */
 enum { BAD_NONE, BAD_KNOT, BAD_WIDTH, BAD_SIDE };
-/* What good input is, written without branches (NaN fails every comparison), so that the
- * chunk-wide pass of check_many vectorizes and says exactly what bad_input says. */
-static inline int coord_ok(float x) { return fabsf(x) <= FLT_MAX; }
-static inline int width_ok(float w) { return w >= 0.0f && w <= FLT_MAX; }
-static inline int side_ok(const float* side) {
-    const float l2 = side[0] * side[0] + side[1] * side[1] + side[2] * side[2];
-    return l2 > 1e-20f && l2 <= FLT_MAX;
-}
 static int bad_input(const float* knots, const float* widths, const float* side, size_t K,
                      size_t* at) {
     for (size_t k = 0; k < K; ++k) {
         *at = k;
-        if (!coord_ok(knots[3 * k]) || !coord_ok(knots[3 * k + 1]) || !coord_ok(knots[3 * k + 2]))
+        if (!tsk_ribbon_coord_ok(knots[3 * k]) || !tsk_ribbon_coord_ok(knots[3 * k + 1]) ||
+            !tsk_ribbon_coord_ok(knots[3 * k + 2]))
             return BAD_KNOT;
-        if (!width_ok(widths[k])) return BAD_WIDTH;
+        if (!tsk_ribbon_width_ok(widths[k])) return BAD_WIDTH;
     }
-    return side_ok(side) ? BAD_NONE : BAD_SIDE;
+    return tsk_ribbon_side_ok(side) ? BAD_NONE : BAD_SIDE;
 }
 
 tsk_status tsk_blade_expand(const float* knots, const float* widths, int32_t knot_count,
@@ -211,11 +204,10 @@ static void expand_many(size_t begin, size_t end, size_t chunk, void* vctx) {
                      c->uv ? &c->uv[4 * K * b] : NULL);
 }
 
-/* The error for blade b's bad input (bad_input says which). */
-static tsk_status report_bad_blade(const float* knots, const float* widths, const float* sides,
-                                   size_t K, size_t b) {
+tsk_status tsk_ribbon_report_bad(const float* knots, const float* widths, const float* side,
+                                 size_t K, size_t b) {
     size_t k = 0;
-    switch (bad_input(&knots[3 * K * b], &widths[K * b], &sides[3 * b], K, &k)) {
+    switch (bad_input(knots, widths, side, K, &k)) {
     case BAD_KNOT:
         return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %zu of blade %zu is not finite", k, b);
     case BAD_WIDTH:
@@ -243,10 +235,10 @@ static void check_many(size_t begin, size_t end, size_t chunk, void* vctx) {
      * blade by blade only when it finds something */
     int bad = 0;
     const float* kn = &c->knots[3 * K * begin];
-    for (size_t i = 0; i < 3 * K * (end - begin); ++i) bad |= !coord_ok(kn[i]);
+    for (size_t i = 0; i < 3 * K * (end - begin); ++i) bad |= !tsk_ribbon_coord_ok(kn[i]);
     const float* w = &c->widths[K * begin];
-    for (size_t i = 0; i < K * (end - begin); ++i) bad |= !width_ok(w[i]);
-    for (size_t b = begin; b < end; ++b) bad |= !side_ok(&c->sides[3 * b]);
+    for (size_t i = 0; i < K * (end - begin); ++i) bad |= !tsk_ribbon_width_ok(w[i]);
+    for (size_t b = begin; b < end; ++b) bad |= !tsk_ribbon_side_ok(&c->sides[3 * b]);
     if (!bad) return;
     for (size_t b = begin; b < end; ++b)
         if (bad_input(&c->knots[3 * K * b], &c->widths[K * b], &c->sides[3 * b], K, &k) !=
@@ -281,7 +273,8 @@ tsk_status tsk_blades_expand(const float* knots, const float* widths, const floa
     size_t bad = blade_count;
     for (size_t i = 0; i < chunks && bad == blade_count; ++i) bad = first_bad[i];
     tsk_free(first_bad);
-    if (bad < blade_count) return report_bad_blade(knots, widths, sides, K, bad);
+    if (bad < blade_count)
+        return tsk_ribbon_report_bad(&knots[3 * K * bad], &widths[K * bad], &sides[3 * bad], K, bad);
     many_ctx c = {knots, widths, sides, knot_count, positions, normals, uvs};
     tsk_parallel_for(blade_count, 256, expand_many, &c);
     return TSK_OK;

@@ -16,9 +16,9 @@
  * Only IEEE add, sub, mul, div, sqrt, comparisons, min/max as (a > b ? a : b) and exact
  * conversions are used and -ffp-contract=off forbids fused multiply-add, so every instruction
  * set computes the same bits (test_sim_kernel_paths_give_identical_bytes). */
+#include "meadow/ribbon_input.h"
 #include "sim/sim_internal.h"
 
-#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -925,21 +925,16 @@ INL void unit_or(vf* x, vf* y, vf* z, vf above, vf fx, vf fy, vf fz) {
  * blades in the vector lanes. widths (K per blade) and sides (3 per blade) start at lane l0's
  * blade, and so does out (2K vertices, 6K floats per blade). A slice's vertices are gathered
  * as 6K rows of LN lanes and turned into each blade's 6K floats by LN x LN transposes.
- * Returns 1, writing nothing, when a knot, width or side of these lanes is not good input for
- * tsk_blades_expand. */
+ * Returns 1, writing nothing, when a knot, width or side of these lanes is not good input
+ * (ribbon_input.h). */
 int SIM_KFN(tsk_sim_block_ribbons)(int32_t K, const float* P, int l0, int l1,
                                    const float* widths, const float* sides, float* out) {
     const int n = l1 - l0;
     int bad = 0;
     for (int32_t r = 0; r < 3 * K; ++r)
-        for (int l = l0; l < l1; ++l) bad |= !(fabsf(P[(size_t)r * W + l]) <= FLT_MAX);
-    for (size_t i = 0; i < (size_t)n * (size_t)K; ++i)
-        bad |= !((widths[i] >= 0.0f) & (widths[i] <= FLT_MAX)); /* & : no branch */
-    for (int i = 0; i < n; ++i) {
-        const float* s = &sides[3 * i];
-        const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
-        bad |= !((l2 > 1e-20f) & (l2 <= FLT_MAX));
-    }
+        for (int l = l0; l < l1; ++l) bad |= !tsk_ribbon_coord_ok(P[(size_t)r * W + l]);
+    for (size_t i = 0; i < (size_t)n * (size_t)K; ++i) bad |= !tsk_ribbon_width_ok(widths[i]);
+    for (int i = 0; i < n; ++i) bad |= !tsk_ribbon_side_ok(&sides[3 * i]);
     if (bad) return 1;
     const vf zero = splat(0.0f), one = splat(1.0f), eps = splat(1e-12f), half = splat(0.5f);
     const size_t rows = 6 * (size_t)K; /* floats per blade */

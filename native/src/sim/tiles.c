@@ -2,9 +2,9 @@
  * colliders touch tiles, touched tiles wait for their rest blades, active tiles are stepped in
  * parallel block by block, and quiet tiles blend back to rest and are freed, so a tile that is
  * not active holds no memory. */
+#include "meadow/ribbon_input.h"
 #include "sim/sim_internal.h"
 
-#include <float.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -929,32 +929,19 @@ static void ribbons_range(size_t begin, size_t end, size_t chunk, void* vctx) {
     }
 }
 
-/* The error for the first bad blade of a job that tsk_sim_block_ribbons refused. */
+/* The error for the first bad blade of a job that tsk_sim_block_ribbons refused: each lane's
+ * knots gathered from the block and checked as tsk_blades_expand checks a blade. */
 static tsk_status report_bad_ribbon(const tsk_blade_sim* sim, const ribbon_job* j,
                                     const float* widths, const float* sides) {
     const int32_t K = sim->K;
     const float* P = sim->tiles[j->slot].blocks + (size_t)j->block * SIM_BLOCK_FLOATS(K) +
                      SIM_OFF_P(K);
+    float knots[3 * TSK_BLADE_SIM_MAX_KNOTS];
     for (int32_t l = j->l0; l < j->l1; ++l) {
-        const int64_t b = j->at + (l - j->l0);
-        for (int32_t k = 0; k < K; ++k) {
-            for (int q = 0; q < 3; ++q)
-                if (!(fabsf(P[((size_t)k * 3 + q) * SIM_W + l]) <= FLT_MAX))
-                    return tsk_error_arg(TSK_ERR_ARGUMENT, "knots",
-                                         "knot %d of blade %lld is not finite", (int)k,
-                                         (long long)b);
-            const float w = widths[b * K + k];
-            if (!(w >= 0.0f && w <= FLT_MAX))
-                return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
-                                     "width %d of blade %lld must be finite and >= 0", (int)k,
-                                     (long long)b);
-        }
-        const float* s = &sides[3 * b];
-        const float l2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
-        if (!(l2 > 1e-20f && l2 <= FLT_MAX))
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "sides",
-                                 "side of blade %lld must be a finite non-zero vector",
-                                 (long long)b);
+        const size_t b = (size_t)(j->at + (l - j->l0));
+        for (size_t r = 0; r < 3 * (size_t)K; ++r) knots[r] = P[r * SIM_W + l];
+        const tsk_status s = tsk_ribbon_report_bad(knots, widths + b * K, sides + 3 * b, K, b);
+        if (s != TSK_OK) return s;
     }
     return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "a blade's ribbon could not be made");
 }
@@ -964,7 +951,11 @@ tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, in
                                      float* positions) {
     if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
     int64_t total = 0;
-    for (int32_t i = 0; i < sim->tile_count; ++i) total += sim->tiles[i].blade_count;
+    size_t room = 0; /* jobs: one per block at most */
+    for (int32_t i = 0; i < sim->tile_count; ++i) {
+        total += sim->tiles[i].blade_count;
+        room += (size_t)sim->tiles[i].block_count;
+    }
     if (first < 0 || count < 0 || first > total || count > total - first)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "first",
                              "%lld blades from blade %lld on are not among the %lld active ones",
@@ -975,29 +966,22 @@ tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, in
     if (!positions) return tsk_error_arg(TSK_ERR_ARGUMENT, "positions", "is NULL");
     /* one job per block that holds some of the blades asked for */
     const int64_t end = first + count;
-    size_t nj = 0;
-    int64_t fb = 0;
-    for (int32_t i = 0; i < sim->tile_count; fb += sim->tiles[i++].blade_count) {
-        const int64_t a = first > fb ? first : fb;
-        const int64_t b = end < fb + sim->tiles[i].blade_count ? end : fb + sim->tiles[i].blade_count;
-        if (a < b) nj += (size_t)((b - 1 - fb) / SIM_W - (a - fb) / SIM_W + 1);
-    }
-    ribbon_job* jobs = tsk_alloc(nj * sizeof *jobs, "ribbon jobs");
-    int* bad = tsk_calloc(nj, sizeof *bad, "ribbon checks");
+    ribbon_job* jobs = tsk_alloc(room * sizeof *jobs, "ribbon jobs");
+    int* bad = tsk_calloc(room, sizeof *bad, "ribbon checks");
     if (!jobs || !bad) {
         tsk_free(jobs);
         tsk_free(bad);
         return TSK_ERR_MEMORY;
     }
-    size_t w = 0;
-    fb = 0;
+    size_t nj = 0;
+    int64_t fb = 0;
     for (int32_t i = 0; i < sim->tile_count; fb += sim->tiles[i++].blade_count) {
         const int64_t a = first > fb ? first : fb;
         const int64_t b = end < fb + sim->tiles[i].blade_count ? end : fb + sim->tiles[i].blade_count;
         for (int64_t x = a; x < b;) { /* x: the next blade, as an index of the active ones */
             const int64_t in = x - fb, blk = in / SIM_W;
             const int64_t stop = fb + (blk + 1) * SIM_W < b ? fb + (blk + 1) * SIM_W : b;
-            jobs[w++] = (ribbon_job){i, (int32_t)blk, (int32_t)(in - blk * SIM_W),
+            jobs[nj++] = (ribbon_job){i, (int32_t)blk, (int32_t)(in - blk * SIM_W),
                                      (int32_t)(stop - fb - blk * SIM_W), x - first};
             x = stop;
         }
