@@ -44,6 +44,12 @@ typedef struct tsk_py_views {
 int tsk_py_views_get(tsk_py_views* v, PyObject* obj, const char* name, tsk_py_dtype dtype,
                      Py_ssize_t count, int writable, int optional, void** ptr);
 
+/// Acquires `obj` as a read-only float32 buffer of xyz triples (one per blade, knot...) and
+/// stores their number in *count. Returns 0 with tussock.Error raised on a bad buffer or a
+/// length that is not a multiple of 3; the caller then releases the set.
+int tsk_py_views_get_xyz(tsk_py_views* v, PyObject* obj, const char* name, float** ptr,
+                         Py_ssize_t* count);
+
 /// Releases every buffer of the set (safe to call twice).
 void tsk_py_views_release(tsk_py_views* v);
 

@@ -105,6 +105,18 @@ int tsk_py_views_get(tsk_py_views* v, PyObject* obj, const char* name, tsk_py_dt
     return 1;
 }
 
+int tsk_py_views_get_xyz(tsk_py_views* v, PyObject* obj, const char* name, float** ptr,
+                         Py_ssize_t* count) {
+    if (!tsk_py_views_get(v, obj, name, TSK_PY_F32, -1, 0, 0, (void**)ptr)) return 0;
+    const Py_ssize_t n3 = tsk_py_count(&v->view[v->n - 1]);
+    if (n3 % 3 != 0) {
+        tsk_py_raise_arg(name, "length %zd is not a multiple of 3", n3);
+        return 0;
+    }
+    *count = n3 / 3;
+    return 1;
+}
+
 /* Every part's method table, declared and listed from py_parts.h. */
 #define TSK_PY_PART(part) extern PyMethodDef tsk_py_##part##_methods[];
 #include "py_parts.h"

@@ -238,14 +238,10 @@ static PyObject* py_blades_expand(PyObject* self, PyObject* args) {
                                 knot_count);
     tsk_py_views v = {.n = 0};
     float *sides, *knots, *widths, *pos, *nrm, *uv;
-    if (!tsk_py_views_get(&v, sides_o, "sides", TSK_PY_F32, -1, 0, 0, (void**)&sides)) return NULL;
-    const Py_ssize_t n3 = tsk_py_count(&v.view[0]);
-    if (n3 % 3 != 0) {
-        tsk_py_views_release(&v);
-        return tsk_py_raise_arg("sides", "length %zd is not a multiple of 3", n3);
-    }
-    const Py_ssize_t n = n3 / 3, K = knot_count;
-    if (!tsk_py_views_get(&v, knots_o, "knots", TSK_PY_F32, 3 * K * n, 0, 0, (void**)&knots) ||
+    const Py_ssize_t K = knot_count;
+    Py_ssize_t n = 0;
+    if (!tsk_py_views_get_xyz(&v, sides_o, "sides", &sides, &n) ||
+        !tsk_py_views_get(&v, knots_o, "knots", TSK_PY_F32, 3 * K * n, 0, 0, (void**)&knots) ||
         !tsk_py_views_get(&v, widths_o, "widths", TSK_PY_F32, K * n, 0, 0, (void**)&widths) ||
         !tsk_py_views_get(&v, pos_o, "positions", TSK_PY_F32, 6 * K * n, 1, 1, (void**)&pos) ||
         !tsk_py_views_get(&v, nrm_o, "normals", TSK_PY_F32, 6 * K * n, 1, 1, (void**)&nrm) ||

@@ -410,14 +410,9 @@ static PyObject* py_get_ribbons(PyObject* self, PyObject* args) {
     const Py_ssize_t K = info.knot_count;
     tsk_py_views v = {.n = 0};
     float *sides, *widths, *out;
-    if (!tsk_py_views_get(&v, sides_o, "sides", TSK_PY_F32, -1, 0, 0, (void**)&sides)) return NULL;
-    const Py_ssize_t n3 = tsk_py_count(&v.view[0]);
-    if (n3 % 3 != 0) {
-        tsk_py_views_release(&v);
-        return tsk_py_raise_arg("sides", "length %zd is not a multiple of 3", n3);
-    }
-    const Py_ssize_t n = n3 / 3;
-    if (!tsk_py_views_get(&v, widths_o, "widths", TSK_PY_F32, K * n, 0, 0, (void**)&widths) ||
+    Py_ssize_t n = 0;
+    if (!tsk_py_views_get_xyz(&v, sides_o, "sides", &sides, &n) ||
+        !tsk_py_views_get(&v, widths_o, "widths", TSK_PY_F32, K * n, 0, 0, (void**)&widths) ||
         !tsk_py_views_get(&v, out_o, "positions", TSK_PY_F32, 6 * K * n, 1, 0, (void**)&out)) {
         tsk_py_views_release(&v);
         return NULL;
