@@ -262,7 +262,10 @@ class Playback:
         self.restored_from = None  # frame the last jump back resumed from (tests, panel)
         self.written = None  # active tiles last written into the dynamic mesh (bytes)
         self.steady = 0  # writes since the active tiles last changed
-        self.pos = None  # chunk index -> its vertex positions
+        self.held = None  # chunk index -> what its mesh holds: COLLAPSED, or the room (in
+                          # blades) this playback last wrote it with
+        self.buf = None  # one chunk's vertex positions, float32; every chunk is written
+                         # through it in turn (see _write_chunk)
         self.ribbon = None  # (widths, sides) of the written tiles, one row per blade
         self.rand = None  # colour value of each written blade
         self.hidden = None  # per instance: is its tile simulated
@@ -486,14 +489,14 @@ def extra_chunks(obj):
     return found
 
 
-_COLLAPSED = np.zeros(0, np.float32)  # pb.pos[i] of a chunk whose blades are all collapsed
+COLLAPSED = "collapsed"  # pb.held[i] of a chunk whose blades are all collapsed
 
 
 def _collapse(child, pb=None, i=None):
     """Shows no blade in a chunk: every vertex at the origin (zero-area quads, which render
     nothing). Its topology stays: clearing a mesh to no vertices mid-playback makes
     Blender's rigid-body world take another path (test_sim's snapshot test)."""
-    if pb is not None and pb.pos is not None and pb.pos.get(i) is _COLLAPSED:
+    if pb is not None and pb.held is not None and pb.held.get(i) == COLLAPSED:
         return  # already collapsed by this playback
     mesh = child.data
     n = len(mesh.vertices) * 3
@@ -503,8 +506,8 @@ def _collapse(child, pb=None, i=None):
         if co.any():
             mesh.vertices.foreach_set("co", np.zeros(n, np.float32))
             mesh.update()
-    if pb is not None and pb.pos is not None:
-        pb.pos[i] = _COLLAPSED  # the next write starts this chunk's buffer afresh
+    if pb is not None and pb.held is not None:
+        pb.held[i] = COLLAPSED  # the next write sets this chunk's blades afresh
 
 
 def empty_extra_chunks(obj):
@@ -583,16 +586,23 @@ def _write_chunk(child, pb, i, blades, k, rand, ribbon, layout_changed, fit=Fals
         ribbon_topology(mesh, capacity, k)
         mesh["tussock_layout"] = "live"
         mesh["tussock_capacity"] = capacity
-    pos = pb.pos.get(i)
-    if fresh or layout_changed or pos is None or len(pos) != capacity * 2 * k * 3:
+    if fresh or layout_changed or pb.held.get(i) != capacity:
         # (a new Playback, e.g. after the meadow's ground moved, brings its own box)
         meshes.fix_texture_space(mesh, *pb.texture_space)
         set_blade_rand(mesh, rand[blades.start:blades.stop], k)
-        pos = pb.pos[i] = np.zeros(capacity * 2 * k * 3, np.float32)
+        pb.held[i] = capacity
+    # The chunks share one buffer: it is still in the cache when the next chunk is written,
+    # where a buffer per chunk comes back from memory every frame, since Blender's evaluation
+    # of the meshes in between goes through far more memory than the cache holds
+    # (docs/performance.md, session 8: 0.75 ms a frame at 20,480 blades).
+    n, used = capacity * 2 * k * 3, nb * 2 * k * 3
+    if pb.buf is None or len(pb.buf) < n:
+        pb.buf = np.empty(n, np.float32)
+    pos = pb.buf[:n]
     if nb:
         a, b = blades.start, blades.stop
-        pb.runner.ribbons(a, ribbon[0][a:b].ravel(), ribbon[1][a:b].ravel(),
-                          pos[:nb * 2 * k * 3])
+        pb.runner.ribbons(a, ribbon[0][a:b].ravel(), ribbon[1][a:b].ravel(), pos[:used])
+    pos[used:] = 0.0  # the chunk's unused room: zero-area quads at the origin
     mesh.vertices.foreach_set("co", pos)
     mesh.update()
 
@@ -616,8 +626,8 @@ def write(obj, pb):
         pb.rand = r.per_blade(tiles, 2)
         pb.ribbon = tuple(np.ascontiguousarray(r.per_blade(tiles, w).reshape(nb, -1))
                           if nb else r.per_blade(tiles, w) for w in (0, 1))
-    if pb.pos is None:
-        pb.pos = {}
+    if pb.held is None:
+        pb.held = {}
     set_hidden(obj, pb.hidden)  # (checked every frame: rebuilding the meadow clears it)
     for i, blades in enumerate(chunk_ranges(nb)):
         _write_chunk(chunk_object(obj, i), pb, i, blades, k, pb.rand, pb.ribbon,
