@@ -594,7 +594,7 @@ def _write_chunk(child, pb, i, blades, k, rand, ribbon, layout_changed, fit=Fals
     # The chunks share one buffer: it is still in the cache when the next chunk is written,
     # where a buffer per chunk comes back from memory every frame, since Blender's evaluation
     # of the meshes in between goes through far more memory than the cache holds
-    # (docs/performance.md, session 8: 0.75 ms a frame at 20,480 blades).
+    # (docs/performance.md, session 8: about 1 ms of the write step at 20,480 blades).
     n, used = capacity * 2 * k * 3, nb * 2 * k * 3
     if pb.buf is None or len(pb.buf) < n:
         pb.buf = np.empty(n, np.float32)
