@@ -262,7 +262,7 @@ class Playback:
         self.restored_from = None  # frame the last jump back resumed from (tests, panel)
         self.written = None  # active tiles last written into the dynamic mesh (bytes)
         self.steady = 0  # writes since the active tiles last changed
-        self.held = None  # chunk index -> what its mesh holds: COLLAPSED, or the room (in
+        self.held = None  # chunk index -> what its mesh holds: _COLLAPSED, or the room (in
                           # blades) this playback last wrote it with
         self.buf = None  # one chunk's vertex positions, float32; every chunk is written
                          # through it in turn (see _write_chunk)
@@ -489,14 +489,14 @@ def extra_chunks(obj):
     return found
 
 
-COLLAPSED = "collapsed"  # pb.held[i] of a chunk whose blades are all collapsed
+_COLLAPSED = "collapsed"  # pb.held[i] of a chunk whose blades are all collapsed
 
 
 def _collapse(child, pb=None, i=None):
     """Shows no blade in a chunk: every vertex at the origin (zero-area quads, which render
     nothing). Its topology stays: clearing a mesh to no vertices mid-playback makes
     Blender's rigid-body world take another path (test_sim's snapshot test)."""
-    if pb is not None and pb.held is not None and pb.held.get(i) == COLLAPSED:
+    if pb is not None and pb.held is not None and pb.held.get(i) == _COLLAPSED:
         return  # already collapsed by this playback
     mesh = child.data
     n = len(mesh.vertices) * 3
@@ -507,7 +507,7 @@ def _collapse(child, pb=None, i=None):
             mesh.vertices.foreach_set("co", np.zeros(n, np.float32))
             mesh.update()
     if pb is not None and pb.held is not None:
-        pb.held[i] = COLLAPSED  # the next write sets this chunk's blades afresh
+        pb.held[i] = _COLLAPSED  # the next write sets this chunk's blades afresh
 
 
 def empty_extra_chunks(obj):
