@@ -451,7 +451,7 @@ TEST(test_sim_wind_per_blade_equals_wind_per_knot) {
 }
 
 /* The AVX-512, AVX2 and portable kernels (those the CPU has) give the same bytes: only IEEE
- * operations and exact conversions, no fused multiply-add. */
+ * operations (fused multiply-adds written out, each rounded once) and exact conversions. */
 TEST(test_sim_kernel_paths_give_identical_bytes) {
     const size_t n = (size_t)36 * 40 * K16 * 3;
     float* a = malloc(sizeof(float) * n);

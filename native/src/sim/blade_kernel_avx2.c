@@ -3,7 +3,7 @@
 #include "sim/sim_internal.h"
 
 #if SIM_HAVE_X86_PATHS
-#pragma GCC target("avx2,f16c,bmi,bmi2,lzcnt,popcnt")
+#pragma GCC target("avx2,fma,f16c,bmi,bmi2,lzcnt,popcnt")
 #define SIM_ISA_AVX2
 #define SIM_KFN(name) name##_avx2
 #include "sim/blade_kernel_impl.h"

@@ -3,7 +3,7 @@
 #include "sim/sim_internal.h"
 
 #if SIM_HAVE_X86_PATHS
-#pragma GCC target("avx512f,avx512vl,avx512bw,avx512dq,avx512cd,avx2,f16c,bmi,bmi2,lzcnt,popcnt")
+#pragma GCC target("fma,avx512f,avx512vl,avx512bw,avx512dq,avx512cd,avx2,f16c,bmi,bmi2,lzcnt,popcnt")
 #define SIM_ISA_AVX512
 #define SIM_KFN(name) name##_avx512
 #include "sim/blade_kernel_impl.h"

@@ -13,9 +13,12 @@
  * two at a time, so that the serial root-to-tip chains of the two overlap (one slice alone
  * leaves the vector units waiting on the chain's latency; wider values make GCC keep them in
  * memory).
- * Only IEEE add, sub, mul, div, sqrt, comparisons, min/max as (a > b ? a : b) and exact
- * conversions are used and -ffp-contract=off forbids fused multiply-add, so every instruction
- * set computes the same bits (test_sim_kernel_paths_give_identical_bytes). */
+ * Only IEEE add, sub, mul, div, sqrt, fused multiply-add (written out: fmadd, fnmadd, fmsub),
+ * comparisons, min/max as (a > b ? a : b) and exact conversions are used, and -ffp-contract=off
+ * keeps the compiler from fusing anything else, so every instruction set computes the same bits
+ * (test_sim_kernel_paths_give_identical_bytes). A fused multiply-add rounds once, as C's fmaf:
+ * one instruction on x86-64-v3 and later and on AArch64, fmaf lane by lane in the portable
+ * path elsewhere. */
 #include "meadow/ribbon_input.h"
 #include "sim/sim_internal.h"
 
@@ -96,6 +99,9 @@ typedef __m512i ireg;
     _mm256_storeu_si256((__m256i*)(p), _mm512_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT))
 #define R_LD_S16(p) _mm512_cvtepi32_ps(_mm512_cvtepi16_epi32(_mm256_loadu_si256((const __m256i*)(p))))
 #define R_LD_U8(p) _mm512_cvtepi32_ps(_mm512_cvtepu8_epi32(_mm_loadu_si128((const __m128i*)(p))))
+#define R_FMADD _mm512_fmadd_ps
+#define R_FNMADD _mm512_fnmadd_ps
+#define R_FMSUB _mm512_fmsub_ps
 #else
 typedef __m256 reg;
 typedef __m256i ireg;
@@ -109,6 +115,9 @@ typedef __m256i ireg;
     _mm_storeu_si128((__m128i*)(p), _mm256_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT))
 #define R_LD_S16(p) _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i*)(p))))
 #define R_LD_U8(p) _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i*)(p))))
+#define R_FMADD _mm256_fmadd_ps
+#define R_FNMADD _mm256_fnmadd_ps
+#define R_FMSUB _mm256_fmsub_ps
 #endif
 INL vi gt(vf a, vf b) {
     SPLIT(reg, x, a);
@@ -138,6 +147,20 @@ INL vf vsqrt(vf a) {
     JOIN(vf, r, x);
     return r;
 }
+/* a * b + c, c - a * b and a * b - c, each rounded once */
+#define FMA_OP(name, op)                                       \
+    INL vf name(vf a, vf b, vf c) {                            \
+        SPLIT(reg, x, a);                                      \
+        SPLIT(reg, y, b);                                      \
+        SPLIT(reg, z, c);                                      \
+        for (int i = 0; i < NR; ++i) x[i] = op(x[i], y[i], z[i]); \
+        JOIN(vf, r, x);                                        \
+        return r;                                              \
+    }
+FMA_OP(fmadd, R_FMADD)
+FMA_OP(fnmadd, R_FNMADD)
+FMA_OP(fmsub, R_FMSUB)
+#undef FMA_OP
 INL int any(vi m) {
     SPLIT(ireg, x, m);
     int k = 0;
@@ -182,6 +205,22 @@ INL vf vsqrt(vf a) {
     return a;
 }
 #endif
+/* a * b + c, c - a * b and a * b - c, each rounded once: fmaf is IEEE fusedMultiplyAdd (GCC
+   makes it one instruction where the target has one, a call to the C library's exact fmaf
+   elsewhere). Negating an operand is exact, so these are the bits of vfmadd, vfnmadd and
+   vfmsub. */
+INL vf fmadd(vf a, vf b, vf c) {
+    for (int l = 0; l < LN; ++l) a[l] = fmaf(a[l], b[l], c[l]);
+    return a;
+}
+INL vf fnmadd(vf a, vf b, vf c) {
+    for (int l = 0; l < LN; ++l) a[l] = fmaf(-a[l], b[l], c[l]);
+    return a;
+}
+INL vf fmsub(vf a, vf b, vf c) {
+    for (int l = 0; l < LN; ++l) a[l] = fmaf(a[l], b[l], -c[l]);
+    return a;
+}
 INL int any(vi m) {
     int32_t o = 0;
     for (int l = 0; l < LN; ++l) o |= m[l];
@@ -240,14 +279,14 @@ INL vf rsq2(vf x) {
     vu i = (vu)x;
     i = 0x5f375a86u - (i >> 1);
     vf y = (vf)i;
-    const vf h = 0.5f * x;
-    y = y * (1.5f - h * y * y);
-    y = y * (1.5f - h * y * y);
+    const vf h = 0.5f * x, th = splat(1.5f);
+    y = y * fnmadd(h * y, y, th);
+    y = y * fnmadd(h * y, y, th);
     return y;
 }
 INL vf rsq(vf x) {
     vf y = rsq2(x);
-    return y * (1.5f - (0.5f * x) * y * y);
+    return y * fnmadd((0.5f * x) * y, y, splat(1.5f));
 }
 
 typedef struct v3 {
@@ -279,15 +318,22 @@ INL void st_velocity(uint16_t* Vk, v3 v) {
     st_half(Vk + 2 * W, clamp_disp(v.z));
 }
 INL v3 mul3(vf s, v3 a) { return (v3){s * a.x, s * a.y, s * a.z}; }
-INL vf dot3(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+/* c + s a and c - s a, fused */
+INL v3 madd3(vf s, v3 a, v3 c) { return (v3){fmadd(s, a.x, c.x), fmadd(s, a.y, c.y), fmadd(s, a.z, c.z)}; }
+INL v3 nmadd3(vf s, v3 a, v3 c) {
+    return (v3){fnmadd(s, a.x, c.x), fnmadd(s, a.y, c.y), fnmadd(s, a.z, c.z)};
+}
+/* Products summed x, y, z, fused: as sim_dot3 for one lane. */
+INL vf dot3(v3 a, v3 b) { return fmadd(a.z, b.z, fmadd(a.y, b.y, a.x * b.x)); }
+/* as sim_cross3 */
 INL v3 cross3(v3 a, v3 b) {
-    return (v3){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+    return (v3){fmsub(a.y, b.z, a.z * b.y), fmsub(a.z, b.x, a.x * b.z), fmsub(a.x, b.y, a.y * b.x)};
 }
 INL v3 sel3(vi m, v3 a, v3 b) { return (v3){sel(m, a.x, b.x), sel(m, a.y, b.y), sel(m, a.z, b.z)}; }
-/* frame (t, s, n) applied to local coordinates (a, b, c) */
+/* frame (t, s, n) applied to local coordinates (a, b, c), fused as dot3 */
 INL v3 apply3(v3 t, v3 s, v3 n, vf a, vf b, vf c) {
-    return (v3){t.x * a + s.x * b + n.x * c, t.y * a + s.y * b + n.y * c,
-                t.z * a + s.z * b + n.z * c};
+    return (v3){fmadd(n.x, c, fmadd(s.x, b, t.x * a)), fmadd(n.y, c, fmadd(s.y, b, t.y * a)),
+                fmadd(n.z, c, fmadd(s.z, b, t.z * a))};
 }
 
 /* The pointers into a block. */
@@ -318,12 +364,12 @@ typedef struct rest_seg {
 INL rest_seg rest_segment(const int16_t* Dk, vf ds, v3* t, v3* s, v3* n) {
     rest_seg g;
     const vf dx = ld_s16(Dk) * ds, dy = ld_s16(Dk + W) * ds, dz = ld_s16(Dk + 2 * W) * ds;
-    g.len = vsqrt(dx * dx + dy * dy + dz * dz);
+    g.len = vsqrt(dot3((v3){dx, dy, dz}, (v3){dx, dy, dz}));
     g.il = 1.0f / g.len;
     g.rx = g.il * dx, g.ry = g.il * dy, g.rz = g.il * dz;
     g.c = g.ry / vmax(1.0f + g.rx, splat(1e-6f));
     const v3 u = apply3(*t, *s, *n, g.rx, g.ry, g.rz);
-    const v3 sw = sub3(*s, mul3(g.c, add3(*t, u)));
+    const v3 sw = nmadd3(g.c, add3(*t, u), *s);
     *t = u, *s = sw, *n = cross3(u, sw);
     return g;
 }
@@ -334,7 +380,7 @@ INL v3 core_point(v3 x, const sim_collider* col) {
     if (col->inv_ab2 == 0.0f) return a;
     const v3 ab = {splat(col->ab[0]), splat(col->ab[1]), splat(col->ab[2])};
     const vf t = vmin(vmax(dot3(sub3(x, a), ab) * col->inv_ab2, splat(0.0f)), splat(1.0f));
-    return add3(a, mul3(t, ab));
+    return madd3(t, ab, a);
 }
 
 /* Pushes x out of a collider (capsule core a + t ab, t in [0, 1]; ab = 0 for a sphere) along
@@ -348,7 +394,7 @@ INL v3 push_out(v3 x, const sim_collider* col) {
     if (!any(inside)) return x; /* most knots of most blocks: no work */
     const vi centred = lts(dd, 1e-24f);
     const vf s = r * rsq(vmax(dd, splat(1e-24f)));
-    v3 y = add3(c, mul3(s, d));
+    v3 y = madd3(s, d, c);
     y = sel3(centred, (v3){c.x, c.y, c.z + r}, y);
     return sel3(inside, y, x);
 }
@@ -364,7 +410,7 @@ void SIM_KFN(tsk_sim_block_rest)(int32_t K, float* block) {
         v3 p = ld3(P);
         for (int k = 1; k < K; ++k) {
             const rest_seg g = rest_segment(b.D + (size_t)(k - 1) * 3 * W + lo, ds, &gt, &gs, &gn);
-            p = add3(p, mul3(g.len, gt));
+            p = madd3(g.len, gt, p);
             st3(P + (size_t)k * 3 * W, p);
             for (int c = 0; c < 3; ++c) memset(b.V + ((size_t)(k - 1) * 3 + c) * W + lo, 0, 2 * LN);
         }
@@ -421,7 +467,7 @@ INL void rest_start(rest_state* R, const blk* b, const sim_step_params* p, scrat
 INL void rest_knot(rest_state* R, const blk* b, scratch* S, int k, int lo) {
     const size_t o3 = (size_t)k * 3 * W + lo, o1 = (size_t)k * W + lo;
     const rest_seg g = rest_segment(b->D + (size_t)(k - 1) * 3 * W + lo, R->ds, &R->t, &R->s, &R->n);
-    R->rp = add3(R->rp, mul3(g.len, R->t));
+    R->rp = madd3(g.len, R->t, R->rp);
     st3(S->rest + o3, R->rp);
     st3(S->ru + o3, R->t);
     st3(S->rr + o3, (v3){g.rx, g.ry, g.rz});
@@ -432,7 +478,7 @@ INL void rest_knot(rest_state* R, const blk* b, scratch* S, int k, int lo) {
     /* global shape fraction, linear in arc length; drag fraction kd = wind_drag /
        linear_density * width * dt, at most 1 */
     R->arc = R->arc + g.len;
-    st(S->al + o1, R->ar + R->kat * R->arc);
+    st(S->al + o1, fmadd(R->kat, R->arc, R->ar));
     st(S->kd + o1, vmin(R->dragw * ld_u8(b->WD + (size_t)(k - 1) * W + lo), splat(1.0f)));
     R->max_len = vmax(R->max_len, g.len);
 }
@@ -467,26 +513,26 @@ INL void move_knot(move_state* M, const kconst* C, int k, int lo, int has_wind) 
        at its rest length (follow-the-leader pass), so d / L is a unit vector */
     const v3 x = ld3(C->P + o3);
     st3(S->xold + o3, x);
-    const v3 tc = mul3(il, sub3(x, ld3(S->xold + o3 - 3 * W)));
+    const v3 dc = sub3(x, ld3(S->xold + o3 - 3 * W)); /* t = il dc */
     /* Verlet: x' = x + damp v + a dt^2 + kd (wind dt - v), v = x - x_prev */
     const v3 v = {ld_half(C->V + r3), ld_half(C->V + r3 + W), ld_half(C->V + r3 + 2 * W)};
     const vf ga = dot3(u, C->gp);
-    v3 xn = add3(add3(x, mul3(C->damp - kd, v)), add3(C->g1, mul3(ga, sub3(u, tc))));
-    if (has_wind) xn = add3(xn, mul3(kd * C->dtv, ld3(C->wind + (size_t)k * C->wind_stride + lo)));
+    v3 xn = add3(madd3(C->damp - kd, v, x), madd3(ga, nmadd3(il, dc, u), C->g1));
+    if (has_wind) xn = madd3(kd * C->dtv, ld3(C->wind + (size_t)k * C->wind_stride + lo), xn);
     /* global shape constraint */
-    xn = add3(xn, mul3(ld(S->al + o1), sub3(ld3(S->rest + o3), xn)));
+    xn = madd3(ld(S->al + o1), sub3(ld3(S->rest + o3), xn), xn);
     /* local shape constraint of segment k-1 -> k: its rest direction in the current frame of
        the segment before, and that frame turned by the rest rotation */
     const v3 r = ld3(S->rr + o3);
     const vf c = ld(S->rc + o1);
     const v3 pt = apply3(M->ft, M->fs, M->fn, r.x, r.y, r.z);
-    const v3 ps = sub3(M->fs, mul3(c, add3(M->ft, pt)));
-    const v3 e = sub3(add3(M->xp, mul3(len, pt)), xn);
+    const v3 ps = nmadd3(c, add3(M->ft, pt), M->fs);
+    const v3 e = sub3(madd3(len, pt, M->xp), xn);
     if (k == 1) { /* the root does not move */
-        xn = add3(xn, mul3(C->alc1, e));
+        xn = madd3(C->alc1, e, xn);
     } else {
-        xn = add3(xn, mul3(C->alc2, e));
-        M->xp = sub3(M->xp, mul3(C->alc2, e));
+        xn = madd3(C->alc2, e, xn);
+        M->xp = nmadd3(C->alc2, e, M->xp);
         st3(C->P + o3 - 3 * W, M->xp);
     }
     /* the current frame moves to segment k: the prediction (pt, ps) turned by the smallest
@@ -496,11 +542,11 @@ INL void move_knot(move_state* M, const kconst* C, int k, int lo, int has_wind) 
     const vf dd = dot3(d, d);
     const vi ok = gts(dd, 1e-30f);
     const v3 a = sel3(ok, mul3(1.0f / vsqrt(sel(ok, dd, splat(1.0f))), d), pt);
-    const vf den = 1.0f + dot3(pt, a);
+    const vf den = fmadd(pt.z, a.z, fmadd(pt.y, a.y, fmadd(pt.x, a.x, splat(1.0f))));
     const vi okd = gts(den, 1e-6f);
     const vf q = sel(okd, dot3(a, ps) / sel(okd, den, splat(1.0f)), splat(0.0f));
     M->ft = a;
-    M->fs = sub3(ps, mul3(q, add3(pt, a)));
+    M->fs = nmadd3(q, add3(pt, a), ps);
     M->fn = cross3(M->ft, M->fs);
     M->xp = xn;
 }
@@ -536,13 +582,12 @@ INL void length_segment(v3* xp, v3* x, vf il2q, int first) {
     /* half the exact correction (len - L) / len, to first order in len/L - 1:
        (len^2 / L^2 - 1) / 4 (il2q = 1 / 4L^2), no square root; bounded for large errors. The
        follow-the-leader pass makes lengths exact. */
-    const vf f = vmin(vmax(dot3(d, d) * il2q - 0.25f, splat(-0.25f)), splat(0.25f));
+    const vf f = vmin(vmax(fmsub(dot3(d, d), il2q, splat(0.25f)), splat(-0.25f)), splat(0.25f));
     if (first) { /* the root does not move: the knot takes the whole correction */
-        *x = sub3(*x, mul3(f + f, d));
+        *x = nmadd3(f + f, d, *x);
     } else {
-        const v3 hd = mul3(f, d);
-        *x = sub3(*x, hd);
-        *xp = add3(*xp, hd);
+        *x = nmadd3(f, d, *x);
+        *xp = madd3(f, d, *xp);
     }
 }
 
@@ -636,7 +681,7 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
         const v3 d = sub3(x, xp);
         const vf dd = dot3(d, d);
         const vi ok = gts(dd, 1e-30f);
-        x = sel3(ok, add3(xp, mul3(len / vsqrt(sel(ok, dd, splat(1.0f))), d)), x);
+        x = sel3(ok, madd3(len / vsqrt(sel(ok, dd, splat(1.0f))), d, xp), x);
     }
     for (int ci = 0; ci < nnear; ++ci) {
         const sim_collider* col = near[ci];
@@ -654,33 +699,33 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
             const vf iD = rsq(vmax(D2, splat(1e-24f)));
             const vf D = D2 * iD;
             const v3 u = mul3(iD, e);
-            const vf h0 = (D2 + len * len - r2) * 0.5f * iD;
-            const vf h2 = vmax(len * len - h0 * h0, splat(0.0f));
+            const vf h0 = (fmadd(len, len, D2) - r2) * 0.5f * iD;
+            const vf h2 = vmax(fnmadd(h0, h0, len * len), splat(0.0f));
             const vf hh = h2 * rsq(sel(gts(h2, 1e-30f), h2, splat(1.0f)));
             const v3 q = sub3(x, xp);
-            const v3 w = sub3(q, mul3(dot3(q, u), u));
+            const v3 w = nmadd3(dot3(q, u), u, q);
             const vf ww = dot3(w, w);
             const vi wok = gts(ww, 1e-30f);
             const vf iw = sel(wok, hh * rsq(sel(wok, ww, splat(1.0f))), splat(0.0f));
             /* the circle exists when the previous knot is outside (it may lie on the surface,
                up to rounding), within len + r */
             const vi ok = inside & gt(D, r * 0.999f) & lt(D, len + r) & wok;
-            const v3 y = add3(add3(xp, mul3(h0, u)), mul3(iw, w));
+            const v3 y = madd3(iw, w, madd3(h0, u, xp));
             x = sel3(ok, y, x);
             if (round == rounds - 1) x = push_out(x, col); /* what is left: tiny */
         }
     }
     if (any(lt(x.z, ground))) {
         const vf hz = xp.z - ground;
-        const vf h2 = vmax(len * len - hz * hz, splat(0.0f));
+        const vf h2 = vmax(fnmadd(hz, hz, len * len), splat(0.0f));
         const vf qx = x.x - xp.x, qy = x.y - xp.y;
-        const vf qq = qx * qx + qy * qy;
+        const vf qq = fmadd(qy, qy, qx * qx);
         const vi ok = gts(qq, 1e-30f);
         const vf s = sel(ok, h2 * rsq(sel(gts(h2, 1e-30f), h2, splat(1.0f))) *
                                  rsq(sel(ok, qq, splat(1.0f))),
                          splat(0.0f));
         const vi below = lt(x.z, ground);
-        x = sel3(below, (v3){xp.x + s * qx, xp.y + s * qy, ground}, x);
+        x = sel3(below, (v3){fmadd(s, qx, xp.x), fmadd(s, qy, xp.y), ground}, x);
     }
     st3(C->P + o3, x);
     F->xp = x;
@@ -865,8 +910,8 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
                 v3 x = ld3(b.P + o3), q = ld3(S.xold + o3);
                 const v3 rs = ld3(S.rest + o3);
                 if (blend > 0.0f) {
-                    x = sel3(snap, rs, add3(x, mul3(bl, sub3(rs, x))));
-                    q = sel3(snap, rs, add3(q, mul3(bl, sub3(rs, q))));
+                    x = sel3(snap, rs, madd3(bl, sub3(rs, x), x));
+                    q = sel3(snap, rs, madd3(bl, sub3(rs, q), q));
                     st3(b.P + o3, x);
                 }
                 const v3 v = sub3(x, q);

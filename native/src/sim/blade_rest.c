@@ -44,8 +44,8 @@ void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* kno
     for (int c = 0; c < 3; ++c) s[c] /= sl;
     float gt[3] = {(float)t[0], (float)t[1], (float)t[2]};
     float gs[3] = {(float)s[0], (float)s[1], (float)s[2]};
-    float gn[3] = {gt[1] * gs[2] - gt[2] * gs[1], gt[2] * gs[0] - gt[0] * gs[2],
-                   gt[0] * gs[1] - gt[1] * gs[0]};
+    float gn[3];
+    sim_cross3(gt, gs, gn); /* as the kernel's cross3 */
     for (int c = 0; c < 3; ++c) {
         LF[(SIM_LANE_T0 + c) * W + l] = gt[c];
         LF[(SIM_LANE_S0 + c) * W + l] = gs[c];
@@ -84,7 +84,7 @@ void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* kno
             d[c] = (float)q[c] * ds;
         }
         const float len = sim_rest_segment(d, gt, gs, gn);
-        for (int c = 0; c < 3; ++c) rp[c] = rp[c] + len * gt[c];
+        for (int c = 0; c < 3; ++c) rp[c] = fmaf(len, gt[c], rp[c]); /* as the kernel's madd3 */
         total += len;
     }
     /* widths (for wind drag only) in 255ths of the widest knot */

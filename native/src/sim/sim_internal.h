@@ -101,21 +101,30 @@ static inline float sim_side_coef(float rx, float ry) {
     return ry / den;
 }
 
+/* One lane of the kernel's dot3 and cross3: products summed with fused multiply-adds (fmaf
+ * rounds once, as the kernels' vfmadd and vfmsub). */
+static inline float sim_dot3(const float a[3], const float b[3]) {
+    return fmaf(a[2], b[2], fmaf(a[1], b[1], a[0] * b[0]));
+}
+static inline void sim_cross3(const float a[3], const float b[3], float out[3]) {
+    out[0] = fmaf(a[1], b[2], -(a[2] * b[1]));
+    out[1] = fmaf(a[2], b[0], -(a[0] * b[2]));
+    out[2] = fmaf(a[0], b[1], -(a[1] * b[0]));
+}
+
 /* One lane of the kernel's rest_segment, the same operations in the same order: the stored
  * segment d (metres, in the frame (t, s, n) of the segment before) turns the frame into the
  * segment's own; returns the segment's length. */
 static inline float sim_rest_segment(const float d[3], float t[3], float s[3], float n[3]) {
-    const float len = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    const float len = sqrtf(sim_dot3(d, d));
     const float il = 1.0f / len;
     const float rx = il * d[0], ry = il * d[1], rz = il * d[2];
     const float c = sim_side_coef(rx, ry);
     float u[3], w[3];
-    for (int i = 0; i < 3; ++i) u[i] = t[i] * rx + s[i] * ry + n[i] * rz;
-    for (int i = 0; i < 3; ++i) w[i] = s[i] - c * (t[i] + u[i]);
+    for (int i = 0; i < 3; ++i) u[i] = fmaf(n[i], rz, fmaf(s[i], ry, t[i] * rx));
+    for (int i = 0; i < 3; ++i) w[i] = fmaf(-c, t[i] + u[i], s[i]);
     for (int i = 0; i < 3; ++i) t[i] = u[i], s[i] = w[i];
-    n[0] = u[1] * w[2] - u[2] * w[1];
-    n[1] = u[2] * w[0] - u[0] * w[2];
-    n[2] = u[0] * w[1] - u[1] * w[0];
+    sim_cross3(u, w, n);
     return len;
 }
 
