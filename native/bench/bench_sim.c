@@ -185,6 +185,30 @@ int main(int argc, char** argv) {
                  threads, ns709);
         bench_emit("blade_sim_table1", ms709, "ms per step, 709 tiles and 128 objects", params, NULL);
     }
+    if (bench_wanted(argc, argv, "blade_sim_1M_cache")) {
+        /* The solver alone, in cache, on one thread: 2,048 blades (870 KB of state, inside one
+           core's L2) and one object, so the figure is compute, not memory or scheduling. */
+        const int saved = tsk_get_threads();
+        scene sc;
+        if (tsk_set_threads(1) != TSK_OK || !scene_make(&sc, 32, 1)) {
+            fprintf(stderr, "blade_sim_1M_cache: setup failed: %s\n", tsk_last_error());
+            return 1;
+        }
+        double cpu = 0, ms = measure(&sc, 50, 15, 100, &cpu);
+        if (ms < 0) {
+            fprintf(stderr, "blade_sim_1M_cache: step failed: %s\n", tsk_last_error());
+            return 1;
+        }
+        char params[256];
+        snprintf(params, sizeof params,
+                 "\"blades\": %lld, \"knots\": %d, \"iterations\": 4, \"objects\": 1, "
+                 "\"threads\": 1, \"load_avg\": %.2f",
+                 (long long)sc.blades, KNOTS, load_avg());
+        bench_emit("blade_sim_1M_cache", ms * 1e6 / (double)sc.blades, "ns per blade-step",
+                   params, NULL);
+        scene_free(&sc);
+        if (tsk_set_threads(saved) != TSK_OK) return 1;
+    }
     if (bench_wanted(argc, argv, "blade_sim_1M")) {
         scene sc;
         if (!scene_make(&sc, 15625, 128)) {
