@@ -175,8 +175,8 @@ static inline float sim_half_to_float(uint16_t h) {
 #endif
 
 /* Which kernel runs: 0 the best the CPU has (AVX-512, then AVX2 + F16C), 1 the portable one,
- * 2 at most AVX2. All give the same bytes (only IEEE add, sub, mul, div, sqrt, comparisons and
- * exact conversions; no fused multiply-add); test_sim checks it. */
+ * 2 at most AVX2. All give the same bytes (only IEEE add, sub, mul, div, sqrt, fused
+ * multiply-adds written out, comparisons and exact conversions); test_sim checks it. */
 extern int tsk_sim_kernel_path;
 
 /* Runs one step on one block. `wind` is NULL or velocities (m/s) for the block's lanes, [3][W]
