@@ -41,6 +41,8 @@ typedef struct scene {
     tsk_blade_collider* cols;
     float* home; /* per object: centre x, y, phase */
     int64_t blades;
+    float width, depth; /* metres of the region the tiles cover in x and y */
+    int log;            /* 1: instead of the objects, one log lying across the region */
 } scene;
 
 static int scene_make(scene* sc, int32_t tiles, int32_t objects) {
@@ -66,6 +68,7 @@ static int scene_make(scene* sc, int32_t tiles, int32_t objects) {
     sc->cols = malloc(sizeof(tsk_blade_collider) * (size_t)objects);
     sc->home = malloc(sizeof(float) * 3 * (size_t)objects);
     const float rows = (float)((tiles + side - 1) / side) * d.tile_size, cols = (float)side * d.tile_size;
+    sc->width = cols, sc->depth = rows;
     for (int32_t o = 0; o < objects; ++o) {
         sc->home[3 * o] = cols * tsk_rand01(5, (uint64_t)o, 0, 0);
         sc->home[3 * o + 1] = rows * tsk_rand01(5, (uint64_t)o, 1, 0);
@@ -83,6 +86,14 @@ static int scene_make(scene* sc, int32_t tiles, int32_t objects) {
 }
 
 static int scene_step(scene* sc, int step) {
+    if (sc->log) { /* as in blade_playback: a 25 cm log lying on the blades, across the middle */
+        tsk_blade_collider lg = {.kind = TSK_COLLIDER_CAPSULE, .radius = 0.25f};
+        lg.a[0] = lg.b[0] = 0.5f * sc->width;
+        lg.a[1] = -0.5f, lg.b[1] = sc->depth + 0.5f;
+        lg.a[2] = lg.b[2] = 0.25f;
+        if (tsk_blade_sim_set_colliders(sc->sim, &lg, 1) != TSK_OK) return 0;
+        return tsk_blade_sim_step(sc->sim, 1.0f / 60.0f, sc->wind, TSK_WIND_PER_BLADE) == TSK_OK;
+    }
     for (int32_t o = 0; o < sc->objects; ++o) {
         const float ph = sc->home[3 * o + 2] + 0.05f * (float)step;
         tsk_blade_collider* c = &sc->cols[o];
@@ -185,7 +196,7 @@ int main(int argc, char** argv) {
                  threads, ns709);
         bench_emit("blade_sim_table1", ms709, "ms per step, 709 tiles and 128 objects", params, NULL);
     }
-    if (bench_wanted(argc, argv, "blade_sim_1M_cache")) {
+    if (bench_wanted(argc, argv, "blade_sim_1M_cache") || bench_wanted(argc, argv, "blade_sim_1M_contact")) {
         /* The solver alone, in cache, on one thread: 2,048 blades (870 KB of state, inside one
            core's L2) and one object, so the figure is compute, not memory or scheduling. */
         const int saved = tsk_get_threads();
@@ -205,6 +216,21 @@ int main(int argc, char** argv) {
                  "\"threads\": 1, \"load_avg\": %.2f",
                  (long long)sc.blades, KNOTS, load_avg());
         bench_emit("blade_sim_1M_cache", ms * 1e6 / (double)sc.blades, "ns per blade-step",
+                   params, NULL);
+        /* the same blades in contact: the log of blade_playback lying across them (a third of
+           the blocks have it near) */
+        sc.log = 1;
+        ms = measure(&sc, 50, 15, 100, &cpu);
+        if (ms < 0) {
+            fprintf(stderr, "blade_sim_1M_contact: step failed: %s\n", tsk_last_error());
+            return 1;
+        }
+        snprintf(params, sizeof params,
+                 "\"blades\": %lld, \"knots\": %d, \"iterations\": 4, "
+                 "\"collider\": \"capsule r 0.25 m lying across the tiles\", \"threads\": 1, "
+                 "\"load_avg\": %.2f",
+                 (long long)sc.blades, KNOTS, load_avg());
+        bench_emit("blade_sim_1M_contact", ms * 1e6 / (double)sc.blades, "ns per blade-step",
                    params, NULL);
         scene_free(&sc);
         if (tsk_set_threads(saved) != TSK_OK) return 1;
