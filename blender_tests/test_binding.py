@@ -136,6 +136,51 @@ def test_tree_mesh_edges_buffers_are_checked():
 
 
 @test
+def test_ribbon_runs_buffers_are_checked():
+    """blade_sim_ribbon_runs: int64 runs whose blades add up to the sides given; anything
+    else is refused by name, and good runs give blade_sim_ribbons' bytes run by run."""
+    K = 4
+    sim = lib.blade_sim_create(tiles_x=2, tiles_y=1, knot_count=K, tile_size=1.0)
+    lib.blade_sim_activate_tile(sim, 0)
+    n = 40
+    u = np.linspace(0.0, 0.3, K, dtype=np.float32)
+    knots = np.zeros((n, K, 3), np.float32)
+    knots[:, :, 0] = (np.arange(n, dtype=np.float32) / n)[:, None]
+    knots[:, :, 1] = 0.5
+    knots[:, :, 2] = u[None, :]
+    widths = np.full(n * K, 0.01, np.float32)
+    sides = np.tile(np.array([0.0, 1.0, 0.0], np.float32), n)
+    lib.blade_sim_provide_tile(sim, 0, knots.ravel(), widths, sides)
+    lib.blade_sim_step(sim, 1.0 / 48.0)
+    every = np.empty(n * 2 * K * 3, np.float32)
+    lib.blade_sim_ribbons(sim, 0, widths, sides, every)
+    per = 2 * K * 3
+    starts, counts = np.array([30, 2], np.int64), np.array([5, 3], np.int64)
+    rows = np.r_[30:35, 2:5]
+    out = np.empty(8 * per, np.float32)
+    lib.blade_sim_ribbon_runs(sim, starts, counts, widths[:8 * K], sides[:8 * 3], out)
+    assert np.array_equal(out.reshape(8, per), every.reshape(n, per)[rows])
+    expect_error(lambda: lib.blade_sim_ribbon_runs(sim, starts.astype(np.int32), counts,
+                                                   widths[:8 * K], sides[:24], out),
+                 "starts: must have dtype int64")
+    expect_error(lambda: lib.blade_sim_ribbon_runs(sim, starts, counts[:1], widths[:8 * K],
+                                                   sides[:24], out), "counts: must have exactly 2")
+    expect_error(lambda: lib.blade_sim_ribbon_runs(sim, starts, counts, widths[:8 * K],
+                                                   sides[:21], out),
+                 "counts: the runs' blades must add up to the 7 blades of sides")
+    expect_error(lambda: lib.blade_sim_ribbon_runs(sim, starts, counts, widths[:9 * K],
+                                                   sides[:27], out),
+                 "counts: the runs hold 8 blades; sides has 9")
+    expect_error(lambda: lib.blade_sim_ribbon_runs(sim, starts, np.array([5, -1], np.int64),
+                                                   widths[:8 * K], sides[:24], out), "counts")
+    expect_error(lambda: lib.blade_sim_ribbon_runs(sim, np.array([38, 2], np.int64), counts,
+                                                   widths[:8 * K], sides[:24], out),
+                 "run 0: 5 blades from blade 38 on")
+    expect_error(lambda: lib.blade_sim_ribbon_runs(sim, starts, counts, widths[:8 * K],
+                                                   sides[:24], out[:-1]), "positions")
+
+
+@test
 def test_blender_keeps_running_after_errors():
     import bpy
     for _ in range(100):

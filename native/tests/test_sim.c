@@ -733,6 +733,41 @@ TEST(test_sim_ribbons_are_the_expanded_knots) {
     tsk_sim_kernel_path = 0;
     for (int i = 0; i < NA * K16 * 3; ++i) moved += all[i] != rest[i];
     CHECK_MSG(moved > NA * K16, "only %zu knot coordinates moved", moved);
+    { /* runs in any order, across blocks and tiles, empty ones and one blade twice: run by run
+         the bytes of tsk_blades_expand on each run's knots */
+        const int64_t starts[] = {100, 0, 69, 31, 3, 134, 134}, counts[] = {35, 3, 2, 34, 0, 1, 1};
+        enum { NR = sizeof starts / sizeof starts[0] };
+        static float rw[NA * K16], rs[NA * 3];
+        int64_t at = 0;
+        for (int r = 0; r < NR; at += counts[r++]) {
+            memcpy(rw + at * K16, w + starts[r] * K16, sizeof(float) * (size_t)(counts[r] * K16));
+            memcpy(rs + at * 3, sd + starts[r] * 3, sizeof(float) * (size_t)(counts[r] * 3));
+            CHECK(tsk_blades_expand(all + starts[r] * K16 * 3, w + starts[r] * K16, sd + 3 * starts[r],
+                                    (size_t)counts[r], K16, want_pos + at * K16 * 6, NULL, NULL) == TSK_OK);
+        }
+        memset(got, 0xff, sizeof got);
+        CHECK(tsk_blade_sim_get_ribbon_runs(sim, starts, counts, NR, rw, rs, got) == TSK_OK);
+        CHECK_MSG(memcmp(got, want_pos, sizeof(float) * (size_t)at * K16 * 6) == 0,
+                  "the runs' ribbons differ from tsk_blades_expand");
+        uint32_t past;
+        memcpy(&past, got + at * K16 * 6, sizeof past);
+        CHECK_MSG(past == 0xffffffffu, "wrote past the runs' %lld blades", (long long)at);
+        CHECK(tsk_blade_sim_get_ribbon_runs(sim, NULL, NULL, 0, NULL, NULL, NULL) == TSK_OK);
+        const int64_t bad_s[] = {0, 130}, bad_c[] = {2, 6}, neg_s[] = {-1}, one[] = {1};
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, bad_s, bad_c, 2, rw, rs, got), TSK_ERR_ARGUMENT,
+                     "run 1: 6 blades from blade 130 on");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, neg_s, one, 1, rw, rs, got), TSK_ERR_ARGUMENT,
+                     "run 0");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, NULL, one, 1, rw, rs, got), TSK_ERR_ARGUMENT,
+                     "starts");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, one, one, -1, rw, rs, got), TSK_ERR_ARGUMENT,
+                     "run_count");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, one, one, 1, rw, rs, NULL), TSK_ERR_ARGUMENT,
+                     "positions");
+        rw[40 * K16 + 2] = -1.0f; /* blade 40 of the runs' arrays (run 3, blade 31 + 2) */
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, starts, counts, NR, rw, rs, got), TSK_ERR_ARGUMENT,
+                     "width 2 of blade 40");
+    }
     /* bad input: the first bad blade, in the caller's numbering */
     w[80 * K16 + 3] = -1.0f;
     CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT, "width 3 of blade 80");

@@ -234,6 +234,18 @@ tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, in
                                      const float* widths, const float* sides,
                                      float* positions);
 
+/// Ribbon vertices, as tsk_blade_sim_get_ribbons makes them, of the active blades in
+/// `run_count` runs: run r is the counts[r] blades from active blade starts[r] on. The runs'
+/// blades follow each other, run by run, in widths (K floats per blade), sides (3) and
+/// positions (2K * 3, caller-owned). Runs may overlap or come in any order; each must lie
+/// within the active blades (TSK_ERR_ARGUMENT names the first that does not). A bad width,
+/// side or knot is reported as tsk_blade_sim_get_ribbons does, the blade named by its index
+/// in widths and sides.
+tsk_status tsk_blade_sim_get_ribbon_runs(const tsk_blade_sim* sim, const int64_t* starts,
+                                         const int64_t* counts, int64_t run_count,
+                                         const float* widths, const float* sides,
+                                         float* positions);
+
 /// Current knots of one active tile: its blade_count * K * 3 floats. TSK_ERR_ARGUMENT if the
 /// tile is not active.
 tsk_status tsk_blade_sim_get_tile_knots(const tsk_blade_sim* sim, int32_t tile, float* knots);

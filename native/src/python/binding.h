@@ -18,7 +18,7 @@ PyObject* tsk_py_raise(tsk_status status);
 PyObject* tsk_py_raise_arg(const char* name, const char* fmt, ...);
 
 /// Element types a buffer may have.
-typedef enum tsk_py_dtype { TSK_PY_F32, TSK_PY_I32, TSK_PY_U16, TSK_PY_U8 } tsk_py_dtype;
+typedef enum tsk_py_dtype { TSK_PY_F32, TSK_PY_I32, TSK_PY_I64, TSK_PY_U16, TSK_PY_U8 } tsk_py_dtype;
 
 /// Gets a C-contiguous buffer of `dtype` with exactly `count` elements (count < 0: any
 /// count, returned by tsk_py_count), writable when `writable`. On any mismatch raises

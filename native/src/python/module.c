@@ -31,6 +31,7 @@ static const char* dtype_name(tsk_py_dtype dtype) {
     switch (dtype) {
     case TSK_PY_F32: return "float32";
     case TSK_PY_I32: return "int32";
+    case TSK_PY_I64: return "int64";
     case TSK_PY_U16: return "uint16";
     case TSK_PY_U8: return "uint8";
     }
@@ -45,6 +46,7 @@ static int format_matches(const char* format, tsk_py_dtype dtype, Py_ssize_t ite
     switch (dtype) {
     case TSK_PY_F32: return format[0] == 'f' && itemsize == 4;
     case TSK_PY_I32: return (format[0] == 'i' || format[0] == 'l') && itemsize == 4;
+    case TSK_PY_I64: return (format[0] == 'q' || format[0] == 'l') && itemsize == 8;
     case TSK_PY_U16: return format[0] == 'H' && itemsize == 2;
     case TSK_PY_U8: return (format[0] == 'B' || format[0] == 'c') && itemsize == 1;
     }

@@ -426,6 +426,59 @@ static PyObject* py_get_ribbons(PyObject* self, PyObject* args) {
     Py_RETURN_NONE;
 }
 
+static PyObject* py_get_ribbon_runs(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *sim_obj, *starts_o, *counts_o, *widths_o, *sides_o, *out_o;
+    if (!PyArg_ParseTuple(args, "OOOOOO:blade_sim_ribbon_runs", &sim_obj, &starts_o, &counts_o,
+                          &widths_o, &sides_o, &out_o))
+        return NULL;
+    tsk_blade_sim_info info;
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    if (!sim) return NULL;
+    const Py_ssize_t K = info.knot_count;
+    tsk_py_views v = {.n = 0};
+    int64_t *starts, *counts;
+    float *sides, *widths, *out;
+    Py_ssize_t n = 0;
+    if (!tsk_py_views_get(&v, starts_o, "starts", TSK_PY_I64, -1, 0, 0, (void**)&starts)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
+    const Py_ssize_t runs = tsk_py_count(&v.view[v.n - 1]);
+    if (!tsk_py_views_get(&v, counts_o, "counts", TSK_PY_I64, runs, 0, 0, (void**)&counts) ||
+        !tsk_py_views_get_xyz(&v, sides_o, "sides", &sides, &n)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
+    /* the runs' blades, in the caller's arrays: sides says how many */
+    int64_t sum = 0;
+    for (Py_ssize_t r = 0; r < runs; ++r) {
+        if (counts[r] < 0 || counts[r] > (int64_t)n - sum) {
+            tsk_py_views_release(&v);
+            return tsk_py_raise_arg("counts", "the runs' blades must add up to the %zd blades of "
+                                    "sides (run %zd: %lld)", n, r, (long long)counts[r]);
+        }
+        sum += counts[r];
+    }
+    if (sum != (int64_t)n) {
+        tsk_py_views_release(&v);
+        return tsk_py_raise_arg("counts", "the runs hold %lld blades; sides has %zd",
+                                (long long)sum, n);
+    }
+    if (!tsk_py_views_get(&v, widths_o, "widths", TSK_PY_F32, K * n, 0, 0, (void**)&widths) ||
+        !tsk_py_views_get(&v, out_o, "positions", TSK_PY_F32, 6 * K * n, 1, 0, (void**)&out)) {
+        tsk_py_views_release(&v);
+        return NULL;
+    }
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_blade_sim_get_ribbon_runs(sim, starts, counts, (int64_t)runs, widths, sides, out);
+    Py_END_ALLOW_THREADS
+    tsk_py_views_release(&v);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
 static PyObject* py_tile_state(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* sim_obj;
@@ -464,6 +517,10 @@ PyMethodDef tsk_py_sim_methods[] = {
      "blade_sim_ribbons(sim, first, widths, sides, positions): ribbon vertices of n active blades "
      "from `first` on (n = len(sides) / 3; widths n*K, positions n*2K*3 float32), the bytes "
      "blades_expand gives on their knots."},
+    {"blade_sim_ribbon_runs", py_get_ribbon_runs, METH_VARARGS,
+     "blade_sim_ribbon_runs(sim, starts, counts, widths, sides, positions): ribbon vertices, as "
+     "blade_sim_ribbons makes them, of the runs of active blades counts[r] long from starts[r] "
+     "(int64 arrays), one run after another in widths, sides and positions."},
     {"blade_sim_get_knots", py_get_knots, METH_VARARGS,
      "blade_sim_get_knots(sim, out): float32 out of info['active_blades'] * K * 3."},
     {"blade_sim_tile_state", py_tile_state, METH_VARARGS,

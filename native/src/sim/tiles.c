@@ -946,26 +946,40 @@ static tsk_status report_bad_ribbon(const tsk_blade_sim* sim, const ribbon_job* 
     return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "a blade's ribbon could not be made");
 }
 
-tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, int64_t count,
-                                     const float* widths, const float* sides,
-                                     float* positions) {
-    if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
-    int64_t total = 0;
-    size_t room = 0; /* jobs: one per block at most */
-    for (int32_t i = 0; i < sim->tile_count; ++i) {
-        total += sim->tiles[i].blade_count;
-        room += (size_t)sim->tiles[i].block_count;
+/* Appends to jobs (when not NULL) the jobs of blades [first, first + count) of the active ones,
+ * whose output starts at blade `at` of the caller's arrays; returns how many there are. */
+static size_t range_jobs(const tsk_blade_sim* sim, int64_t first, int64_t count, int64_t at,
+                         ribbon_job* jobs) {
+    const int64_t end = first + count;
+    size_t nj = 0;
+    int64_t fb = 0;
+    for (int32_t i = 0; i < sim->tile_count && fb < end; fb += sim->tiles[i++].blade_count) {
+        const int64_t a = first > fb ? first : fb;
+        const int64_t b = end < fb + sim->tiles[i].blade_count ? end : fb + sim->tiles[i].blade_count;
+        for (int64_t x = a; x < b;) { /* x: the next blade, as an index of the active ones */
+            const int64_t in = x - fb, blk = in / SIM_W;
+            const int64_t stop = fb + (blk + 1) * SIM_W < b ? fb + (blk + 1) * SIM_W : b;
+            if (jobs)
+                jobs[nj] = (ribbon_job){i, (int32_t)blk, (int32_t)(in - blk * SIM_W),
+                                        (int32_t)(stop - fb - blk * SIM_W), at + (x - first)};
+            ++nj;
+            x = stop;
+        }
     }
-    if (first < 0 || count < 0 || first > total || count > total - first)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "first",
-                             "%lld blades from blade %lld on are not among the %lld active ones",
-                             (long long)count, (long long)first, (long long)total);
-    if (count == 0) return TSK_OK;
+    return nj;
+}
+
+/* The ribbons of runs of active blades (one run for tsk_blade_sim_get_ribbons), each run's
+ * range already checked: jobs per block, in parallel. */
+static tsk_status ribbons_of_runs(const tsk_blade_sim* sim, const int64_t* starts,
+                                  const int64_t* counts, int64_t run_count, const float* widths,
+                                  const float* sides, float* positions) {
+    size_t room = 0;
+    for (int64_t r = 0; r < run_count; ++r) room += range_jobs(sim, starts[r], counts[r], 0, NULL);
+    if (room == 0) return TSK_OK;
     if (!widths) return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "is NULL");
     if (!sides) return tsk_error_arg(TSK_ERR_ARGUMENT, "sides", "is NULL");
     if (!positions) return tsk_error_arg(TSK_ERR_ARGUMENT, "positions", "is NULL");
-    /* one job per block that holds some of the blades asked for */
-    const int64_t end = first + count;
     ribbon_job* jobs = tsk_alloc(room * sizeof *jobs, "ribbon jobs");
     int* bad = tsk_calloc(room, sizeof *bad, "ribbon checks");
     if (!jobs || !bad) {
@@ -974,18 +988,9 @@ tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, in
         return TSK_ERR_MEMORY;
     }
     size_t nj = 0;
-    int64_t fb = 0;
-    for (int32_t i = 0; i < sim->tile_count; fb += sim->tiles[i++].blade_count) {
-        const int64_t a = first > fb ? first : fb;
-        const int64_t b = end < fb + sim->tiles[i].blade_count ? end : fb + sim->tiles[i].blade_count;
-        for (int64_t x = a; x < b;) { /* x: the next blade, as an index of the active ones */
-            const int64_t in = x - fb, blk = in / SIM_W;
-            const int64_t stop = fb + (blk + 1) * SIM_W < b ? fb + (blk + 1) * SIM_W : b;
-            jobs[nj++] = (ribbon_job){i, (int32_t)blk, (int32_t)(in - blk * SIM_W),
-                                     (int32_t)(stop - fb - blk * SIM_W), x - first};
-            x = stop;
-        }
-    }
+    int64_t at = 0;
+    for (int64_t r = 0; r < run_count; at += counts[r++])
+        nj += range_jobs(sim, starts[r], counts[r], at, jobs + nj);
     ribbons_ctx c = {sim, jobs, widths, sides, positions, bad};
     tsk_parallel_for(nj, 4, ribbons_range, &c);
     tsk_status s = TSK_OK;
@@ -994,6 +999,45 @@ tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, in
     tsk_free(jobs);
     tsk_free(bad);
     return s;
+}
+
+static int64_t active_blades(const tsk_blade_sim* sim) {
+    int64_t total = 0;
+    for (int32_t i = 0; i < sim->tile_count; ++i) total += sim->tiles[i].blade_count;
+    return total;
+}
+
+tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, int64_t count,
+                                     const float* widths, const float* sides,
+                                     float* positions) {
+    if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
+    const int64_t total = active_blades(sim);
+    if (first < 0 || count < 0 || first > total || count > total - first)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "first",
+                             "%lld blades from blade %lld on are not among the %lld active ones",
+                             (long long)count, (long long)first, (long long)total);
+    return ribbons_of_runs(sim, &first, &count, 1, widths, sides, positions);
+}
+
+tsk_status tsk_blade_sim_get_ribbon_runs(const tsk_blade_sim* sim, const int64_t* starts,
+                                         const int64_t* counts, int64_t run_count,
+                                         const float* widths, const float* sides,
+                                         float* positions) {
+    if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
+    if (run_count < 0)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "run_count", "must be >= 0, got %lld",
+                             (long long)run_count);
+    if (run_count > 0 && (!starts || !counts))
+        return tsk_error_arg(TSK_ERR_ARGUMENT, starts ? "counts" : "starts", "is NULL");
+    const int64_t total = active_blades(sim);
+    for (int64_t r = 0; r < run_count; ++r)
+        if (starts[r] < 0 || counts[r] < 0 || starts[r] > total || counts[r] > total - starts[r])
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "starts",
+                                 "run %lld: %lld blades from blade %lld on are not among the "
+                                 "%lld active ones",
+                                 (long long)r, (long long)counts[r], (long long)starts[r],
+                                 (long long)total);
+    return ribbons_of_runs(sim, starts, counts, run_count, widths, sides, positions);
 }
 
 tsk_status tsk_blade_sim_get_tile_knots(const tsk_blade_sim* sim, int32_t tile, float* knots) {
