@@ -250,6 +250,151 @@ def test_blades_shared_among_chunk_objects_give_the_same_ribbons():
 
 
 @test
+def test_viewport_shows_the_simulated_blades_of_the_instances_it_shows():
+    """The meadow's Viewport display applies to simulated blades as to its instances: the
+    viewport's chunk objects hold exactly the blades of the chunk instances that the
+    viewport shows (tsk_viewport_off false), the render chunks (disabled in the viewport,
+    rendered) hold the others, and together they hold every active blade's ribbon. The
+    viewport's share of the instances is the Viewport display fraction; at 1 every blade
+    shows in the viewport and the render chunks are empty."""
+    scene, meadow, ball = rolling_ball_scene()
+    lib = simulate.native.lib
+    meadow.tussock_meadow.display = 0.25
+    off = np.empty(len(meadow.data.vertices), bool)
+    meadow.data.attributes["tsk_viewport_off"].data.foreach_get("value", off)
+    assert abs((~off).mean() - 0.25) < 0.05, (~off).mean()  # 1,600 instances
+    min_blades, simulate.CHUNK_MIN_BLADES = simulate.CHUNK_MIN_BLADES, 16
+    try:
+        for f in range(1, 21):
+            scene.frame_set(f)
+        pb = simulate._cache[meadow.name]
+        r = pb.runner
+        tiles, counts = r.active()
+        nb = int(counts.sum())
+        assert nb > 200, nb
+        # which blades the viewport shows, worked out tile by tile from the instances
+        c = pb.chunk_blades
+        shown = []
+        for t, n in zip(tiles, counts):
+            inst = np.flatnonzero(pb.instance_tile == t)
+            assert len(inst) * c == n
+            shown.append(np.repeat(~off[inst], c))
+        shown = np.concatenate(shown)
+        assert 0 < shown.sum() < nb
+        assert meadow["tussock_viewport_blades"] == int(shown.sum())
+        per = 2 * r.K * 3
+        every = np.empty(nb * per, np.float32)
+        lib.blade_sim_ribbons(r.sim, 0, pb.ribbon[0].ravel(), pb.ribbon[1].ravel(), every)
+        every = every.reshape(nb, per)
+
+        def held(objs):
+            parts = []
+            for o in objs:
+                v = positions(o).reshape(-1, per)
+                used = v.any(axis=1)  # a chunk's blades first, then its spare room, all zero
+                assert used[:used.sum()].all(), o.name
+                parts.append(v[used])
+            return np.concatenate(parts) if parts else np.zeros((0, per), np.float32)
+
+        view = [bpy.data.objects[f"{meadow.name} blades"]] + simulate.extra_chunks(meadow)
+        render = simulate.render_chunks(meadow)
+        assert len(render) == simulate.CHUNKS
+        assert all(not o.hide_viewport for o in view) and all(o.hide_viewport for o in render)
+        assert all(o.hide_render == view[0].hide_render for o in render)
+        assert np.array_equal(held(view), every[shown])
+        assert np.array_equal(held(render), every[~shown])
+        assert np.array_equal(simulate.active_ribbons(meadow), every.ravel())
+        # the viewport draws the instances it shows and that are not simulated
+        hidden = np.empty(len(off), bool)
+        meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
+        assert instance_count(meadow) == int((~off & ~hidden).sum())
+        # every blade in the viewport again
+        meadow.tussock_meadow.display = 1.0
+        scene.frame_set(21)
+        nb = meadow["tussock_active_blades"]
+        assert meadow["tussock_viewport_blades"] == nb
+        assert all(not positions(o).any() for o in render)
+        assert len(held(view)) == nb
+    finally:
+        simulate.CHUNK_MIN_BLADES = min_blades
+
+
+def alpha_coverage(scene, path):
+    """Renders the scene's camera with Cycles to `path` and returns the image's mean alpha."""
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    img = bpy.data.images.load(path)
+    px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return float(px[3::4].mean())
+
+
+@test
+def test_renders_show_the_blades_the_viewport_leaves_out():
+    """Render chunks are disabled in the viewport but rendered: with only the simulated blades
+    renderable, the render chunks alone show blades, and a render with every chunk shows
+    more blade than the viewport's chunks or the render chunks alone."""
+    scene, meadow, ball = rolling_ball_scene()
+    meadow.tussock_meadow.display = 0.25
+    for f in range(1, 15):
+        scene.frame_set(f)
+    assert 0 < meadow["tussock_viewport_blades"] < meadow["tussock_active_blades"]
+    for o in scene.objects:
+        if not o.name.startswith(f"{meadow.name} blades"):
+            o.hide_render = True  # the ground, the ball and the instances
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    scene.collection.objects.link(cam)
+    cam.location = (float(ball.matrix_world.translation[0]) - 0.6, 0.0, 2.5)
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.use_denoising = False
+    scene.render.film_transparent = True
+    scene.render.resolution_x = scene.render.resolution_y = 48
+    scene.render.resolution_percentage = 100
+    tmp = os.environ.get("TSK_TEST_TMP", "/tmp")
+    both = alpha_coverage(scene, os.path.join(tmp, "both.png"))
+    # a render runs the frame handler, which makes every chunk follow the first one's
+    # visibility; suspended, the chunks can be left out one kind at a time
+    simulate.suspended = True
+    try:
+        render = simulate.render_chunks(meadow)
+        for o in render:
+            o.hide_render = True
+        viewport_share = alpha_coverage(scene, os.path.join(tmp, "viewport_share.png"))
+        for o in render:
+            o.hide_render = False
+        first = bpy.data.objects[f"{meadow.name} blades"]
+        first.hide_render = True
+        for o in simulate.extra_chunks(meadow):
+            o.hide_render = True
+        render_share = alpha_coverage(scene, os.path.join(tmp, "render_share.png"))
+    finally:
+        simulate.suspended = False
+    assert viewport_share > 0.005 and render_share > 0.005, (viewport_share, render_share)
+    assert both > 1.2 * max(viewport_share, render_share), (both, viewport_share, render_share)
+
+
+@test
+def test_a_meadow_made_before_viewport_flags_gets_them():
+    """A meadow from a file made before tsk_viewport_off existed gets the attribute (the
+    node group now reads it) when any meadow is built: until then it shows every instance."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    harness.enable_addon()
+    assert bpy.ops.tussock.add_meadow(size=(2.0, 2.0), display=0.5) == {"FINISHED"}
+    old = bpy.context.active_object
+    want = np.empty(len(old.data.vertices), bool)
+    old.data.attributes["tsk_viewport_off"].data.foreach_get("value", want)
+    assert 0 < want.sum() < len(want)
+    old.data.attributes.remove(old.data.attributes["tsk_viewport_off"])
+    assert bpy.ops.tussock.add_meadow(size=(1.0, 1.0)) == {"FINISHED"}
+    got = np.empty(len(old.data.vertices), bool)
+    old.data.attributes["tsk_viewport_off"].data.foreach_get("value", got)
+    assert np.array_equal(got, want)
+
+
+@test
 def test_snapshots_stay_within_their_budget_and_cover_the_timeline():
     scene, meadow, ball = rolling_ball_scene()
     knots, _ = play(scene, meadow, list(range(1, 61)))

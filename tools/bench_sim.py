@@ -1,7 +1,8 @@
 """Benchmarks of simulated blades in background Blender (run by ./build.sh bench):
 `blade_playback` — frame time with the issue's 20,000 simulated blades (20,480: a log rolled
-in, then lying still, keeps 320 tiles of 64 awake) plus a million instanced ones (target >= 24
-fps); `blade_playback_22528`, the same with a longer log (352 tiles, the scene of sessions 3-6);
+in, then lying still, keeps 320 tiles of 64 awake) plus a million instanced ones, the meadow's
+Viewport display at 0.1 as since the first session (target >= 24 fps);
+`blade_playback_display1`, the same with every blade shown in the viewport; `blade_playback_22528`, the same with a longer log (352 tiles, the scene of sessions 3-6);
 and the peer, Blender's own particle hair
 dynamics with the same segments, in ns per strand-step. Prints JSON lines (DESIGN.md)."""
 
@@ -41,12 +42,12 @@ def reset():
     addon_utils.enable("tussock", default_set=True)
 
 
-def playback(name, log_length):
+def playback(name, log_length, display=0.1):
     reset()
     scene = bpy.context.scene
     bpy.ops.mesh.primitive_plane_add(size=32.0)
     bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=64, density="UNIFORM",
-                               display=0.1)
+                               display=display)
     meadow = bpy.context.active_object
     # a log (capsule) rolling into the meadow over 48 frames, keyframed, then lying still on
     # it: from frame 49 on the tiles it passed over are still recovering and those under it
@@ -80,6 +81,7 @@ def playback(name, log_length):
           "frames": "49-64", "log_m": log_length, "active_blades_min": min(active),
           "active_blades_max": max(active),
           "active_tiles": meadow["tussock_active_tiles"], "instanced_blades": meadow["tussock_blades"],
+          "viewport_display": display, "viewport_blades": meadow["tussock_viewport_blades"],
           "load_average": round(load, 2), "target_fps": 24})
 
 
@@ -111,6 +113,8 @@ def hair_peer(strands=2000, segments=15, frames=24):
 
 if wanted("blade_playback"):
     playback("blade_playback", 4.5)
+    # every simulated blade in the viewport (Viewport display 1): Blender evaluates them all
+    playback("blade_playback_display1", 4.5, display=1.0)
     playback("blade_playback_22528", 5.0)
 if wanted("blade_sim_1M") or wanted("blade_hair"):
     hair_peer()

@@ -15,6 +15,7 @@ from . import material
 
 MODIFIER = "Tussock Meadow"
 BLADE_RAND_STREAM = 0x636F6C6F72  # "color": per-blade colour variation
+DISPLAY_STREAM = 0x76696577  # "view": which chunk instances the viewport shows
 MAX_MODELS = 256
 
 
@@ -152,6 +153,28 @@ def compute(settings, origin, size, obj=None):
     return key, patch, layout
 
 
+def viewport_off(settings, count):
+    """Per chunk instance (count of them, in the meadow's order), whether the viewport leaves
+    it out: all but a fraction `display` of them, drawn by the counter-based generator from
+    the meadow's seed, so the simulated blades of a tile show in the viewport as its
+    instances do (simulate.write)."""
+    r = np.empty(count, np.float32)
+    if count:
+        native.require().rand_fill(settings.seed, DISPLAY_STREAM, r)
+    return r >= np.float32(settings.display)
+
+
+def _give_viewport_off(skip):
+    """Meadows made before tsk_viewport_off existed get it (the node group now reads it)."""
+    for obj in bpy.data.objects:
+        s = compat.settings_of(obj, "tussock_meadow")
+        if (obj is skip or s is None or not s.is_meadow or obj.type != "MESH"
+                or "tsk_viewport_off" in obj.data.attributes):
+            continue
+        chunk_data.write_viewport_off(obj.data, viewport_off(s, len(obj.data.vertices)))
+        obj.data.update()
+
+
 def write(obj, settings, key, patch, layout):
     """Writes computed meadow data into the object, its patch collection and modifier."""
     if patch is not None:
@@ -162,7 +185,8 @@ def write(obj, settings, key, patch, layout):
                                 material.grass_material())
         obj["tussock_patch_key"] = key
     coll = patch_collection(obj)
-    chunk_data.write_points(obj.data, layout["origins"], layout["chunk"])
+    chunk_data.write_points(obj.data, layout["origins"], layout["chunk"],
+                            viewport_off(settings, len(layout["chunk"])))
     mod = obj.modifiers.get(MODIFIER)
     if mod is None:
         mod = obj.modifiers.new(MODIFIER, "NODES")
@@ -170,8 +194,7 @@ def write(obj, settings, key, patch, layout):
     if mod.node_group is not group:
         mod.node_group = group
     compat.set_modifier_input(mod, "Chunks", coll)
-    compat.set_modifier_input(mod, "Display", float(settings.display))
-    compat.set_modifier_input(mod, "Seed", int(settings.seed))
+    _give_viewport_off(obj)
     info = layout["info"]
     obj["tussock_blades"] = int(info["blade_count"])
     obj["tussock_tiles"] = int(info["tile_count"])

@@ -54,18 +54,30 @@ def build_chunks(collection, meadow_name, positions, tris, uvs, blade_index, bla
     return chunks
 
 
-def write_points(mesh, origins, chunk, hidden=None):
+def write_viewport_off(mesh, viewport_off):
+    """Sets the boolean point attribute tsk_viewport_off (instances the viewport leaves out;
+    the meadow node group reads it), making it if missing."""
+    attr = mesh.attributes.get("tsk_viewport_off")
+    if attr is None:
+        attr = mesh.attributes.new("tsk_viewport_off", "BOOLEAN", "POINT")
+    attr.data.foreach_set("value", np.ascontiguousarray(viewport_off, bool))
+
+
+def write_points(mesh, origins, chunk, viewport_off, hidden=None):
     """Replaces the points of the meadow's instance cloud: one point per chunk instance at
-    origins (N, 3) with int attribute tsk_chunk and boolean tsk_hidden."""
+    origins (N, 3) with int attribute tsk_chunk and booleans tsk_viewport_off (N) and
+    tsk_hidden."""
     mesh.clear_geometry()
     n = len(chunk)
     mesh.vertices.add(n)
     mesh.vertices.foreach_set("co", np.ascontiguousarray(origins, np.float32).ravel())
-    for name, kind in (("tsk_chunk", "INT"), ("tsk_hidden", "BOOLEAN")):
+    for name, kind in (("tsk_chunk", "INT"), ("tsk_hidden", "BOOLEAN"),
+                       ("tsk_viewport_off", "BOOLEAN")):
         if name in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[name])
         mesh.attributes.new(name, kind, "POINT")
     mesh.attributes["tsk_chunk"].data.foreach_set("value", np.ascontiguousarray(chunk, np.int32))
+    write_viewport_off(mesh, viewport_off)
     if hidden is None:
         hidden = np.zeros(n, bool)
     mesh.attributes["tsk_hidden"].data.foreach_set("value", np.ascontiguousarray(hidden, bool))

@@ -12,7 +12,13 @@ playing, within SNAPSHOT_BUDGET bytes per meadow: when that is full, every other
 is dropped and they are taken half as often, so they keep covering the whole timeline.
 
 The simulation itself (Runner) holds no Blender data, so the bake worker thread runs the
-very same steps and gets the same bytes."""
+very same steps and gets the same bytes.
+
+The meadow's Viewport display applies to simulated blades as to its instances: the blades of
+the chunk instances the viewport shows (build.viewport_off) go into the dynamic meshes shown
+in the viewport, the others into render chunks, objects disabled in the viewport (so Blender
+does not evaluate them there) that renders show. Every blade is written every frame, so a
+render of any frame shows them all."""
 
 import math
 
@@ -22,6 +28,7 @@ import numpy as np
 from .. import compat, handlers, meshes, native
 from ..wind import runtime as wind_runtime
 from . import build, material
+from types import SimpleNamespace
 
 STEPS_PER_FRAME = 2  # solver steps per frame, more at low frame rates (steps_per_frame)
 MAX_STEP_SECONDS = 1.0 / 20.0  # a step is never longer
@@ -247,6 +254,7 @@ class Playback:
         blade_rand = np.empty(lib.patch_info(patch)["blade_count"], np.float32)
         lib.rand_fill(s.seed, build.BLADE_RAND_STREAM, blade_rand)
         k = lib.patch_info(patch)["knot_count"]
+        self.chunk_blades = int(info["chunk_blades"])  # blades per chunk instance
         self.runner = Runner(patch, meadow,
                              sim_definition(s, info, k, wind_runtime.fps_of(scene)), blade_rand)
         # the dynamic meshes' fixed texture space: the meadow's ground, a metre high
@@ -269,6 +277,8 @@ class Playback:
         self.ribbon = None  # (widths, sides) of the written tiles, one row per blade
         self.rand = None  # colour value of each written blade
         self.hidden = None  # per instance: is its tile simulated
+        self.viewport_key = None  # (seed, display, instances) the plan was made for
+        self.plan = None  # per chunk object key: the part of the active blades it shows
         self.baked_hidden = None  # (bake layout digest, per instance: is its tile baked)
 
     # -- snapshots ------------------------------------------------------------------------
@@ -473,10 +483,35 @@ def chunk_object(obj, i):
     return child
 
 
+def render_chunk_object(obj, i):
+    """Render chunk i of the meadow's simulated blades: a child of the first chunk that is
+    disabled in the viewport (Blender does not evaluate it there) and rendered as the first
+    chunk is; it holds blades the meadow's Viewport display leaves out."""
+    first = blades_object(obj)
+    child, made = _mesh_object(f"{obj.name} blades render {i + 1}", obj, first)
+    if made:
+        child.parent = first
+        child["tussock_blades_render_chunk"] = i
+    if not child.hide_viewport:
+        child.hide_viewport = True
+    if child.hide_render != first.hide_render:
+        child.hide_render = first.hide_render
+    return child
+
+
+def render_chunks(obj):
+    """The meadow's render chunk objects that exist, in order."""
+    found = []
+    while (child := bpy.data.objects.get(f"{obj.name} blades render {len(found) + 1}")) is not None:
+        found.append(child)
+    return found
+
+
 def ensure_chunks(obj):
     """Makes every chunk object of the meadow now (see CHUNKS: not during playback)."""
     for i in range(CHUNKS):
         chunk_object(obj, i)
+        render_chunk_object(obj, i)
 
 
 def extra_chunks(obj):
@@ -515,6 +550,8 @@ def empty_extra_chunks(obj):
     pb = _cache.get(obj.name)
     for i, child in enumerate(extra_chunks(obj), start=1):
         _collapse(child, pb, i)
+    for i, child in enumerate(render_chunks(obj)):
+        _collapse(child, pb, ("render", i))
 
 
 def chunk_ranges(nb):
@@ -525,36 +562,74 @@ def chunk_ranges(nb):
             for i in range(CHUNKS)]
 
 
-def chunk_positions(obj):
-    """Vertex positions of the simulated blades, all chunks in order (float32, 3 per
-    vertex; each chunk's unused room at the end of its part)."""
-    parts = []
-    for child in [bpy.data.objects.get(f"{obj.name} blades")] + extra_chunks(obj):
-        if child is None:
-            continue
-        a = np.empty(len(child.data.vertices) * 3, np.float32)
-        child.data.vertices.foreach_get("co", a)
-        parts.append(a)
-    return parts
-
-
 def active_ribbons(obj):
-    """Ribbon vertex positions of the active simulated blades, in the solver's order across
-    the chunks (float32, 2 * K * 3 per blade); each chunk's spare room must be zero."""
+    """Ribbon vertex positions of the active simulated blades, in the solver's order, read
+    back from the chunks that show them in the viewport and the render chunks (float32,
+    2 * K * 3 per blade); each chunk's spare room must be zero."""
     pb = _cache.get(obj.name)
     nb = int(obj.get("tussock_active_blades", 0))
-    if pb is None or nb == 0:
+    if pb is None or nb == 0 or not pb.plan:
         return np.zeros(0, np.float32)
     per = 2 * pb.runner.K * 3
-    parts = chunk_positions(obj)
-    out = []
-    for i, part in enumerate(chunk_ranges(nb)):
-        v = parts[i] if i < len(parts) else np.zeros(0, np.float32)
-        n = len(part) * per
+    out = np.zeros((nb, per), np.float32)
+    got = np.zeros(nb, np.int32)
+    for key, part in pb.plan.items():
+        child = (chunk_object(obj, key) if not isinstance(key, tuple)
+                 else bpy.data.objects.get(f"{obj.name} blades render {key[1] + 1}"))
+        v = np.zeros(0, np.float32)
+        if child is not None:
+            v = np.empty(len(child.data.vertices) * 3, np.float32)
+            child.data.vertices.foreach_get("co", v)
+        n = len(part.index) * per
         if len(v) < n or v[n:].any():
-            raise AssertionError(f"chunk {i + 1} does not hold exactly its {len(part)} blades")
-        out.append(v[:n])
-    return np.concatenate(out)
+            raise AssertionError(f"{key}: the chunk does not hold exactly its {len(part.index)} blades")
+        out[part.index] = v[:n].reshape(-1, per)
+        got[part.index] += 1
+    if not np.all(got == 1):
+        raise AssertionError("the chunks do not hold every active blade exactly once")
+    return out.ravel()
+
+
+def viewport_shown(pb, tiles, counts, viewport_off):
+    """Per active blade (the solver's order): is it shown in the viewport, i.e. is its chunk
+    instance (tsk_meadow_chunk_instances: tile by tile, a tile's blades C at a time) one
+    that the viewport shows."""
+    c = pb.chunk_blades
+    per_tile = counts // c
+    first = np.searchsorted(pb.instance_tile, tiles)  # each active tile's first instance
+    instance = (np.repeat(first - (np.cumsum(per_tile) - per_tile), per_tile)
+                + np.arange(int(per_tile.sum())))
+    return np.repeat(~viewport_off[instance], c)
+
+
+def _part(pb, index):
+    """What a chunk object holds: the active blades `index` (ascending) as runs for
+    blade_sim_ribbon_runs, with their widths, sides and colour values."""
+    index = np.asarray(index, np.int64)
+    if len(index):
+        breaks = np.flatnonzero(np.diff(index) != 1) + 1
+        starts = index[np.concatenate(([0], breaks))]
+        ends = index[np.concatenate((breaks - 1, [len(index) - 1]))] + 1
+    else:
+        starts = ends = np.zeros(0, np.int64)
+    return SimpleNamespace(index=index, starts=np.ascontiguousarray(starts),
+                           counts=np.ascontiguousarray(ends - starts),
+                           widths=np.ascontiguousarray(pb.ribbon[0][index]).ravel(),
+                           sides=np.ascontiguousarray(pb.ribbon[1][index]).ravel(),
+                           rand=pb.rand[index])
+
+
+def make_plan(pb, shown):
+    """Chunk object key -> part: the blades shown in the viewport shared evenly among the
+    CHUNKS chunk objects (keys 0 ..), the others among as many render chunks (keys
+    ("render", i)). With every blade shown, chunk i holds chunk_ranges(nb)[i]."""
+    plan = {}
+    for which, seq in ((None, np.flatnonzero(shown)), ("render", np.flatnonzero(~shown))):
+        for i, r in enumerate(chunk_ranges(len(seq))):
+            key = i if which is None else (which, i)
+            if which is None or len(r):
+                plan[key] = _part(pb, seq[r.start:r.stop])
+    return plan
 
 
 def chunk_capacity(capacity, nb, fit=False):
@@ -571,11 +646,11 @@ def chunk_capacity(capacity, nb, fit=False):
     return capacity
 
 
-def _write_chunk(child, pb, i, blades, k, rand, ribbon, layout_changed, fit=False):
-    """Writes blades [blades.start, blades.stop) of the active ones into chunk `child`;
+def _write_chunk(child, pb, i, part, k, layout_changed, fit=False):
+    """Writes the active blades of `part` (make_plan) into chunk `child` (pb.held key i);
     `fit`: see chunk_capacity."""
     mesh = child.data
-    nb = blades.stop - blades.start
+    nb = len(part.index) if part is not None else 0
     if nb == 0 and mesh.get("tussock_layout") == "live":
         _collapse(child, pb, i)  # written once: an unchanged mesh costs Blender nothing
         return
@@ -589,7 +664,7 @@ def _write_chunk(child, pb, i, blades, k, rand, ribbon, layout_changed, fit=Fals
     if fresh or layout_changed or pb.held.get(i) != capacity:
         # (a new Playback, e.g. after the meadow's ground moved, brings its own box)
         meshes.fix_texture_space(mesh, *pb.texture_space)
-        set_blade_rand(mesh, rand[blades.start:blades.stop], k)
+        set_blade_rand(mesh, part.rand if nb else np.zeros(0, np.float32), k)
         pb.held[i] = capacity
     # The chunks share one buffer: it is still in the cache when the next chunk is written,
     # where a buffer per chunk comes back from memory every frame, since Blender's evaluation
@@ -600,8 +675,8 @@ def _write_chunk(child, pb, i, blades, k, rand, ribbon, layout_changed, fit=Fals
         pb.buf = np.empty(n, np.float32)
     pos = pb.buf[:n]
     if nb:
-        a, b = blades.start, blades.stop
-        pb.runner.ribbons(a, ribbon[0][a:b].ravel(), ribbon[1][a:b].ravel(), pos[:used])
+        pb.runner.lib.blade_sim_ribbon_runs(pb.runner.sim, part.starts, part.counts,
+                                            part.widths, part.sides, pos[:used])
     pos[used:] = 0.0  # the chunk's unused room: zero-area quads at the origin
     mesh.vertices.foreach_set("co", pos)
     mesh.update()
@@ -609,12 +684,15 @@ def _write_chunk(child, pb, i, blades, k, rand, ribbon, layout_changed, fit=Fals
 
 def write(obj, pb):
     """Writes the simulated blades into the meadow's dynamic meshes and hides the instances
-    of their tiles. The blades are shared evenly among CHUNKS objects, which Blender
-    evaluates in parallel. Per frame only vertex positions change; a chunk's
+    of their tiles. The blades the meadow's Viewport display shows are shared evenly among
+    CHUNKS objects, which Blender evaluates in parallel; the others go into render chunks
+    (see the module's docstring). Per frame only vertex positions change; a chunk's
     topology, the per-blade colour and the hidden instances change only when the set of
-    active tiles does. Unused blade slots collapse to zero-area quads."""
+    active tiles, or the viewport's share, does. Unused blade slots collapse to zero-area
+    quads."""
     r = pb.runner
     k = r.K
+    s = obj.tussock_meadow
     tiles, counts = r.active()
     nb = int(counts.sum())
     layout = tiles.tobytes()
@@ -625,17 +703,36 @@ def write(obj, pb):
         pb.hidden = np.isin(pb.instance_tile, tiles)
         pb.rand = r.per_blade(tiles, 2)
         pb.ribbon = tuple(np.ascontiguousarray(r.per_blade(tiles, w).reshape(nb, -1))
-                          if nb else r.per_blade(tiles, w) for w in (0, 1))
+                          if nb else r.per_blade(tiles, w).reshape(0, k if w == 0 else 3)
+                          for w in (0, 1))
+    viewport_key = (s.seed, float(s.display), len(pb.instance_tile))
+    if layout_changed or pb.viewport_key != viewport_key or pb.plan is None:
+        off = build.viewport_off(s, len(pb.instance_tile))
+        pb.plan = make_plan(pb, viewport_shown(pb, tiles, counts, off))
+        pb.viewport_key = viewport_key
+        layout_changed = True  # chunks hold other blades: their colours too
     if pb.held is None:
         pb.held = {}
     set_hidden(obj, pb.hidden)  # (checked every frame: rebuilding the meadow clears it)
-    for i, blades in enumerate(chunk_ranges(nb)):
-        _write_chunk(chunk_object(obj, i), pb, i, blades, k, pb.rand, pb.ribbon,
-                     layout_changed, fit=pb.steady == FIT_AFTER_FRAMES)
+    fit = pb.steady == FIT_AFTER_FRAMES
+    for i in range(CHUNKS):
+        _write_chunk(chunk_object(obj, i), pb, i, pb.plan.get(i), k, layout_changed, fit)
+    made = len(render_chunks(obj))
+    for i in range(max(CHUNKS, made)):
+        part = pb.plan.get(("render", i))
+        if part is None and i >= made:
+            continue  # render chunks are made only when there is something to show
+        child = render_chunk_object(obj, i)
+        if i >= CHUNKS:
+            _collapse(child, pb, ("render", i))  # of a larger CHUNKS: unused
+        else:
+            _write_chunk(child, pb, ("render", i), part, k, layout_changed, fit)
     for i, child in enumerate(extra_chunks(obj)[CHUNKS - 1:], start=CHUNKS):
         _collapse(child, pb, i)  # chunks of a larger CHUNKS: unused
     obj["tussock_active_tiles"] = len(tiles)
     obj["tussock_active_blades"] = nb
+    obj["tussock_viewport_blades"] = int(sum(len(p.index) for key, p in pb.plan.items()
+                                             if not isinstance(key, tuple)))
 
 
 def on_frame(scene, depsgraph=None):

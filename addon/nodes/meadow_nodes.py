@@ -6,7 +6,11 @@ point cloud with one point per chunk instance, at its tile's corner, with an int
 attribute `tsk_chunk` saying which chunk it shows. The group picks that chunk from the
 collection (Instance on Points, Pick Instance), so memory holds one patch, not the meadow.
 Points with the boolean attribute `tsk_hidden` (tiles being simulated) show nothing, and in
-the viewport only a random fraction `Display` of the instances is shown.
+the viewport neither do points with the boolean attribute `tsk_viewport_off`: the instances
+that the meadow's Viewport display fraction leaves out, chosen by Tussock itself
+(build.viewport_off) so that the simulated blades of a tile can show in the viewport exactly
+as its instances did. A meadow made before the attribute existed shows every instance in the
+viewport until it is rebuilt (build.write gives it the attribute).
 
 The group is shared by all meadows and rebuilt in place when GROUP_VERSION changes."""
 
@@ -15,16 +19,21 @@ import bpy
 from .. import compat
 
 GROUP_NAME = "Tussock Meadow"
-GROUP_VERSION = 1
+GROUP_VERSION = 2  # 2: viewport display from tsk_viewport_off, not a Random Value node
+
+
+def _named_attribute(nodes, data_type, name, location):
+    node = nodes.new("GeometryNodeInputNamedAttribute")
+    node.data_type = data_type
+    node.inputs["Name"].default_value = name
+    node.location = location
+    return node
 
 
 def _build(ng):
     compat.node_group_clear(ng)
     compat.node_group_add_socket(ng, "INPUT", "NodeSocketGeometry", "Geometry")
     compat.node_group_add_socket(ng, "INPUT", "NodeSocketCollection", "Chunks")
-    display = compat.node_group_add_socket(ng, "INPUT", "NodeSocketFloat", "Display")
-    display.default_value, display.min_value, display.max_value = 1.0, 0.0, 1.0
-    compat.node_group_add_socket(ng, "INPUT", "NodeSocketInt", "Seed")
     compat.node_group_add_socket(ng, "OUTPUT", "NodeSocketGeometry", "Geometry")
 
     nodes, links = ng.nodes, ng.links
@@ -39,37 +48,25 @@ def _build(ng):
     info.location = (-500, -250)
     links.new(gin.outputs["Chunks"], info.inputs["Collection"])
 
-    chunk = nodes.new("GeometryNodeInputNamedAttribute")
-    chunk.data_type = "INT"
-    chunk.inputs["Name"].default_value = "tsk_chunk"
-    chunk.location = (-500, -450)
-
-    hidden = nodes.new("GeometryNodeInputNamedAttribute")
-    hidden.data_type = "BOOLEAN"
-    hidden.inputs["Name"].default_value = "tsk_hidden"
-    hidden.location = (-700, 250)
-
+    chunk = _named_attribute(nodes, "INT", "tsk_chunk", (-500, -450))
+    hidden = _named_attribute(nodes, "BOOLEAN", "tsk_hidden", (-700, 250))
     viewport = nodes.new("GeometryNodeIsViewport")
     viewport.location = (-700, 100)
-    rand = nodes.new("FunctionNodeRandomValue")
-    rand.data_type = "BOOLEAN"
-    rand.location = (-700, -50)
-    links.new(gin.outputs["Display"], rand.inputs["Probability"])
-    links.new(gin.outputs["Seed"], rand.inputs["Seed"])
+    off = _named_attribute(nodes, "BOOLEAN", "tsk_viewport_off", (-700, -50))
 
-    # shown = not hidden and (not viewport or random < display)
-    not_vp = nodes.new("FunctionNodeBooleanMath")
-    not_vp.operation = "NOT"
-    links.new(viewport.outputs[0], not_vp.inputs[0])
-    keep = nodes.new("FunctionNodeBooleanMath")
-    keep.operation = "OR"
-    links.new(not_vp.outputs[0], keep.inputs[0])
-    links.new(compat.enabled_output(rand), keep.inputs[1])
+    # shown = not (hidden or (viewport and viewport_off))
+    cut = nodes.new("FunctionNodeBooleanMath")
+    cut.operation = "AND"
+    links.new(viewport.outputs[0], cut.inputs[0])
+    links.new(compat.enabled_output(off), cut.inputs[1])
+    gone = nodes.new("FunctionNodeBooleanMath")
+    gone.operation = "OR"
+    links.new(cut.outputs[0], gone.inputs[0])
+    links.new(compat.enabled_output(hidden), gone.inputs[1])
     visible = nodes.new("FunctionNodeBooleanMath")
-    visible.operation = "NIMPLY"  # keep and not hidden
-    links.new(keep.outputs[0], visible.inputs[0])
-    links.new(compat.enabled_output(hidden), visible.inputs[1])
-    for i, n in enumerate((not_vp, keep, visible)):
+    visible.operation = "NOT"
+    links.new(gone.outputs[0], visible.inputs[0])
+    for i, n in enumerate((cut, gone, visible)):
         n.location = (-450 + 150 * i, 150)
 
     inst = nodes.new("GeometryNodeInstanceOnPoints")
