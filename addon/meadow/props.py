@@ -75,7 +75,8 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
     display: bpy.props.FloatProperty(name="Viewport display", default=0.25, min=0.0,
                                      max=1.0, subtype="FACTOR", update=_rebuild,
                                      description="Fraction of instances shown in the "
-                                     "viewport; renders show all")
+                                     "viewport, simulated blades included (the same blades "
+                                     "as the instances they replace); renders show all")
     use_simulation: bpy.props.BoolProperty(name="Simulate touched blades", default=False,
                                            update=_reset_simulation,
                                            description="Blades that the colliders touch are "

@@ -21,6 +21,7 @@ does not evaluate them there) that renders show. Every blade is written every fr
 render of any frame shows them all."""
 
 import math
+from types import SimpleNamespace
 
 import bpy
 import numpy as np
@@ -28,7 +29,6 @@ import numpy as np
 from .. import compat, handlers, meshes, native
 from ..wind import runtime as wind_runtime
 from . import build, material
-from types import SimpleNamespace
 
 STEPS_PER_FRAME = 2  # solver steps per frame, more at low frame rates (steps_per_frame)
 MAX_STEP_SECONDS = 1.0 / 20.0  # a step is never longer
@@ -574,8 +574,9 @@ def active_ribbons(obj):
     out = np.zeros((nb, per), np.float32)
     got = np.zeros(nb, np.int32)
     for key, part in pb.plan.items():
-        child = (chunk_object(obj, key) if not isinstance(key, tuple)
-                 else bpy.data.objects.get(f"{obj.name} blades render {key[1] + 1}"))
+        name = (f"{obj.name} blades render {key[1] + 1}" if isinstance(key, tuple)
+                else f"{obj.name} blades" + (f" {key + 1}" if key else ""))
+        child = bpy.data.objects.get(name)
         v = np.zeros(0, np.float32)
         if child is not None:
             v = np.empty(len(child.data.vertices) * 3, np.float32)

@@ -10,7 +10,7 @@ the viewport neither do points with the boolean attribute `tsk_viewport_off`: th
 that the meadow's Viewport display fraction leaves out, chosen by Tussock itself
 (build.viewport_off) so that the simulated blades of a tile can show in the viewport exactly
 as its instances did. A meadow made before the attribute existed shows every instance in the
-viewport until it is rebuilt (build.write gives it the attribute).
+viewport until a meadow is built (build.write gives it the attribute).
 
 The group is shared by all meadows and rebuilt in place when GROUP_VERSION changes."""
 
