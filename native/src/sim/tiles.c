@@ -947,15 +947,22 @@ static tsk_status report_bad_ribbon(const tsk_blade_sim* sim, const ribbon_job* 
 }
 
 /* Appends to jobs (when not NULL) the jobs of blades [first, first + count) of the active ones,
- * whose output starts at blade `at` of the caller's arrays; returns how many there are. */
-static size_t range_jobs(const tsk_blade_sim* sim, int64_t first, int64_t count, int64_t at,
-                         ribbon_job* jobs) {
+ * whose output starts at blade `at` of the caller's arrays; returns how many there are.
+ * prefix[i] is the first active blade of tile slot i (prefix[tile_count] = all of them): the
+ * run's first tile is found by bisection, so many runs do not each walk the tiles before them. */
+static size_t range_jobs(const tsk_blade_sim* sim, const int64_t* prefix, int64_t first,
+                         int64_t count, int64_t at, ribbon_job* jobs) {
     const int64_t end = first + count;
+    int32_t lo = 0, hi = sim->tile_count; /* the last slot whose first blade is <= first */
+    while (hi - lo > 1) {
+        const int32_t mid = lo + (hi - lo) / 2;
+        if (prefix[mid] <= first) lo = mid; else hi = mid;
+    }
     size_t nj = 0;
-    int64_t fb = 0;
-    for (int32_t i = 0; i < sim->tile_count && fb < end; fb += sim->tiles[i++].blade_count) {
+    for (int32_t i = lo; i < sim->tile_count && prefix[i] < end; ++i) {
+        const int64_t fb = prefix[i];
         const int64_t a = first > fb ? first : fb;
-        const int64_t b = end < fb + sim->tiles[i].blade_count ? end : fb + sim->tiles[i].blade_count;
+        const int64_t b = end < prefix[i + 1] ? end : prefix[i + 1];
         for (int64_t x = a; x < b;) { /* x: the next blade, as an index of the active ones */
             const int64_t in = x - fb, blk = in / SIM_W;
             const int64_t stop = fb + (blk + 1) * SIM_W < b ? fb + (blk + 1) * SIM_W : b;
@@ -974,30 +981,37 @@ static size_t range_jobs(const tsk_blade_sim* sim, int64_t first, int64_t count,
 static tsk_status ribbons_of_runs(const tsk_blade_sim* sim, const int64_t* starts,
                                   const int64_t* counts, int64_t run_count, const float* widths,
                                   const float* sides, float* positions) {
+    int64_t* prefix = tsk_alloc(((size_t)sim->tile_count + 1) * sizeof *prefix, "ribbon runs");
+    if (!prefix) return TSK_ERR_MEMORY;
+    prefix[0] = 0;
+    for (int32_t i = 0; i < sim->tile_count; ++i) prefix[i + 1] = prefix[i] + sim->tiles[i].blade_count;
     size_t room = 0;
-    for (int64_t r = 0; r < run_count; ++r) room += range_jobs(sim, starts[r], counts[r], 0, NULL);
-    if (room == 0) return TSK_OK;
-    if (!widths) return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "is NULL");
-    if (!sides) return tsk_error_arg(TSK_ERR_ARGUMENT, "sides", "is NULL");
-    if (!positions) return tsk_error_arg(TSK_ERR_ARGUMENT, "positions", "is NULL");
-    ribbon_job* jobs = tsk_alloc(room * sizeof *jobs, "ribbon jobs");
-    int* bad = tsk_calloc(room, sizeof *bad, "ribbon checks");
-    if (!jobs || !bad) {
-        tsk_free(jobs);
-        tsk_free(bad);
-        return TSK_ERR_MEMORY;
-    }
-    size_t nj = 0;
-    int64_t at = 0;
-    for (int64_t r = 0; r < run_count; at += counts[r++])
-        nj += range_jobs(sim, starts[r], counts[r], at, jobs + nj);
-    ribbons_ctx c = {sim, jobs, widths, sides, positions, bad};
-    tsk_parallel_for(nj, 4, ribbons_range, &c);
+    for (int64_t r = 0; r < run_count; ++r)
+        room += range_jobs(sim, prefix, starts[r], counts[r], 0, NULL);
     tsk_status s = TSK_OK;
-    for (size_t i = 0; i < nj && s == TSK_OK; ++i)
-        if (bad[i]) s = report_bad_ribbon(sim, &jobs[i], widths, sides);
+    if (room > 0 && !widths) s = tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "is NULL");
+    else if (room > 0 && !sides) s = tsk_error_arg(TSK_ERR_ARGUMENT, "sides", "is NULL");
+    else if (room > 0 && !positions) s = tsk_error_arg(TSK_ERR_ARGUMENT, "positions", "is NULL");
+    ribbon_job* jobs = NULL;
+    int* bad = NULL;
+    if (room > 0 && s == TSK_OK) {
+        jobs = tsk_alloc(room * sizeof *jobs, "ribbon jobs");
+        bad = tsk_calloc(room, sizeof *bad, "ribbon checks");
+        if (!jobs || !bad) s = TSK_ERR_MEMORY;
+    }
+    if (room > 0 && s == TSK_OK) {
+        size_t nj = 0;
+        int64_t at = 0;
+        for (int64_t r = 0; r < run_count; at += counts[r++])
+            nj += range_jobs(sim, prefix, starts[r], counts[r], at, jobs + nj);
+        ribbons_ctx c = {sim, jobs, widths, sides, positions, bad};
+        tsk_parallel_for(nj, 4, ribbons_range, &c);
+        for (size_t i = 0; i < nj && s == TSK_OK; ++i)
+            if (bad[i]) s = report_bad_ribbon(sim, &jobs[i], widths, sides);
+    }
     tsk_free(jobs);
     tsk_free(bad);
+    tsk_free(prefix);
     return s;
 }
 
