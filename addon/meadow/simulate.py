@@ -457,10 +457,18 @@ def _mesh_object(name, meadow, beside):
     return child, made
 
 
+def chunk_name(obj, key):
+    """Name of the meadow's chunk object `key`: i (0 the first, which a bake writes) for the
+    chunks shown in the viewport, ("render", i) for the render chunks."""
+    if isinstance(key, tuple):
+        return f"{obj.name} blades render {key[1] + 1}"
+    return f"{obj.name} blades" + (f" {key + 1}" if key else "")
+
+
 def blades_object(obj):
     """The meadow's dynamic mesh of simulated blades (created once): its first chunk, the
     one a bake writes."""
-    child, made = _mesh_object(f"{obj.name} blades", obj, obj)
+    child, made = _mesh_object(chunk_name(obj, 0), obj, obj)
     if made:
         child["tussock_simulated_blades"] = True
     return child
@@ -473,7 +481,7 @@ def chunk_object(obj, i):
     first = blades_object(obj)
     if i == 0:
         return first
-    child, made = _mesh_object(f"{obj.name} blades {i + 1}", obj, first)
+    child, made = _mesh_object(chunk_name(obj, i), obj, first)
     if made:
         child.parent = first
         child["tussock_blades_chunk"] = i
@@ -488,7 +496,7 @@ def render_chunk_object(obj, i):
     disabled in the viewport (Blender does not evaluate it there) and rendered as the first
     chunk is; it holds blades the meadow's Viewport display leaves out."""
     first = blades_object(obj)
-    child, made = _mesh_object(f"{obj.name} blades render {i + 1}", obj, first)
+    child, made = _mesh_object(chunk_name(obj, ("render", i)), obj, first)
     if made:
         child.parent = first
         child["tussock_blades_render_chunk"] = i
@@ -502,7 +510,7 @@ def render_chunk_object(obj, i):
 def render_chunks(obj):
     """The meadow's render chunk objects that exist, in order."""
     found = []
-    while (child := bpy.data.objects.get(f"{obj.name} blades render {len(found) + 1}")) is not None:
+    while (child := bpy.data.objects.get(chunk_name(obj, ("render", len(found))))) is not None:
         found.append(child)
     return found
 
@@ -518,7 +526,7 @@ def extra_chunks(obj):
     """The meadow's chunk objects after the first, in order."""
     found = []
     i = 1
-    while (child := bpy.data.objects.get(f"{obj.name} blades {i + 1}")) is not None:
+    while (child := bpy.data.objects.get(chunk_name(obj, i))) is not None:
         found.append(child)
         i += 1
     return found
@@ -574,9 +582,7 @@ def active_ribbons(obj):
     out = np.zeros((nb, per), np.float32)
     got = np.zeros(nb, np.int32)
     for key, part in pb.plan.items():
-        name = (f"{obj.name} blades render {key[1] + 1}" if isinstance(key, tuple)
-                else f"{obj.name} blades" + (f" {key + 1}" if key else ""))
-        child = bpy.data.objects.get(name)
+        child = bpy.data.objects.get(chunk_name(obj, key))
         v = np.zeros(0, np.float32)
         if child is not None:
             v = np.empty(len(child.data.vertices) * 3, np.float32)
