@@ -521,7 +521,10 @@ INL void move_knot(move_state* M, rest_state* R, const blk* b, const kconst* C, 
     const vf c = rk.g.c;
     const v3 pt = apply3(M->ft, M->fs, M->fn, r.x, r.y, r.z);
     const v3 ps = nmadd3(c, add3(M->ft, pt), M->fs);
-    const v3 e = sub3(madd3(len, pt, M->xp), xn);
+    /* e = (xp + len pt) - xn, taken as len pt - (xn - xp): the knots' old difference is
+       known before the frame is, so the chain from the frame to the next one is shorter */
+    const v3 dc0 = sub3(xn, M->xp);
+    const v3 e = {fmsub(len, pt.x, dc0.x), fmsub(len, pt.y, dc0.y), fmsub(len, pt.z, dc0.z)};
     if (k == 1) { /* the root does not move */
         xn = madd3(C->alc1, e, xn);
     } else {
@@ -530,15 +533,19 @@ INL void move_knot(move_state* M, rest_state* R, const blk* b, const kconst* C, 
         st3(C->P + o3 - 3 * W, M->xp);
     }
     /* the current frame moves to segment k: the prediction (pt, ps) turned by the smallest
-       rotation taking pt onto the segment's actual direction a. A zero direction keeps the
-       prediction. */
-    const v3 d = sub3(xn, M->xp);
+       rotation taking pt onto the segment's actual direction a = d / |d|. d is xn - xp after
+       the constraint, dc0 + alpha_local e (at knot 1 xn moves by alpha_local, further on both
+       knots by half of it), not the difference of the rounded knots. The rotation's
+       coefficient (a . ps) / (1 + pt . a) is taken as (d . ps) / (|d| + pt . d), so it need
+       not wait for a. A zero direction keeps the prediction. */
+    const v3 d = madd3(C->alc1, e, dc0);
     const vf dd = dot3(d, d);
     const vi ok = gts(dd, 1e-30f);
-    const v3 a = sel3(ok, mul3(1.0f / vsqrt(sel(ok, dd, splat(1.0f))), d), pt);
-    const vf den = fmadd(pt.z, a.z, fmadd(pt.y, a.y, fmadd(pt.x, a.x, splat(1.0f))));
-    const vi okd = gts(den, 1e-6f);
-    const vf q = sel(okd, dot3(a, ps) / sel(okd, den, splat(1.0f)), splat(0.0f));
+    const vf len_d = vsqrt(sel(ok, dd, splat(1.0f)));
+    const vf den = len_d + dot3(pt, d);
+    const vi okd = ok & gt(den, 1e-6f * len_d);
+    const vf q = sel(okd, dot3(d, ps) / sel(okd, den, splat(1.0f)), splat(0.0f));
+    const v3 a = sel3(ok, mul3(1.0f / len_d, d), pt);
     M->ft = a;
     M->fs = nmadd3(q, add3(pt, a), ps);
     M->fn = cross3(M->ft, M->fs);
