@@ -2,8 +2,11 @@
  * with 1/2/20/128 sphere objects; headline blade_sim_table1 = ms per step of the 709-tile case)
  * and blade_sim_1M (1,000,000 active blades, 16 knots, 4 iterations, 128 objects; ns per
  * blade-step). Blades are the meadow's default shape (0.3 m, leaning, random turn and scale);
- * wind is given per blade; objects move through the active tiles every step. */
+ * wind is given per blade; objects move through the active tiles every step.
+ * blade_sim_1M_block steps one block of the solver alone, over and over, for a figure steady
+ * enough to compare kernels on a noisy host. */
 #include "bench.h"
+#include "sim/sim_internal.h"
 #include "tussock/sim.h"
 
 #include <math.h>
@@ -148,6 +151,72 @@ static double measure(scene* sc, int warm, int repeats, int batch, double* cpu_m
     return bench_median(v, repeats);
 }
 
+
+/* The solver's kernel alone: four blocks of SIM_W blades of the first tiles (about 54 KB, in
+ * L1 and L2) stepped in turn with wind and no collider, as tsk_blade_sim_step sets up a step
+ * from the default definition. Batches of 64 block steps; the least and the tenth percentile
+ * of 600 batches, per blade-step: compute, without memory, threads or tile management, and
+ * steady where the other lines spread by 15 %. */
+static int bench_block(double* best, double* p10, double* median) {
+    enum { NB = 4, BATCH = 64, BATCHES = 600 };
+    const int32_t K = KNOTS;
+    const size_t fl = SIM_BLOCK_FLOATS(K);
+    const tsk_blade_sim_def d = tsk_default_blade_sim_def();
+    float* blocks = aligned_alloc(64, fl * 4 * NB);
+    double* t = malloc(sizeof(double) * BATCHES);
+    if (!blocks || !t) {
+        free(blocks);
+        free(t);
+        return 0;
+    }
+    memset(blocks, 0, fl * 4 * NB);
+    static float knots[BLADES_PER_TILE * KNOTS * 3], widths[BLADES_PER_TILE * KNOTS],
+        sides[BLADES_PER_TILE * 3];
+    for (int bi = 0; bi < NB; ++bi) {
+        fill_tile(&d, bi, knots, widths, sides);
+        for (int l = 0; l < SIM_W; ++l)
+            tsk_sim_block_load_lane(K, blocks + fl * bi, l, knots + (size_t)l * K * 3,
+                                    widths + (size_t)l * K, sides + 3 * l);
+        tsk_sim_block_rest(K, blocks + fl * bi);
+    }
+    const float dt = 1.0f / 60.0f;
+    sim_step_params p;
+    memset(&p, 0, sizeof p);
+    p.K = K;
+    p.iterations = 4;
+    p.dt = dt, p.dt2 = dt * dt;
+    p.damp = (float)exp(-(double)d.damping * dt);
+    for (int c = 0; c < 3; ++c) p.gravity[c] = d.gravity[c];
+    p.preload = d.gravity_preload;
+    p.drag = (float)((double)d.wind_drag / d.linear_density * dt);
+    p.alpha_root = (float)(1.0 - exp(-(double)d.global_stiffness_root * dt));
+    p.alpha_tip = (float)(1.0 - exp(-(double)d.global_stiffness_tip * dt));
+    const double al = 1.0 - exp(-(double)d.local_stiffness * dt);
+    p.alpha_local = (float)(al < 0.95 ? al : 0.95);
+    p.ground = d.ground_height;
+    float wind[3 * SIM_W];
+    for (int l = 0; l < SIM_W; ++l) {
+        wind[l] = 2.0f + tsk_rand01(9, (uint64_t)l, 0, 0);
+        wind[SIM_W + l] = 0.5f * tsk_rand01(9, (uint64_t)l, 1, 0);
+        wind[2 * SIM_W + l] = 0.0f;
+    }
+    sim_block_stats st;
+    for (int i = 0; i < 2000; ++i) /* into the wind's steady sway */
+        tsk_sim_block_step(&p, blocks + fl * (size_t)(i % NB), wind, 0, NULL, 0, 0.0f, NULL, &st);
+    for (int r = 0; r < BATCHES; ++r) {
+        const double t0 = bench_now_s();
+        for (int i = 0; i < BATCH; ++i)
+            tsk_sim_block_step(&p, blocks + fl * (size_t)(i % NB), wind, 0, NULL, 0, 0.0f, NULL, &st);
+        t[r] = (bench_now_s() - t0) * 1e9 / ((double)BATCH * SIM_W);
+    }
+    const int finite = isfinite(blocks[fl - 1]) && isfinite(st.max_disp2);
+    *median = bench_median(t, BATCHES); /* sorts t */
+    *best = t[0], *p10 = t[BATCHES / 10];
+    free(blocks);
+    free(t);
+    return finite;
+}
+
 int main(int argc, char** argv) {
     /* TSK_BENCH_THREADS=n runs with n worker threads (default: all cores) */
     const char* env = getenv("TSK_BENCH_THREADS");
@@ -234,6 +303,20 @@ int main(int argc, char** argv) {
                    params, NULL);
         scene_free(&sc);
         if (tsk_set_threads(saved) != TSK_OK) return 1;
+    }
+    if (bench_wanted(argc, argv, "blade_sim_1M_block")) {
+        double best = 0, p10 = 0, med = 0;
+        if (!bench_block(&best, &p10, &med)) {
+            fprintf(stderr, "blade_sim_1M_block: setup failed or a knot went non-finite\n");
+            return 1;
+        }
+        char params[256];
+        snprintf(params, sizeof params,
+                 "\"blades\": %d, \"knots\": %d, \"iterations\": 4, \"objects\": 0, "
+                 "\"threads\": 1, \"p10_ns\": %.4g, \"median_ns\": %.4g, \"load_avg\": %.2f",
+                 SIM_W, KNOTS, p10, med, load_avg());
+        bench_emit("blade_sim_1M_block", best, "ns per blade-step, least of 600 batches", params,
+                   NULL);
     }
     if (bench_wanted(argc, argv, "blade_sim_1M")) {
         scene sc;
