@@ -433,7 +433,7 @@ typedef struct kconst {
         blade-step for one block in cache). */
 typedef struct rest_state {
     v3 t, s, n, rp;
-    vf ds, dragw, ar, kat, arc, max_len;
+    vf ds, dragw, ar, kat, arc;
 } rest_state;
 
 INL void rest_start(rest_state* R, const blk* b, const sim_step_params* p, scratch* S, int lo) {
@@ -470,7 +470,6 @@ INL rest_knot_out rest_knot(rest_state* R, const blk* b, scratch* S, int k, int 
     R->arc = R->arc + o.g.len;
     o.al = fmadd(R->kat, R->arc, R->ar);
     o.kd = vmin(R->dragw * ld_u8(b->WD + (size_t)(k - 1) * W + lo), splat(1.0f));
-    R->max_len = vmax(R->max_len, o.g.len);
     return o;
 }
 
@@ -554,16 +553,14 @@ INL void move_knot(move_state* M, rest_state* R, const blk* b, const kconst* C, 
 
 /* Pass 1 over slices h and h + 1; the first knot (the root stays) and the wind are decided
    outside the loop. */
-INL vf move_sweep(const blk* b, const sim_step_params* p, kconst* C, int h, int has_wind) {
+INL void move_sweep(const blk* b, const sim_step_params* p, kconst* C, int h, int has_wind) {
     const int K = C->K, lo0 = h * LN, lo1 = PAIR_LO1(h);
     move_state A, B;
     rest_state RA, RB;
     rest_start(&RA, b, p, C->S, lo0);
-    RA.max_len = splat(0.0f);
     move_start(&A, b, C->S, lo0);
     if (lo1 != lo0) {
         rest_start(&RB, b, p, C->S, lo1);
-        RB.max_len = splat(0.0f);
         move_start(&B, b, C->S, lo1);
     }
     move_knot(&A, &RA, b, C, 1, lo0, has_wind);
@@ -579,7 +576,6 @@ INL vf move_sweep(const blk* b, const sim_step_params* p, kconst* C, int h, int 
     }
     st3(b->P + (size_t)(K - 1) * 3 * W + lo0, A.xp);
     if (lo1 != lo0) st3(b->P + (size_t)(K - 1) * 3 * W + lo1, B.xp);
-    return lo1 != lo0 ? vmax(RA.max_len, RB.max_len) : RA.max_len;
 }
 
 /* ---- pass 2 without colliders, one iteration: segments relaxed odd then even (segments of
@@ -805,9 +801,10 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
                 splat(p->preload * p->dt2 * p->gravity[2])};
 
     /* ---- pass 1: one sweep root to tip per slice */
-    vf max_len = splat(0.0f);
-    for (int h = 0; h < NSLICE; h += 2)
-        max_len = vmax(max_len, wind ? move_sweep(&b, p, &C, h, 1) : move_sweep(&b, p, &C, h, 0));
+    for (int h = 0; h < NSLICE; h += 2) {
+        if (wind) move_sweep(&b, p, &C, h, 1);
+        else move_sweep(&b, p, &C, h, 0);
+    }
 
     /* ---- colliders near the block now: its knots' box grown by SIM_CULL_MARGIN. The iterations
             and the follow-the-leader pass use these; a last pass below checks every collider
@@ -830,7 +827,11 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
                 bl[2] = bl[2] < lo.z[l] ? bl[2] : lo.z[l], bh[2] = bh[2] > hi.z[l] ? bh[2] : hi.z[l];
             }
         }
-        /* knots move in the passes below by about a segment length at most */
+        /* knots move in the passes below by about a segment length at most (the longest,
+           taken here rather than in the sweep, which then holds one value less) */
+        vf max_len = splat(0.0f);
+        for (int k = 1; k < K; ++k)
+            for (int h = 0; h < NSLICE; ++h) max_len = vmax(max_len, ld(S.len + (size_t)k * W + h * LN));
         float m = 0.0f;
         for (int l = 0; l < LN; ++l) m = m > max_len[l] ? m : max_len[l];
         m += SIM_CULL_MARGIN;
