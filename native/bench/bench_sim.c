@@ -154,7 +154,7 @@ static double measure(scene* sc, int warm, int repeats, int batch, double* cpu_m
 
 /* The solver's kernel alone: four blocks of SIM_W blades of the first tiles (about 54 KB, in
  * L1 and L2) stepped in turn with wind and no collider, as tsk_blade_sim_step sets up a step
- * from the default definition. Batches of 64 block steps; the least and the tenth percentile
+ * from the default definition (tsk_sim_step_params). Batches of 64 block steps; the least and the tenth percentile
  * of 600 batches, per blade-step: compute, without memory, threads or tile management, and
  * steady where the other lines spread by 15 %. */
 static int bench_block(double* best, double* p10, double* median) {
@@ -179,21 +179,9 @@ static int bench_block(double* best, double* p10, double* median) {
                                     widths + (size_t)l * K, sides + 3 * l);
         tsk_sim_block_rest(K, blocks + fl * bi);
     }
-    const float dt = 1.0f / 60.0f;
-    sim_step_params p;
-    memset(&p, 0, sizeof p);
-    p.K = K;
-    p.iterations = 4;
-    p.dt = dt, p.dt2 = dt * dt;
-    p.damp = (float)exp(-(double)d.damping * dt);
-    for (int c = 0; c < 3; ++c) p.gravity[c] = d.gravity[c];
-    p.preload = d.gravity_preload;
-    p.drag = (float)((double)d.wind_drag / d.linear_density * dt);
-    p.alpha_root = (float)(1.0 - exp(-(double)d.global_stiffness_root * dt));
-    p.alpha_tip = (float)(1.0 - exp(-(double)d.global_stiffness_tip * dt));
-    const double al = 1.0 - exp(-(double)d.local_stiffness * dt);
-    p.alpha_local = (float)(al < 0.95 ? al : 0.95);
-    p.ground = d.ground_height;
+    tsk_blade_sim_def dk = d;
+    dk.knot_count = K, dk.iterations = 4;
+    const sim_step_params p = tsk_sim_step_params(&dk, 1.0f / 60.0f);
     float wind[3 * SIM_W];
     for (int l = 0; l < SIM_W; ++l) {
         wind[l] = 2.0f + tsk_rand01(9, (uint64_t)l, 0, 0);

@@ -116,3 +116,22 @@ tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def) {
                              def->settle_blend_frames);
     return TSK_OK;
 }
+
+sim_step_params tsk_sim_step_params(const tsk_blade_sim_def* d, float dt) {
+    sim_step_params p;
+    memset(&p, 0, sizeof p);
+    p.K = d->knot_count;
+    p.iterations = d->iterations;
+    p.dt = dt;
+    p.dt2 = dt * dt;
+    p.damp = (float)exp(-(double)d->damping * dt);
+    for (int c = 0; c < 3; ++c) p.gravity[c] = d->gravity[c];
+    p.preload = d->gravity_preload;
+    p.drag = (float)((double)d->wind_drag / d->linear_density * dt);
+    p.alpha_root = (float)(1.0 - exp(-(double)d->global_stiffness_root * dt));
+    p.alpha_tip = (float)(1.0 - exp(-(double)d->global_stiffness_tip * dt));
+    const double al = 1.0 - exp(-(double)d->local_stiffness * dt);
+    p.alpha_local = (float)(al < 0.95 ? al : 0.95); /* above ~0.95 the sweep overshoots */
+    p.ground = d->ground_height;
+    return p;
+}

@@ -201,6 +201,10 @@ int tsk_sim_block_ribbons(int32_t K, const float* P, int l0, int l1, const float
 /* Validates a definition (messages name the field). */
 tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def);
 
+/* What the kernel needs for a step of dt seconds under a (valid) definition: the rates turned
+ * into per-step fractions, the damping factor, the drag per unit width. */
+sim_step_params tsk_sim_step_params(const tsk_blade_sim_def* def, float dt);
+
 /* Loads one blade (K knots xyz, K widths, side or NULL; validated by the caller) into `lane`
  * of a block: root, root frame, rest segments (quantised; see blade_rest.c), widths. Call tsk_sim_block_rest after
  * every lane is loaded. */

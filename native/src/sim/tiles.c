@@ -673,20 +673,7 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
     step_ctx ctx;
     memset(&ctx, 0, sizeof ctx);
     ctx.sim = sim;
-    sim_step_params* p = &ctx.params;
-    p->K = K;
-    p->iterations = d->iterations;
-    p->dt = dt;
-    p->dt2 = dt * dt;
-    p->damp = (float)exp(-(double)d->damping * dt);
-    for (int c = 0; c < 3; ++c) p->gravity[c] = d->gravity[c];
-    p->preload = d->gravity_preload;
-    p->drag = (float)((double)d->wind_drag / d->linear_density * dt);
-    p->alpha_root = (float)(1.0 - exp(-(double)d->global_stiffness_root * dt));
-    p->alpha_tip = (float)(1.0 - exp(-(double)d->global_stiffness_tip * dt));
-    double al = 1.0 - exp(-(double)d->local_stiffness * dt);
-    p->alpha_local = (float)(al < 0.95 ? al : 0.95); /* above ~0.95 the sweep overshoots */
-    p->ground = d->ground_height;
+    ctx.params = tsk_sim_step_params(d, dt);
     ctx.wind = wind;
     ctx.layout = layout;
 
