@@ -116,6 +116,15 @@ static void scene_free(scene* sc) {
     free(sc->home);
 }
 
+/* The compiler of the AVX-512 step, which the kernel lines run on this machine (or "none"). */
+static const char* step_compiler(void) {
+#if SIM_HAVE_X86_PATHS
+    return __builtin_cpu_supports("x86-64-v4") ? tsk_sim_avx512_step_compiler() : "none";
+#else
+    return "none";
+#endif
+}
+
 static double cpu_now_s(void) {
     struct timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
@@ -298,11 +307,12 @@ int main(int argc, char** argv) {
             fprintf(stderr, "blade_sim_1M_block: setup failed or a knot went non-finite\n");
             return 1;
         }
-        char params[256];
+        char params[512];
         snprintf(params, sizeof params,
                  "\"blades\": %d, \"knots\": %d, \"iterations\": 4, \"objects\": 0, "
-                 "\"threads\": 1, \"p10_ns\": %.4g, \"median_ns\": %.4g, \"load_avg\": %.2f",
-                 SIM_W, KNOTS, p10, med, load_avg());
+                 "\"threads\": 1, \"p10_ns\": %.4g, \"median_ns\": %.4g, \"load_avg\": %.2f, "
+                 "\"avx512_step\": \"%s\"",
+                 SIM_W, KNOTS, p10, med, load_avg(), step_compiler());
         bench_emit("blade_sim_1M_block", best, "ns per blade-step, least of 600 batches", params,
                    NULL);
     }
@@ -326,12 +336,13 @@ int main(int argc, char** argv) {
                  "\"blades\": %lld, \"tiles\": 15625, \"knots\": %d, \"iterations\": 4, "
                  "\"objects\": 128, \"threads\": %d, \"ms_per_step\": %.4g, "
                  "\"cpu_ns_per_blade_step\": %.4g, \"load_avg\": %.2f, \"state_mb\": %.1f, "
-                 "\"state_bytes_per_blade\": %.1f, "
+                 "\"state_bytes_per_blade\": %.1f, \"avx512_step\": \"%s\", "
                  "\"target_ns\": 40, \"blender_hair_ns_reference\": 220000, "
                  "\"blender_hair_ratio\": %.4g, \"blender_hair_note\": \"quoted in issue 7 "
                  "(15 segments, this machine), not measured in this run\"",
                  (long long)sc.blades, KNOTS, threads, ms, cpu * 1e6 / (double)sc.blades, load_avg(),
                  (double)info.state_bytes / 1048576.0, (double)info.state_bytes / (double)sc.blades,
+                 step_compiler(),
                  220000.0 / ns);
         bench_emit("blade_sim_1M", ns, "ns per blade-step", params, NULL);
         scene_free(&sc);

@@ -382,6 +382,10 @@ INL v3 push_out(v3 x, const sim_collider* col) {
     return sel3(inside, y, x);
 }
 
+/* A unit may leave out the step (with tsk_sim_block_rest, which must rebuild the rest pose as
+ * the step does) or the ribbons: the AVX-512 unit is built twice, the step by Clang and the
+ * ribbons by GCC (blade_kernel_avx512.c). */
+#if !defined(SIM_KERNEL_NO_STEP)
 void SIM_KFN(tsk_sim_block_rest)(int32_t K, float* block) {
     const blk b = blk_of(K, block);
     for (int h = 0; h < NSLICE; ++h) {
@@ -930,6 +934,9 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
     stats->max_disp2 = m1;
     stats->max_step2 = m2;
 }
+#endif /* !SIM_KERNEL_NO_STEP */
+
+#if !defined(SIM_KERNEL_NO_RIBBONS)
 
 /* Transposes an LN x LN block of floats held as LN rows: r[i][x] becomes r[x][i]. log2(LN)
  * stages, each exchanging the halves of 2b x 2b sub-blocks with two-vector shuffles. */
@@ -1028,6 +1035,7 @@ int SIM_KFN(tsk_sim_block_ribbons)(int32_t K, const float* P, int l0, int l1,
     }
     return 0;
 }
+#endif /* !SIM_KERNEL_NO_RIBBONS */
 
 #undef LN
 #undef W

@@ -225,6 +225,8 @@ SIM_KERNEL_DECL(generic)
 #if SIM_HAVE_X86_PATHS
 SIM_KERNEL_DECL(avx2)
 SIM_KERNEL_DECL(avx512)
+/* Which compiler built the AVX-512 step ("clang ..." or "gcc ..."), for the benchmarks. */
+const char* tsk_sim_avx512_step_compiler(void);
 #endif
 
 #endif
