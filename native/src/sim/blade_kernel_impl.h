@@ -540,14 +540,16 @@ INL void move_knot(move_state* M, rest_state* R, const blk* b, const kconst* C, 
        the constraint, dc0 + alpha_local e (at knot 1 xn moves by alpha_local, further on both
        knots by half of it), not the difference of the rounded knots. The rotation's
        coefficient (a . ps) / (1 + pt . a) is taken as (d . ps) / (|d| + pt . d), so it need
-       not wait for a. A zero direction keeps the prediction. */
+       not wait for a. A zero direction keeps the prediction: its lanes' quotients (inf or NaN
+       for a zero |d| or den) are computed and then dropped by the selects, so that the square
+       root and the division do not wait for a select first. */
     const v3 d = madd3(C->alc1, e, dc0);
     const vf dd = dot3(d, d);
     const vi ok = gts(dd, 1e-30f);
-    const vf len_d = vsqrt(sel(ok, dd, splat(1.0f)));
+    const vf len_d = vsqrt(dd);
     const vf den = len_d + dot3(pt, d);
     const vi okd = ok & gt(den, 1e-6f * len_d);
-    const vf q = sel(okd, dot3(d, ps) / sel(okd, den, splat(1.0f)), splat(0.0f));
+    const vf q = sel(okd, dot3(d, ps) / den, splat(0.0f));
     const v3 a = sel3(ok, mul3(1.0f / len_d, d), pt);
     M->ft = a;
     M->fs = nmadd3(q, add3(pt, a), ps);
