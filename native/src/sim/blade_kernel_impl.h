@@ -697,7 +697,9 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
         const v3 d = sub3(x, xp);
         const vf dd = dot3(d, d);
         const vi ok = gts(dd, 1e-30f);
-        x = sel3(ok, madd3(len / vsqrt(sel(ok, dd, splat(1.0f))), d, xp), x);
+        /* a zero or tiny d's lanes compute inf or NaN and keep x (the square root need not
+           wait for a select, as in the sweep's frame step) */
+        x = sel3(ok, madd3(len / vsqrt(dd), d, xp), x);
     }
     for (int ci = 0; ci < nnear; ++ci) {
         const sim_collider* col = near[ci];
