@@ -116,15 +116,6 @@ static void scene_free(scene* sc) {
     free(sc->home);
 }
 
-/* The compiler of the AVX-512 step, which the kernel lines run on this machine (or "none"). */
-static const char* step_compiler(void) {
-#if SIM_HAVE_X86_PATHS
-    return __builtin_cpu_supports("x86-64-v4") ? tsk_sim_avx512_step_compiler() : "none";
-#else
-    return "none";
-#endif
-}
-
 static double cpu_now_s(void) {
     struct timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
@@ -312,7 +303,7 @@ int main(int argc, char** argv) {
                  "\"blades\": %d, \"knots\": %d, \"iterations\": 4, \"objects\": 0, "
                  "\"threads\": 1, \"p10_ns\": %.4g, \"median_ns\": %.4g, \"load_avg\": %.2f, "
                  "\"avx512_step\": \"%s\"",
-                 SIM_W, KNOTS, p10, med, load_avg(), step_compiler());
+                 SIM_W, KNOTS, p10, med, load_avg(), tsk_sim_avx512_step_running());
         bench_emit("blade_sim_1M_block", best, "ns per blade-step, least of 600 batches", params,
                    NULL);
     }
@@ -342,7 +333,7 @@ int main(int argc, char** argv) {
                  "(15 segments, this machine), not measured in this run\"",
                  (long long)sc.blades, KNOTS, threads, ms, cpu * 1e6 / (double)sc.blades, load_avg(),
                  (double)info.state_bytes / 1048576.0, (double)info.state_bytes / (double)sc.blades,
-                 step_compiler(),
+                 tsk_sim_avx512_step_running(),
                  220000.0 / ns);
         bench_emit("blade_sim_1M", ns, "ns per blade-step", params, NULL);
         scene_free(&sc);

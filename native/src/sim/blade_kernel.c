@@ -19,6 +19,13 @@ static int kernel_isa(void) {
     return 0;
 }
 
+const char* tsk_sim_avx512_step_running(void) {
+#if SIM_HAVE_X86_PATHS
+    if (kernel_isa() == 2) return tsk_sim_avx512_step_compiler();
+#endif
+    return "none";
+}
+
 void tsk_sim_block_step(const sim_step_params* p, float* block, const float* wind,
                         size_t wind_stride, const sim_collider* const* cols, int ncol,
                         float blend, const float* next, sim_block_stats* stats) {

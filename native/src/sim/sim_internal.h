@@ -179,6 +179,10 @@ static inline float sim_half_to_float(uint16_t h) {
  * multiply-adds written out, comparisons and exact conversions); test_sim checks it. */
 extern int tsk_sim_kernel_path;
 
+/* The compiler of the AVX-512 step ("clang ..." or "gcc ...") when that is the kernel
+ * tsk_sim_block_step runs, else "none"; for the benchmarks. */
+const char* tsk_sim_avx512_step_running(void);
+
 /* Runs one step on one block. `wind` is NULL or velocities (m/s) for the block's lanes, [3][W]
  * for each knot, `wind_stride` floats from one knot's rows to the next (0: the same wind at every
  * knot). `cols`/`ncol`: the colliders that may reach the block. blend: fraction (0..1] of the
@@ -225,7 +229,7 @@ SIM_KERNEL_DECL(generic)
 #if SIM_HAVE_X86_PATHS
 SIM_KERNEL_DECL(avx2)
 SIM_KERNEL_DECL(avx512)
-/* Which compiler built the AVX-512 step ("clang ..." or "gcc ..."), for the benchmarks. */
+/* Which compiler built the AVX-512 step ("clang ..." or "gcc ..."). */
 const char* tsk_sim_avx512_step_compiler(void);
 #endif
 
