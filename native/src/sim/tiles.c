@@ -554,6 +554,15 @@ static int box_overlap(const float* lo, const float* hi, const sim_collider* c) 
              c->hi[2] < lo[2] || c->lo[2] > hi[2]);
 }
 
+/* Blocks per chunk of the step's parallel loop. A chunk's blocks run in order, each prefetching
+ * the next while it computes, so only a chunk's first block comes from memory unannounced (at 1M
+ * blades, chunks of 4 left a quarter of the blocks cold, each 30 % slower). Long chunks, but at
+ * least 16 per thread, so that the threads still finish together. */
+static size_t step_grain(int64_t blocks) {
+    const int64_t g = blocks / (16 * (int64_t)tsk_get_threads());
+    return (size_t)(g < 4 ? 4 : g > 256 ? 256 : g);
+}
+
 static void step_blocks(size_t begin, size_t end, size_t chunk, void* vctx) {
     (void)chunk;
     step_ctx* ctx = vctx;
@@ -761,7 +770,7 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
         ctx.col_start = col_start;
         ctx.col_list = col_list;
         ctx.stats = stats;
-        tsk_parallel_for((size_t)blocks, 4, step_blocks, &ctx);
+        tsk_parallel_for((size_t)blocks, step_grain(blocks), step_blocks, &ctx);
 
         /* rest detection and release, in tile order */
         const float rd2 = d->rest_distance * d->rest_distance;
