@@ -2,7 +2,8 @@
  * instruction set (blade_kernel_avx512.c, blade_kernel_avx2.c, blade_kernel.c for the portable
  * path). Verlet integration with damping, gravity (with preload) and wind drag; global and
  * local shape constraints; length constraints and collisions iterated, then a
- * follow-the-leader pass that makes lengths exact while keeping knots outside colliders
+ * follow-the-leader pass that sets every segment to its rest length (to a float's rounding)
+ * while keeping knots outside colliders
  * (Han & Harada 2012, as seed 000 §2 and §4.5 adopt it: collision a hard constraint; length,
  * bending and twisting soft constraints of an iterative solver).
  *
@@ -269,6 +270,7 @@ INL vf ld_u8(const uint8_t* p) {
 }
 #endif
 INL vi lt(vf a, vf b) { return gt(b, a); }
+INL int all(vi m) { return !any(~m); }
 INL vi gts(vf a, float b) { return gt(a, splat(b)); }
 INL vi lts(vf a, float b) { return gt(splat(b), a); }
 
@@ -592,7 +594,7 @@ INL void length_segment(v3* xp, v3* x, vf il2q, int first) {
     const v3 d = sub3(*x, *xp);
     /* half the exact correction (len - L) / len, to first order in len/L - 1:
        (len^2 / L^2 - 1) / 4 (il2q = 1 / 4L^2), no square root; bounded for large errors. The
-       follow-the-leader pass makes lengths exact. */
+       follow-the-leader pass sets the lengths. */
     const vf f = vmin(vmax(fmsub(dot3(d, d), il2q, splat(0.25f)), splat(-0.25f)), splat(0.25f));
     if (first) { /* the root does not move: the knot takes the whole correction */
         *x = nmadd3(f + f, d, *x);
@@ -670,9 +672,9 @@ INL void length_iteration2(int K, float* P, const float* il2q, int lo0, int lo1,
 }
 
 /* ---- pass 3, one knot of one slice: follow the leader (Mueller et al. 2012): the segment is
-        set to its rest length exactly; a knot this puts inside a collider goes to the nearest
-        point that is both at the segment's length from the knot before it and on the
-        collider's surface (the circle where the two spheres meet); under the ground, to the
+        set to its rest length (to a float's rounding); a knot this puts inside a collider goes
+        to the nearest point that is both at the segment's length from the knot before it and
+        on the collider's surface (the circle where the two spheres meet); under the ground, to the
         nearest point of the circle where that sphere meets the ground plane. The iterations
         leave small residuals, so this pass moves knots little. The new displacement over the
         step (the velocity) and the statistics are taken on the way. */
@@ -694,12 +696,24 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
     const v3 xp = F->xp;
     v3 x = ld3(C->P + o3);
     {
+        /* x = xp + (len / |d|) d. The iterations leave |d| within a fraction of a percent of
+           len, so len / |d| = (1 + y)^(-1/2), y = |d|^2 / len^2 - 1 = 4 e, is taken from its
+           series, 1 - 2e + 6e^2 - 20e^3, where |e| < 1/256 (the next term, 70 e^4, is then
+           below 1.6e-8, under a float's rounding): no square root or division on the
+           root-to-tip chain. Lanes further off take the quotient; there a zero or tiny d's
+           lanes compute inf or NaN and keep x. */
         const v3 d = sub3(x, xp);
         const vf dd = dot3(d, d);
-        const vi ok = gts(dd, 1e-30f);
-        /* a zero or tiny d's lanes compute inf or NaN and keep x (the square root need not
-           wait for a select, as in the sweep's frame step) */
-        x = sel3(ok, madd3(len / vsqrt(dd), d, xp), x);
+        const vf e = fmsub(dd, ld(S->il2q + (size_t)k * W + lo), splat(0.25f));
+        const vf f = fmadd(e, fmadd(e, fmadd(e, splat(-20.0f), splat(6.0f)), splat(-2.0f)),
+                           splat(1.0f));
+        const vi close = lt(vmax(e, -e), splat(1.0f / 256.0f));
+        v3 y = madd3(f, d, xp);
+        if (!all(close)) {
+            const vi ok = gts(dd, 1e-30f);
+            y = sel3(close, y, sel3(ok, madd3(len / vsqrt(dd), d, xp), x));
+        }
+        x = y;
     }
     for (int ci = 0; ci < nnear; ++ci) {
         const sim_collider* col = near[ci];
