@@ -1,9 +1,9 @@
 /* The rest pose of a block: loading a tile's rest blades into the block layout (root frame,
- * rest segments in parallel-transported frames, widths). The segments are stored as 16-bit
- * integers in units of the blade's longest segment / 32000, each one aimed from the knot the
- * solver rebuilds before it, so rounding does not accumulate along the blade: the rebuilt rest
- * pose stays within about a 20,000th of the longest segment of the given knots (1 µm for 2 cm
- * segments, measured with float coordinates up to 10 m from the origin). */
+ * rest segments in parallel-transported frames with their two quotients, widths). The segments
+ * are stored as 16-bit integers in units of the blade's longest segment / 32000, each one aimed
+ * from the knot the solver rebuilds before it, so rounding does not accumulate along the blade:
+ * the rebuilt rest pose stays within about a 20,000th of the longest segment of the given knots
+ * (1 µm for 2 cm segments, measured with float coordinates up to 10 m from the origin). */
 #include "sim/sim_internal.h"
 
 #include <math.h>
@@ -18,6 +18,7 @@ void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* kno
     char* base = (char*)block;
     float* P = block + SIM_OFF_P(K);
     int16_t* D = (int16_t*)(base + SIM_BOFF_D(K));
+    float* Q = (float*)(base + SIM_BOFF_Q(K));
     uint8_t* WD = (uint8_t*)(base + SIM_BOFF_WD(K));
     float* LF = (float*)(base + SIM_BOFF_LANE(K));
     const int l = lane;
@@ -83,7 +84,11 @@ void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* kno
             D[((size_t)(k - 1) * 3 + c) * W + l] = (int16_t)q[c];
             d[c] = (float)q[c] * ds;
         }
-        const float len = sim_rest_segment(d, gt, gs, gn);
+        float il, side_c;
+        sim_rest_quotients(d, &il, &side_c);
+        Q[(size_t)(k - 1) * 2 * W + l] = il;
+        Q[((size_t)(k - 1) * 2 + 1) * W + l] = side_c;
+        const float len = sim_rest_segment(d, il, side_c, gt, gs, gn);
         for (int c = 0; c < 3; ++c) rp[c] = fmaf(len, gt[c], rp[c]); /* as the kernel's madd3 */
         total += len;
     }

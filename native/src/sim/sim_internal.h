@@ -15,15 +15,20 @@
 
 /* Block layout for K knots, W = SIM_W lanes; every array is [row][lane], rows as listed.
  * The state is kept small because a step over a million blades streams all of it through
- * memory (docs/performance.md): 423 bytes per blade at 16 knots, of which only P and V are
+ * memory (docs/performance.md): 543 bytes per blade at 16 knots, of which only P and V are
  * written back.
  *   P   float    [K][3]    current positions (knot 0 = root, never moves)
  *   V   half     [K-1][3]  displacement of knots 1..K-1 over the last step, metres (IEEE
  *                          binary16 bits: the Verlet velocity times dt)
  *   D   int16    [K-1][3]  rest segment k-1 -> k (row k-1) in the rest frame of the segment
  *                          before it (segment 0: the root frame), in units of DS. The rest
- *                          pose is what the solver rebuilds from these: lengths |D|, directions
- *                          D/|D|, frames parallel-transported (sim_side_coef)
+ *                          pose is what the solver rebuilds from these and Q: lengths, unit
+ *                          directions, frames parallel-transported (sim_side_coef)
+ *   Q   float    [K-1][2]  per rest segment, the two quotients of its rebuild, computed once
+ *                          when the tile is provided (sim_rest_quotients): IL = 1 / |D DS|
+ *                          (row 2(k-1)) and the side coefficient C (row 2(k-1)+1). The step
+ *                          then rebuilds the pose with no square root or division (stored,
+ *                          they cost 120 bytes per blade and save a tenth of the step)
  *   WD  uint8    [K-1]     width at knots 1..K-1 in units of WS (only wind drag uses it)
  *   lane floats  [9]       T0 xyz (root frame tangent), S0 xyz (root frame side), DS (metres
  *                          per D unit), WS (metres per WD unit), LT (total rest length)
@@ -32,9 +37,11 @@
 #define SIM_BYTES_P(K) ((size_t)(K) * 3 * SIM_W * 4)
 #define SIM_BYTES_V(K) ((size_t)((K) - 1) * 3 * SIM_W * 2)
 #define SIM_BYTES_WD(K) SIM_ROUND64((size_t)((K) - 1) * SIM_W)
+#define SIM_BYTES_Q(K) ((size_t)((K) - 1) * 2 * SIM_W * 4)
 #define SIM_BOFF_V(K) SIM_BYTES_P(K)
 #define SIM_BOFF_D(K) (SIM_BOFF_V(K) + SIM_BYTES_V(K))
-#define SIM_BOFF_WD(K) (SIM_BOFF_D(K) + SIM_BYTES_V(K))
+#define SIM_BOFF_Q(K) (SIM_BOFF_D(K) + SIM_BYTES_V(K))
+#define SIM_BOFF_WD(K) (SIM_BOFF_Q(K) + SIM_BYTES_Q(K))
 #define SIM_BOFF_LANE(K) (SIM_BOFF_WD(K) + SIM_BYTES_WD(K))
 #define SIM_LANE_ROWS 9
 enum { SIM_LANE_T0 = 0, SIM_LANE_S0 = 3, SIM_LANE_DS = 6, SIM_LANE_WS = 7, SIM_LANE_LT = 8 };
@@ -112,14 +119,21 @@ static inline void sim_cross3(const float a[3], const float b[3], float out[3]) 
     out[2] = fmaf(a[0], b[1], -(a[1] * b[0]));
 }
 
+/* The two quotients of a rest segment d (metres), stored in the block's Q rows: 1 / |d| and
+ * the side coefficient of its unit direction. */
+static inline void sim_rest_quotients(const float d[3], float* il, float* c) {
+    *il = 1.0f / sqrtf(sim_dot3(d, d));
+    *c = sim_side_coef(*il * d[0], *il * d[1]);
+}
+
 /* One lane of the kernel's rest_segment, the same operations in the same order: the stored
- * segment d (metres, in the frame (t, s, n) of the segment before) turns the frame into the
- * segment's own; returns the segment's length. */
-static inline float sim_rest_segment(const float d[3], float t[3], float s[3], float n[3]) {
-    const float len = sqrtf(sim_dot3(d, d));
-    const float il = 1.0f / len;
+ * segment d (metres, in the frame (t, s, n) of the segment before) and its quotients il and c
+ * (sim_rest_quotients) turn the frame into the segment's own; returns the segment's length,
+ * |d|^2 il. */
+static inline float sim_rest_segment(const float d[3], float il, float c, float t[3], float s[3],
+                                     float n[3]) {
+    const float len = sim_dot3(d, d) * il;
     const float rx = il * d[0], ry = il * d[1], rz = il * d[2];
-    const float c = sim_side_coef(rx, ry);
     float u[3], w[3];
     for (int i = 0; i < 3; ++i) u[i] = fmaf(n[i], rz, fmaf(s[i], ry, t[i] * rx));
     for (int i = 0; i < 3; ++i) w[i] = fmaf(-c, t[i] + u[i], s[i]);
