@@ -132,8 +132,8 @@ static void naive_refine(int m, float mu, const blade* b, float* out_knots, floa
             memcpy(a->traj, c->traj, f * 3 * sizeof(float));
             memcpy(a->rest, c->rest, sizeof a->rest);
         } else {
-            for (size_t q = 0; q < 3 * f; ++q) a->traj[q] = 0.5f * (a->traj[q] + c->traj[q]);
-            for (int q = 0; q < 3; ++q) a->rest[q] = 0.5f * (a->rest[q] + c->rest[q]);
+            for (size_t q = 0; q < 3 * f; ++q) a->traj[q] = 0.5f * a->traj[q] + 0.5f * c->traj[q];
+            for (int q = 0; q < 3; ++q) a->rest[q] = 0.5f * a->rest[q] + 0.5f * c->rest[q];
         }
         a->wl += c->wl;
         a->l += c->l;
@@ -556,6 +556,27 @@ TEST(test_refine_target_equal_to_knot_count_changes_nothing) {
     blade_free(&b);
 }
 
+/* Two interior knots far out but finite (0.9 and 0.8 FLT_MAX in x) merge into their midpoint,
+ * not into the overflow of their sum (found by fuzz_refine): the merge runs root (0, 1) first,
+ * then (2, 3), whose halves are added as 0.5 a + 0.5 b. */
+TEST(test_refine_merge_of_huge_knots_stays_finite) {
+    const float big = 3.4e38f;
+    float knots[5 * 3] = {0, 0, 0, 0, 0, 0.1f, 0.9f * big, 0.9f * big, 0.2f,
+                          0.8f * big, 0.9f * big, 0.3f, 0, 0, 0.4f};
+    float widths[5] = {0.01f, 0.01f, 0.01f, 0.01f, 0.01f};
+    float ok[3 * 3], ow[3], otraj[3 * 3];
+    int32_t rg[3 * 2];
+    tsk_refine_def def = {3, 0.5f};
+    tsk_refine_input in = {knots, widths, knots, 5, 1};
+    tsk_refine_output out = {ok, ow, rg, otraj};
+    CHECK(tsk_refine_blade(&def, &in, &out) == TSK_OK);
+    CHECK(rg[0] == 0 && rg[1] == 2 && rg[2] == 2 && rg[3] == 2 && rg[4] == 4 && rg[5] == 1);
+    for (int i = 0; i < 9; ++i) CHECK_MSG(isfinite(ok[i]) && isfinite(otraj[i]), "value %d", i);
+    CHECK(ok[3] == 0.5f * knots[6] + 0.5f * knots[9] && ok[3] > 0.84f * big);
+    CHECK(ok[4] == knots[7] && ok[5] == 0.25f);
+    for (int i = 0; i < 3; ++i) CHECK_NEAR(ow[i], 0.01f, 1e-8);
+}
+
 /* ---- tracking and resampling ------------------------------------------------------------ */
 
 /* A planar arc of length L and curvature kappa, parametrised by arc length s. */
@@ -819,6 +840,7 @@ TEST_MAIN(TEST_ENTRY(test_refine_simulate_one_frame_with_tiny_step_is_refused),
           TEST_ENTRY(test_refine_batch_identical_1_and_2_threads),
           TEST_ENTRY(test_refine_bad_input_names_argument),
           TEST_ENTRY(test_refine_target_equal_to_knot_count_changes_nothing),
+          TEST_ENTRY(test_refine_merge_of_huge_knots_stays_finite),
           TEST_ENTRY(test_track_matches_knots_by_arc_length),
           TEST_ENTRY(test_resample_is_uniform_in_arc_length),
           TEST_ENTRY(test_bend_cantilever_matches_euler_bernoulli),

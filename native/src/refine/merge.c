@@ -316,15 +316,18 @@ static tsk_status refine_one(const tsk_refine_def* def, const tsk_refine_input* 
             memcpy(a, b, f * 3 * sizeof(float)); /* the tip stays where it is */
             memcpy(ra, rb, 3 * sizeof(float));
         } else {
+            /* the midpoint as 0.5 a + 0.5 b: the same bits as 0.5 (a + b) wherever that is
+               finite (halving is exact above the subnormals), and finite for two knots
+               near +-FLT_MAX, whose sum overflows (found by fuzz_refine) */
             size_t i = 0;
 #if defined(__SSE2__) && !defined(TSK_NO_SIMD)
             const __m128 half = _mm_set1_ps(0.5f); /* same IEEE operations as below */
             for (; i + 4 <= 3 * f; i += 4)
-                _mm_storeu_ps(a + i, _mm_mul_ps(half, _mm_add_ps(_mm_loadu_ps(a + i),
-                                                                 _mm_loadu_ps(b + i))));
+                _mm_storeu_ps(a + i, _mm_add_ps(_mm_mul_ps(half, _mm_loadu_ps(a + i)),
+                                                _mm_mul_ps(half, _mm_loadu_ps(b + i))));
 #endif
-            for (; i < 3 * f; ++i) a[i] = 0.5f * (a[i] + b[i]);
-            for (int c = 0; c < 3; ++c) ra[c] = 0.5f * (ra[c] + rb[c]);
+            for (; i < 3 * f; ++i) a[i] = 0.5f * a[i] + 0.5f * b[i];
+            for (int c = 0; c < 3; ++c) ra[c] = 0.5f * ra[c] + 0.5f * rb[c];
         }
         w.wl[left] += w.wl[right];
         w.l[left] += w.l[right];
