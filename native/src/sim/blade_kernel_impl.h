@@ -13,7 +13,7 @@
  * comparisons and selects stay vector instructions); a block is worked in SIM_W / LN slices,
  * two at a time, so that the serial root-to-tip chains of the two overlap (one slice alone
  * leaves the vector units waiting on the chain's latency; wider values make GCC keep them in
- * memory).
+ * memory), and all of them at once in the length iterations of a block with no collider near.
  * Only IEEE add, sub, mul, div, sqrt, fused multiply-add (written out: fmadd, fnmadd, fmsub),
  * comparisons, min/max as (a > b ? a : b) and exact conversions are used, and -ffp-contract=off
  * keeps the compiler from fusing anything else, so every instruction set computes the same bits
@@ -621,8 +621,9 @@ INL void length_segment(v3* xp, v3* x, vf il2q, int first) {
     const v3 d = sub3(*x, *xp);
     /* half the exact correction (len - L) / len, to first order in len/L - 1:
        (len^2 / L^2 - 1) / 4 (il2q = 1 / 4L^2), no square root; at most 1/4 for large errors.
-       It is never below -1/4 (len^2 il2q >= 0), so it needs no lower bound; a NaN d gives
-       f = 1/4 and stays NaN, as before. The follow-the-leader pass sets the lengths. */
+       It is never below -1/4 (len^2 il2q >= 0), so it needs no lower bound (a NaN d now
+       gives f = 1/4 rather than -1/4; the knots it moves are NaN either way). The
+       follow-the-leader pass sets the lengths. */
     const vf f = vmin(fmsub(dot3(d, d), il2q, splat(0.25f)), splat(0.25f));
     if (first) { /* the root does not move: the knot takes the whole correction */
         *x = nmadd3(f + f, d, *x);
