@@ -903,7 +903,7 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
             const int lo0 = h * LN, lo1 = PAIR_LO1(h);
             ftl_state A = {ld3(b.P + lo0), md, ms}, B = {ld3(b.P + lo1), md, ms};
             for (int it = 0; it < p->iterations; ++it)
-                length_iteration(K, b.P, S.il2q, h, h + 1 < NSLICE ? 2 : 1, ground,
+                length_iteration(K, b.P, S.il2q, h, lo1 != lo0 ? 2 : 1, ground,
                                  (near_list){near, nnear});
             for (int k = 1; k < K; ++k) {
                 ftl_knot(&A, &C, near, nnear, ground, k, lo0);
