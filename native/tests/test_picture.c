@@ -160,6 +160,68 @@ TEST(test_warp_fractional_shift_matches_reference_bilinear) {
     free(dst);
 }
 
+/* Rows whose stores would meet their own loads in the page offsets (4K aliasing) are
+ * sampled through a row buffer (warp.c): output at the source's page offset, or 16 bytes
+ * after it, takes that path, 1024 and 2048 bytes after it take the direct one, 4 bytes
+ * after it is not 16-byte aligned and is not streamed. 256-pixel rows are 4 KiB, so every
+ * row of the source and of the output sits at its buffer's page offset. Every placement
+ * gives the same bytes, and they match the independent bilinear sampler at the UV pass's
+ * source points. */
+TEST(test_warp_output_at_any_page_offset_gives_the_same_bytes) {
+    const int W = 256, H = 48, C = 16;
+    const size_t n4 = (size_t)W * H * 4;
+    float* src = NULL;
+    char* arena = NULL;
+    CHECK(posix_memalign((void**)&src, 4096, n4 * sizeof(float)) == 0);
+    CHECK(posix_memalign((void**)&arena, 4096, n4 * sizeof(float) + 4096) == 0);
+    for (size_t i = 0; i < n4; ++i) src[i] = tsk_rand01(41, (uint64_t)i, 0, 0);
+    int cx, cy;
+    CHECK(tsk_warp_grid_size(W, H, C, C, &cx, &cy) == TSK_OK);
+    const size_t nc = (size_t)cx * cy;
+    float* dx = malloc(nc * sizeof(float));
+    float* dy = malloc(nc * sizeof(float));
+    for (size_t k = 0; k < nc; ++k) { /* a few pixels, both signs */
+        dx[k] = 2.5f * sinf(0.9f * (float)k);
+        dy[k] = 1.5f * cosf(0.7f * (float)k);
+    }
+    float* first = malloc(n4 * sizeof(float));
+    float* uv = malloc(n4 * sizeof(float));
+    const size_t offsets[] = {0, 16, 1024, 2048, 4};
+    for (int o = 0; o < 5; ++o) {
+        float* dst = (float*)(arena + offsets[o]);
+        memset(dst, 0xff, n4 * sizeof(float));
+        CHECK(tsk_warp_apply(W, H, src, n4, C, C, dx, dy, nc, TSK_SAMPLE_BILINEAR, dst, n4,
+                             o == 0 ? uv : NULL, o == 0 ? n4 : 0, 0) == TSK_OK);
+        if (o == 0) {
+            memcpy(first, dst, n4 * sizeof(float));
+            continue;
+        }
+        CHECK_MSG(memcmp(first, dst, n4 * sizeof(float)) == 0,
+                  "output %zu bytes past the source's page offset differs", offsets[o]);
+    }
+    double worst = 0;
+    int moved = 0;
+    for (int j = 0; j < H; ++j)
+        for (int i = 0; i < W; ++i) {
+            const float* q = uv + ((size_t)j * W + i) * 4;
+            const double sx = (double)q[0] * W, sy = H - (double)q[1] * H;
+            moved += fabs(sx - (i + 0.5)) > 0.5 || fabs(sy - (j + 0.5)) > 0.5;
+            for (int c = 0; c < 4; ++c) {
+                const double e = fabs(ref_bilinear(src, W, H, c, sx, sy) -
+                                      first[((size_t)j * W + i) * 4 + c]);
+                if (e > worst) worst = e;
+            }
+        }
+    CHECK_MSG(moved > W * H / 4, "only %d of %d pixels moved by half a pixel", moved, W * H);
+    CHECK_MSG(worst <= 1e-4, "max error %g against the reference sampler", worst);
+    free(src);
+    free(arena);
+    free(dx);
+    free(dy);
+    free(first);
+    free(uv);
+}
+
 /* Affine field: Vp at sample (a, b) = A + Bx a + By b; bilinear interpolation is exact. */
 TEST(test_corners_match_eq5_to_7_closed_form) {
     const int W = 100, H = 80, FW = 8, FH = 6;
@@ -1048,6 +1110,7 @@ TEST_MAIN(TEST_ENTRY(test_picture_and_layers_over_memory_budget_are_refused),
           TEST_ENTRY(test_warp_zero_displacement_is_identity_and_uv_is_pixel_centres),
           TEST_ENTRY(test_warp_integer_shift_is_exact),
           TEST_ENTRY(test_warp_fractional_shift_matches_reference_bilinear),
+          TEST_ENTRY(test_warp_output_at_any_page_offset_gives_the_same_bytes),
           TEST_ENTRY(test_corners_match_eq5_to_7_closed_form),
           TEST_ENTRY(test_rigidity_one_keeps_grid_shape),
           TEST_ENTRY(test_horizon_root_line_does_not_move),

@@ -4,6 +4,7 @@
 #include "picture_internal.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdint.h>
 
 #if defined(__SSE2__)
@@ -189,6 +190,8 @@ typedef struct warp_ctx {
     float* uv;
     int uv_bottom_up;
     const float* ufrac; /* cell_x values: (k + 0.5) / cell_x, the local u of a pixel centre */
+    int reach_x, reach_y; /* whole pixels at least as far as any source point is from its pixel */
+    atomic_int failed;    /* set when a chunk of rows could not get its scratch */
 } warp_ctx;
 
 enum { WARP_GRAIN = 8 };
@@ -228,21 +231,138 @@ static void row_sources(const warp_ctx* c, int j, float* restrict sxs, float* re
     }
 }
 
+/* A row whose source points are sxs[i], sys[i], bilinearly sampled into out, streamed past
+ * the cache when `stream` (out 16-byte aligned) */
+static void sample_row(const warp_ctx* c, const float* sxs, const float* sys,
+                       float* restrict out, int stream) {
+    const int W = c->width, H = c->height;
+    const float* restrict src = c->src;
+    int i = 0;
+#if TSK_WARP_SSE
+    /* four pixels at a time: the same operations, in the same order, as the scalar loop
+     * below, so both give the same bytes */
+    const __m128 half = _mm_set1_ps(0.5f), one = _mm_set1_ps(1.0f);
+    const __m128 xmax = _mm_set1_ps((float)(W > 1 ? W - 2 : 0));
+    const __m128 ymax = _mm_set1_ps((float)(H > 1 ? H - 2 : 0));
+    const int ox4 = W > 1 ? 4 : 0;
+    const size_t oy4 = H > 1 ? (size_t)W * 4 : 0;
+    for (; i + 4 <= W; i += 4) {
+        const __m128 fx = _mm_sub_ps(_mm_loadu_ps(sxs + i), half);
+        const __m128 fy = _mm_sub_ps(_mm_loadu_ps(sys + i), half);
+        const __m128 x0f = _mm_min_ps(_mm_cvtepi32_ps(_mm_cvttps_epi32(fx)), xmax);
+        const __m128 y0f = _mm_min_ps(_mm_cvtepi32_ps(_mm_cvttps_epi32(fy)), ymax);
+        const __m128 tx = _mm_sub_ps(fx, x0f), ty = _mm_sub_ps(fy, y0f);
+        const __m128 mtx = _mm_sub_ps(one, tx), mty = _mm_sub_ps(one, ty);
+        const __m128 w00 = _mm_mul_ps(mtx, mty), w10 = _mm_mul_ps(tx, mty);
+        const __m128 w01 = _mm_mul_ps(mtx, ty), w11 = _mm_mul_ps(tx, ty);
+        int xi[4], yi[4];
+        _mm_storeu_si128((__m128i*)xi, _mm_cvttps_epi32(x0f));
+        _mm_storeu_si128((__m128i*)yi, _mm_cvttps_epi32(y0f));
+        float* o = out + (size_t)4 * i;
+#define TSK_WARP_PIXEL(k)                                                                      \
+    do {                                                                                       \
+        const float* a = src + ((size_t)yi[k] * W + xi[k]) * 4;                                \
+        const __m128 top = _mm_add_ps(                                                         \
+            _mm_mul_ps(_mm_shuffle_ps(w00, w00, _MM_SHUFFLE(k, k, k, k)), _mm_loadu_ps(a)),    \
+            _mm_mul_ps(_mm_shuffle_ps(w10, w10, _MM_SHUFFLE(k, k, k, k)),                      \
+                       _mm_loadu_ps(a + ox4)));                                                \
+        const __m128 bot = _mm_add_ps(                                                         \
+            _mm_mul_ps(_mm_shuffle_ps(w01, w01, _MM_SHUFFLE(k, k, k, k)),                      \
+                       _mm_loadu_ps(a + oy4)),                                                 \
+            _mm_mul_ps(_mm_shuffle_ps(w11, w11, _MM_SHUFFLE(k, k, k, k)),                      \
+                       _mm_loadu_ps(a + oy4 + ox4)));                                          \
+        if (stream) _mm_stream_ps(o + 4 * (k), _mm_add_ps(top, bot));                          \
+        else _mm_storeu_ps(o + 4 * (k), _mm_add_ps(top, bot));                                 \
+    } while (0)
+        TSK_WARP_PIXEL(0);
+        TSK_WARP_PIXEL(1);
+        TSK_WARP_PIXEL(2);
+        TSK_WARP_PIXEL(3);
+#undef TSK_WARP_PIXEL
+    }
+#else
+    (void)stream;
+#endif
+    for (; i < W; ++i) {
+        const float fx = sxs[i] - 0.5f, fy = sys[i] - 0.5f;
+        int x0 = (int)fx, y0 = (int)fy;
+        if (x0 > W - 2) x0 = W > 1 ? W - 2 : 0;
+        if (y0 > H - 2) y0 = H > 1 ? H - 2 : 0;
+        const int ox = x0 + 1 < W ? 4 : 0;
+        const size_t oy = y0 + 1 < H ? (size_t)W * 4 : 0;
+        const float tx = fx - (float)x0, ty = fy - (float)y0;
+        const float* a = src + ((size_t)y0 * W + x0) * 4;
+        const float w00 = (1.0f - tx) * (1.0f - ty), w10 = tx * (1.0f - ty);
+        const float w01 = (1.0f - tx) * ty, w11 = tx * ty;
+        float* o = out + (size_t)4 * i;
+        for (int ch = 0; ch < 4; ++ch)
+            o[ch] = (w00 * a[ch] + w10 * a[ox + ch]) + (w01 * a[oy + ch] + w11 * a[oy + ox + ch]);
+    }
+}
+
+#if TSK_WARP_SSE
+/* ---- 4K aliasing. A load whose address agrees in its low 12 bits with a store still in
+ * flight waits for that store, and streamed stores stay in flight long. A row's sampling
+ * loads run a few pixels around the pixels whose stores have just gone out, so when a
+ * source row and the output row sit at nearly the same offset in their 4 KiB pages, most
+ * loads wait. Two large buffers from mmap do sit so (the picture's layer and a frame
+ * allocated the same way), and the rows of a 1920-pixel picture alternate between two
+ * offsets: there the RGBA warp took 40 % longer (docs/performance.md, session 14). Such a
+ * row is sampled into a row buffer with ordinary stores, which leave for the cache at once
+ * wherever the buffer sits, then streamed out. Speed only: a pixel's bytes are the same
+ * wherever it is sampled. */
+
+/* Pixels of stores taken to be in flight behind the current one, and bytes of margin. */
+enum { ALIAS_PIXELS = 32, ALIAS_MARGIN = 64 };
+
+/* How far the page offset of d lies outside [lo, hi] (bytes, lo <= 0 <= hi) on the circle of
+ * 4096 page offsets; 0 inside. */
+static unsigned clear_of(uintptr_t d, int lo, int hi) {
+    const int x = (int)(d & 4095u);
+    if (hi - lo >= 4096 || x <= hi || x >= 4096 + lo) return 0;
+    const int a = x - hi, b = 4096 + lo - x;
+    return (unsigned)(a < b ? a : b);
+}
+
+/* How clear stores that run along a row starting at page offset `start` are of the loads
+ * from the source rows that row j samples (0: they meet): a source point is within reach_x
+ * pixels of its pixel (its right neighbour one more), the stores in flight up to
+ * ALIAS_PIXELS behind. */
+static unsigned clear_of_sources(const warp_ctx* c, int j, uintptr_t start) {
+    const int y_lo = j - c->reach_y - 1, y_hi = j + c->reach_y + 1;
+    if (y_hi - y_lo > 16) return 0; /* too many rows to keep clear of */
+    const int lo = -16 * c->reach_x - ALIAS_MARGIN;
+    const int hi = 16 * (c->reach_x + 1 + ALIAS_PIXELS) + ALIAS_MARGIN;
+    unsigned best = 4096;
+    for (int y = y_lo < 0 ? 0 : y_lo; y <= y_hi && y < c->height; ++y) {
+        const unsigned d = clear_of(start - (uintptr_t)(c->src + (size_t)y * c->width * 4), lo, hi);
+        if (d < best) best = d;
+    }
+    return best;
+}
+
+/* n floats (a multiple of 4) from the 64-byte-aligned row buffer to the 16-byte-aligned dst,
+ * streamed past the cache */
+static void copy_row(float* restrict dst, const float* restrict src, size_t n) {
+    for (size_t i = 0; i < n; i += 4) _mm_stream_ps(dst + i, _mm_load_ps(src + i));
+}
+#endif
+
 static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx) {
     (void)chunk;
     const warp_ctx* c = vctx;
     const int W = c->width, H = c->height;
     const float fw = (float)W, fh = (float)H;
-    /* per-row scratch on the stack for narrow pictures, else on the heap */
-    float stack_buf[2 * 2048];
-    float* sxs = stack_buf;
-    float* heap = NULL;
-    if (W > 2048) {
-        heap = tsk_alloc(2 * (size_t)W * sizeof(float), "warp row");
-        if (heap == NULL) return; /* cannot happen for W <= 16384 in practice; output kept */
-        sxs = heap;
+    /* per chunk of rows: the row's source points, and the row buffer (below) */
+    const size_t row4 = (size_t)W * 4, buf4 = c->dst ? row4 : 0;
+    float* const heap = tsk_alloc((buf4 + 2 * (size_t)W) * sizeof(float), "warp row");
+    if (heap == NULL) { /* tsk_warp_apply reports it; this chunk's rows are left as they were */
+        atomic_store(&((warp_ctx*)vctx)->failed, 1);
+        return;
     }
-    float* sys = sxs + W;
+    float* const row_buf = heap; /* 64-byte aligned */
+    float* const sxs = heap + buf4;
+    float* const sys = sxs + W;
     for (size_t jr = row_begin; jr < row_end; ++jr) {
         const int j = (int)jr;
         row_sources(c, j, sxs, sys);
@@ -276,67 +396,19 @@ static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx
                 }
         }
         if (c->dst) {
-            float* restrict out = c->dst + (size_t)j * W * 4;
-            const float* restrict src = c->src;
-            int i = 0;
+            float* const dst_row = c->dst + (size_t)j * row4;
 #if TSK_WARP_SSE
-            const int aligned = ((uintptr_t)out & 15u) == 0;
-            /* four pixels at a time: the same operations, in the same order, as the scalar
-             * loop below, so both give the same bytes */
-            const __m128 half = _mm_set1_ps(0.5f), one = _mm_set1_ps(1.0f);
-            const __m128 xmax = _mm_set1_ps((float)(W > 1 ? W - 2 : 0));
-            const __m128 ymax = _mm_set1_ps((float)(H > 1 ? H - 2 : 0));
-            const int ox4 = W > 1 ? 4 : 0;
-            const size_t oy4 = H > 1 ? (size_t)W * 4 : 0;
-            for (; i + 4 <= W; i += 4) {
-                const __m128 fx = _mm_sub_ps(_mm_loadu_ps(sxs + i), half);
-                const __m128 fy = _mm_sub_ps(_mm_loadu_ps(sys + i), half);
-                const __m128 x0f = _mm_min_ps(_mm_cvtepi32_ps(_mm_cvttps_epi32(fx)), xmax);
-                const __m128 y0f = _mm_min_ps(_mm_cvtepi32_ps(_mm_cvttps_epi32(fy)), ymax);
-                const __m128 tx = _mm_sub_ps(fx, x0f), ty = _mm_sub_ps(fy, y0f);
-                const __m128 mtx = _mm_sub_ps(one, tx), mty = _mm_sub_ps(one, ty);
-                const __m128 w00 = _mm_mul_ps(mtx, mty), w10 = _mm_mul_ps(tx, mty);
-                const __m128 w01 = _mm_mul_ps(mtx, ty), w11 = _mm_mul_ps(tx, ty);
-                int xi[4], yi[4];
-                _mm_storeu_si128((__m128i*)xi, _mm_cvttps_epi32(x0f));
-                _mm_storeu_si128((__m128i*)yi, _mm_cvttps_epi32(y0f));
-#define TSK_WARP_PIXEL(k)                                                                      \
-    do {                                                                                       \
-        const float* a = src + ((size_t)yi[k] * W + xi[k]) * 4;                                \
-        const __m128 top = _mm_add_ps(                                                         \
-            _mm_mul_ps(_mm_shuffle_ps(w00, w00, _MM_SHUFFLE(k, k, k, k)), _mm_loadu_ps(a)),    \
-            _mm_mul_ps(_mm_shuffle_ps(w10, w10, _MM_SHUFFLE(k, k, k, k)),                      \
-                       _mm_loadu_ps(a + ox4)));                                                \
-        const __m128 bot = _mm_add_ps(                                                         \
-            _mm_mul_ps(_mm_shuffle_ps(w01, w01, _MM_SHUFFLE(k, k, k, k)),                      \
-                       _mm_loadu_ps(a + oy4)),                                                 \
-            _mm_mul_ps(_mm_shuffle_ps(w11, w11, _MM_SHUFFLE(k, k, k, k)),                      \
-                       _mm_loadu_ps(a + oy4 + ox4)));                                          \
-        if (aligned) _mm_stream_ps(out + 4 * (i + k), _mm_add_ps(top, bot));                   \
-        else _mm_storeu_ps(out + 4 * (i + k), _mm_add_ps(top, bot));                           \
-    } while (0)
-                TSK_WARP_PIXEL(0);
-                TSK_WARP_PIXEL(1);
-                TSK_WARP_PIXEL(2);
-                TSK_WARP_PIXEL(3);
-#undef TSK_WARP_PIXEL
+            /* stream the frame past the cache: it is written once and not read back */
+            const int stream = ((uintptr_t)dst_row & 15u) == 0;
+            if (stream && clear_of_sources(c, j, (uintptr_t)dst_row) == 0) {
+                sample_row(c, sxs, sys, row_buf, 0);
+                copy_row(dst_row, row_buf, row4);
+                continue;
             }
+#else
+            const int stream = 0;
 #endif
-            for (; i < W; ++i) {
-                const float fx = sxs[i] - 0.5f, fy = sys[i] - 0.5f;
-                int x0 = (int)fx, y0 = (int)fy;
-                if (x0 > W - 2) x0 = W > 1 ? W - 2 : 0;
-                if (y0 > H - 2) y0 = H > 1 ? H - 2 : 0;
-                const int ox = x0 + 1 < W ? 4 : 0;
-                const size_t oy = y0 + 1 < H ? (size_t)W * 4 : 0;
-                const float tx = fx - (float)x0, ty = fy - (float)y0;
-                const float* a = src + ((size_t)y0 * W + x0) * 4;
-                const float w00 = (1.0f - tx) * (1.0f - ty), w10 = tx * (1.0f - ty);
-                const float w01 = (1.0f - tx) * ty, w11 = tx * ty;
-                for (int ch = 0; ch < 4; ++ch)
-                    out[4 * i + ch] = (w00 * a[ch] + w10 * a[ox + ch]) +
-                                      (w01 * a[oy + ch] + w11 * a[oy + ox + ch]);
-            }
+            sample_row(c, sxs, sys, dst_row, stream);
         }
     }
 #if TSK_WARP_SSE
@@ -378,15 +450,22 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
     if (corner_count != nc)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_count",
                              "must be %d*%d = %zu corners, got %zu", cx, cy, nc, corner_count);
-    for (size_t k = 0; k < nc; ++k)
+    float reach_x = 0.0f, reach_y = 0.0f;
+    for (size_t k = 0; k < nc; ++k) {
         if (!(fabsf(corner_dx[k]) <= 1e7f && fabsf(corner_dy[k]) <= 1e7f))
             return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_dx, corner_dy",
                                  "corner %zu is not finite or beyond 1e7 pixels", k);
+        reach_x = fmaxf(reach_x, fabsf(corner_dx[k]));
+        reach_y = fmaxf(reach_y, fabsf(corner_dy[k]));
+    }
     float* ufrac = tsk_alloc((size_t)cell_x * sizeof(float), "warp cell");
     if (ufrac == NULL) return TSK_ERR_MEMORY;
     for (int k = 0; k < cell_x; ++k) ufrac[k] = ((float)k + 0.5f) / (float)cell_x;
+    /* a pixel's displacement blends its cell's corners, so it is no larger than theirs */
     warp_ctx c = {width, height, cell_x, cell_y, cx, src, corner_dx, corner_dy, dst, uv,
-                  uv_bottom_up != 0, ufrac};
+                  uv_bottom_up != 0, ufrac,
+                  (int)fminf(ceilf(reach_x) + 1.0f, (float)width),
+                  (int)fminf(ceilf(reach_y) + 1.0f, (float)height), 0};
     if (dst != NULL && sampling == TSK_SAMPLE_MAP_UV) {
         /* Map UV needs the whole UV pass (bottom-up) before it samples */
         float* uvb = uv != NULL && uv_bottom_up ? uv : tsk_alloc(n4 * sizeof(float), "uv pass");
@@ -412,5 +491,7 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
         tsk_parallel_for((size_t)height, WARP_GRAIN, warp_rows, &c);
     }
     tsk_free(ufrac);
+    if (s == TSK_OK && atomic_load(&c.failed))
+        return tsk_error(TSK_ERR_MEMORY, "out of memory for the warp's row scratch");
     return s;
 }
