@@ -222,6 +222,69 @@ TEST(test_warp_output_at_any_page_offset_gives_the_same_bytes) {
     free(uv);
 }
 
+static int g_allocs_left;
+static void* failing_alloc(size_t size, void* user) {
+    (void)user;
+    return g_allocs_left-- > 0 ? malloc(size) : NULL;
+}
+static void plain_free(void* p, void* user) {
+    (void)user;
+    free(p);
+}
+
+/* An allocation failing at any point of a warp (its cell table, a chunk's row scratch, the
+ * Map UV pass) gives TSK_ERR_MEMORY with nothing leaked, never a frame with rows missing or
+ * a Map UV sampled through an unfinished UV pass; given enough, the same bytes as before. */
+TEST(test_warp_allocation_failures_are_reported) {
+    const int W = 40, H = 30, C = 8;
+    const size_t n4 = (size_t)W * H * 4;
+    float* src = random_image(W, H, 43);
+    int cx, cy;
+    CHECK(tsk_warp_grid_size(W, H, C, C, &cx, &cy) == TSK_OK);
+    const size_t nc = (size_t)cx * cy;
+    float* dx = malloc(nc * sizeof(float));
+    float* dy = malloc(nc * sizeof(float));
+    for (size_t k = 0; k < nc; ++k) {
+        dx[k] = 1.5f * sinf(0.9f * (float)k);
+        dy[k] = 1.2f * cosf(0.7f * (float)k);
+    }
+    float* ref = malloc(n4 * sizeof(float));
+    float* dst = malloc(n4 * sizeof(float));
+    float* uv = malloc(n4 * sizeof(float));
+    CHECK(tsk_set_threads(1) == TSK_OK); /* allocations in a fixed order */
+    for (int sampling = TSK_SAMPLE_BILINEAR; sampling <= TSK_SAMPLE_MAP_UV; ++sampling) {
+        CHECK(tsk_warp_apply(W, H, src, n4, C, C, dx, dy, nc, (tsk_warp_sampling)sampling, ref,
+                             n4, uv, n4, 0) == TSK_OK);
+        const size_t held = tsk_allocated_bytes();
+        int failures = 0;
+        for (int n = 0; n < 64; ++n) {
+            memset(dst, 0, n4 * sizeof(float));
+            g_allocs_left = n;
+            tsk_set_allocator(failing_alloc, plain_free, NULL);
+            const tsk_status s = tsk_warp_apply(W, H, src, n4, C, C, dx, dy, nc,
+                                                (tsk_warp_sampling)sampling, dst, n4, uv, n4, 0);
+            tsk_set_allocator(NULL, NULL, NULL);
+            CHECK(tsk_allocated_bytes() == held);
+            if (s == TSK_OK) {
+                CHECK(memcmp(ref, dst, n4 * sizeof(float)) == 0);
+                break;
+            }
+            ++failures;
+            CHECK_MSG(s == TSK_ERR_MEMORY, "status %d after %d allocations", (int)s, n);
+        }
+        /* bilinear: the cell table and the first row scratch; Map UV: the UV pass too */
+        CHECK_MSG(failures >= (sampling == TSK_SAMPLE_BILINEAR ? 2 : 3) && failures < 64,
+                  "%d failing allocations (sampling %d)", failures, sampling);
+    }
+    tsk_set_threads(0);
+    free(src);
+    free(dx);
+    free(dy);
+    free(ref);
+    free(dst);
+    free(uv);
+}
+
 /* Affine field: Vp at sample (a, b) = A + Bx a + By b; bilinear interpolation is exact. */
 TEST(test_corners_match_eq5_to_7_closed_form) {
     const int W = 100, H = 80, FW = 8, FH = 6;
@@ -1111,6 +1174,7 @@ TEST_MAIN(TEST_ENTRY(test_picture_and_layers_over_memory_budget_are_refused),
           TEST_ENTRY(test_warp_integer_shift_is_exact),
           TEST_ENTRY(test_warp_fractional_shift_matches_reference_bilinear),
           TEST_ENTRY(test_warp_output_at_any_page_offset_gives_the_same_bytes),
+          TEST_ENTRY(test_warp_allocation_failures_are_reported),
           TEST_ENTRY(test_corners_match_eq5_to_7_closed_form),
           TEST_ENTRY(test_rigidity_one_keeps_grid_shape),
           TEST_ENTRY(test_horizon_root_line_does_not_move),

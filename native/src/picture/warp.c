@@ -307,7 +307,7 @@ static void sample_row(const warp_ctx* c, const float* sxs, const float* sys,
  * source row and the output row sit at nearly the same offset in their 4 KiB pages, most
  * loads wait. Two large buffers from mmap do sit so (the picture's layer and a frame
  * allocated the same way), and the rows of a 1920-pixel picture alternate between two
- * offsets: there the RGBA warp took 40 % longer (docs/performance.md, session 14). Such a
+ * offsets: there the RGBA warp took 35-40 % longer (docs/performance.md, session 14). Such a
  * row is sampled into a row buffer with ordinary stores, which leave for the cache at once
  * wherever the buffer sits, then streamed out. Speed only: a pixel's bytes are the same
  * wherever it is sampled. */
@@ -476,7 +476,8 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
             c.uv = uvb;
             c.uv_bottom_up = 1;
             tsk_parallel_for((size_t)height, WARP_GRAIN, warp_rows, &c);
-            tsk_picture_map_uv(width, height, src, uvb, dst);
+            /* never sample through a UV pass with rows missing (reported below) */
+            if (!atomic_load(&c.failed)) tsk_picture_map_uv(width, height, src, uvb, dst);
             if (uvb != uv) {
                 tsk_free(uvb);
                 if (uv != NULL) { /* the caller wants it top-first */
