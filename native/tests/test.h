@@ -58,6 +58,17 @@ static int tsk_test_failed_checks;
     } while (0)
 
 /* 1 if `name` contains one of the comma-separated substrings of `list`. */
+/* An allocator for tsk_set_allocator that fails once the count at `allocs_left` (an int the
+ * test owns) runs out: each allocation takes one, then every further one returns NULL. */
+static inline void* tsk_test_failing_alloc(size_t size, void* allocs_left) {
+    int* n = allocs_left;
+    return (*n)-- > 0 ? malloc(size) : NULL;
+}
+static inline void tsk_test_plain_free(void* p, void* user) {
+    (void)user;
+    free(p);
+}
+
 static int tsk_test_listed(const char* name, const char* list) {
     while (list && *list) {
         const char* end = strchr(list, ',');

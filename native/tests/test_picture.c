@@ -222,16 +222,6 @@ TEST(test_warp_output_at_any_page_offset_gives_the_same_bytes) {
     free(uv);
 }
 
-static int g_allocs_left;
-static void* failing_alloc(size_t size, void* user) {
-    (void)user;
-    return g_allocs_left-- > 0 ? malloc(size) : NULL;
-}
-static void plain_free(void* p, void* user) {
-    (void)user;
-    free(p);
-}
-
 /* An allocation failing at any point of a warp (its cell table, a chunk's row scratch, the
  * Map UV pass) gives TSK_ERR_MEMORY with nothing leaked, never a frame with rows missing or
  * a Map UV sampled through an unfinished UV pass; given enough, the same bytes as before. */
@@ -259,8 +249,8 @@ TEST(test_warp_allocation_failures_are_reported) {
         int failures = 0;
         for (int n = 0; n < 64; ++n) {
             memset(dst, 0, n4 * sizeof(float));
-            g_allocs_left = n;
-            tsk_set_allocator(failing_alloc, plain_free, NULL);
+            int allocs_left = n;
+            tsk_set_allocator(tsk_test_failing_alloc, tsk_test_plain_free, &allocs_left);
             const tsk_status s = tsk_warp_apply(W, H, src, n4, C, C, dx, dy, nc,
                                                 (tsk_warp_sampling)sampling, dst, n4, uv, n4, 0);
             tsk_set_allocator(NULL, NULL, NULL);

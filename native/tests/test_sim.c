@@ -848,16 +848,6 @@ static float* all_knots(const tsk_blade_sim* sim, tsk_blade_sim_info* info) {
     return k;
 }
 
-static int g_allocs_left;
-static void* failing_alloc(size_t size, void* user) {
-    (void)user;
-    return g_allocs_left-- > 0 ? malloc(size) : NULL;
-}
-static void plain_free(void* p, void* user) {
-    (void)user;
-    free(p);
-}
-
 TEST(test_sim_clone_resumes_with_identical_bytes) {
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
     def.tiles_x = def.tiles_y = 4;
@@ -914,8 +904,8 @@ TEST(test_sim_clone_resumes_with_identical_bytes) {
     const size_t held = tsk_allocated_bytes();
     int failures = 0;
     for (int n = 0; n < 64; ++n) {
-        g_allocs_left = n;
-        tsk_set_allocator(failing_alloc, plain_free, NULL);
+        int allocs_left = n;
+        tsk_set_allocator(tsk_test_failing_alloc, tsk_test_plain_free, &allocs_left);
         tsk_blade_sim* c = (tsk_blade_sim*)&failures; /* not NULL before the call */
         tsk_status s = tsk_blade_sim_clone(a, &c);
         tsk_set_allocator(NULL, NULL, NULL);
