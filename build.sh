@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Tussock's only entry point:  ./build.sh deps | build | test | demo | bench [NAME...] | package
-#                              | fuzz [SECONDS [NAME...]]
+# Tussock's only entry point:  ./build.sh deps | build | test [--blender 3|4|5,...] | demo [--blender N]
+#                              | bench [--blender N] [NAME...] | package | fuzz [SECONDS [NAME...]]
 # Each step is idempotent and quiet when there is nothing to do.
 set -euo pipefail
 
@@ -11,7 +11,24 @@ BLENDER="${BLENDER:-blender}"
 export BLENDER
 
 PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ clang
-          libclang-rt-dev libopencv-dev libopenni2-dev libosd-dev valgrind)
+          libclang-rt-dev libopencv-dev libopenni2-dev libosd-dev valgrind debootstrap)
+
+# The Blenders the suite runs in: 3 is this machine's own (Debian 12's 3.4); 4 and 5 are
+# Debian trixie's (4.3) and sid's (5.x), each in a Debian root made by debootstrap from
+# Debian's own packages and kept outside the clone ($TSK_ROOTS) so later runs reuse it.
+# The native library is built inside each root against that root's OpenCV, OpenNI2 and
+# OpenSubdiv (their sonames differ between releases).
+ROOTS="${TSK_ROOTS:-/var/cache/tussock/roots}"
+ROOT_PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ clang
+               libopencv-dev libopenni2-dev libosd-dev)
+suite_of() { # blender major -> Debian suite ("" for the machine's own)
+  case "$1" in
+    3) echo "" ;;
+    4) echo trixie ;;
+    5) echo sid ;;
+    *) die "unknown Blender '$1': use 3 (this machine's 3.4), 4 (Debian trixie) or 5 (Debian sid)" ;;
+  esac
+}
 
 say() { printf '%s\n' "$*" >&2; }
 die() { say "build.sh: $*"; exit 1; }
@@ -189,36 +206,84 @@ run_valgrind_tests() { # dir
   done
 }
 
-cmd_test() {
-  local t0 t1
-  t0=$(date +%s)
-  cmd_deps
-  cmd_build
-  build_asan
-  cmd_package >/dev/null
-  export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1"
-  export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
-  run_native_tests "$BUILD/release" native
-  run_native_tests "$BUILD/asan" asan+ubsan
-  unset ASAN_OPTIONS UBSAN_OPTIONS
-  # valgrind memcheck (TSK_VALGRIND=0 skips)
-  if [ "${TSK_VALGRIND:-1}" != 0 ]; then
-    run_valgrind_tests "$BUILD/release"
-  fi
-  # every fuzzer briefly (TSK_CI_FUZZ_SECONDS each, default 15; 0 skips)
-  if [ "${TSK_CI_FUZZ_SECONDS:-15}" -gt 0 ]; then
-    build_fuzz
-    run_fuzzers "${TSK_CI_FUZZ_SECONDS:-15}"
-  fi
+# The Blender suite (blender_tests/run.py) in Blender `major`; adds to PASSED/FAILED.
+run_blender_suite() { # major
   local out line p f
-  if out="$("$PY" "$ROOT/blender_tests/run.py" 2>&1)"; then :; fi
+  if out="$(with_blender "$1" "$ROOT/blender_tests/run.py" 2>&1)"; then :; fi
   printf '%s\n' "$out" | grep -v -E '^[0-9]+ passed, [0-9]+ failed$' || true
   line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed$' | tail -n 1 || true)"
   if [ -z "$line" ]; then p=0; f=1; else
     p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
   fi
-  printf '%-8s %-28s %s passed, %s failed\n' blender "blender_tests" "$p" "$f"
+  printf '%-8s %-28s %s passed, %s failed\n' "blender$1" "blender_tests" "$p" "$f"
   PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+}
+
+# Parses "--blender 3,4,5" (or --blender=...) into MAJORS; the rest stays in ARGS.
+MAJORS=()
+ARGS=()
+parse_blenders() { # default list, args...
+  local list="$1" m
+  shift
+  BLENDER_CHOSEN=0
+  ARGS=()
+  while [ $# -gt 0 ]; do
+    case "$1" in
+      --blender) [ $# -ge 2 ] || die "--blender needs 3, 4 or 5 (or a list: 3,5)"
+                 list="$2"; BLENDER_CHOSEN=1; shift 2 ;;
+      --blender=*) list="${1#*=}"; BLENDER_CHOSEN=1; shift ;;
+      *) ARGS+=("$1"); shift ;;
+    esac
+  done
+  IFS=, read -r -a MAJORS <<<"$list"
+  for m in "${MAJORS[@]}"; do suite_of "$m" >/dev/null; done
+}
+
+# ./build.sh test: the native suites (release, ASan+UBSan, valgrind, a short fuzz) and the
+# Blender suite in Blenders 3.4, 4.3 and 5.x. With --blender N[,N...] only the Blender suite
+# in those Blenders (quick work on one version).
+cmd_test() {
+  local t0 t1 m prep_log="" prep_pid=""
+  t0=$(date +%s)
+  parse_blenders 3,4,5 "$@"
+  [ ${#ARGS[@]} -eq 0 ] || die "test: unknown argument '${ARGS[0]}'"
+  cmd_deps
+  # the roots download and build beside the native suites; they are waited for below
+  for m in "${MAJORS[@]}"; do
+    if [ -n "$(suite_of "$m")" ]; then
+      prep_log="$(mktemp)"
+      ( for m in "${MAJORS[@]}"; do root_build "$m"; done ) >"$prep_log" 2>&1 &
+      prep_pid=$!
+      break
+    fi
+  done
+  cmd_build
+  cmd_package >/dev/null
+  if [ "$BLENDER_CHOSEN" = 0 ]; then
+    build_asan
+    export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1"
+    export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+    run_native_tests "$BUILD/release" native
+    run_native_tests "$BUILD/asan" asan+ubsan
+    unset ASAN_OPTIONS UBSAN_OPTIONS
+    # valgrind memcheck (TSK_VALGRIND=0 skips)
+    if [ "${TSK_VALGRIND:-1}" != 0 ]; then
+      run_valgrind_tests "$BUILD/release"
+    fi
+    # every fuzzer briefly (TSK_CI_FUZZ_SECONDS each, default 15; 0 skips)
+    if [ "${TSK_CI_FUZZ_SECONDS:-15}" -gt 0 ]; then
+      build_fuzz
+      run_fuzzers "${TSK_CI_FUZZ_SECONDS:-15}"
+    fi
+  fi
+  if [ -n "$prep_pid" ]; then
+    if ! wait "$prep_pid"; then
+      cat "$prep_log" >&2
+      die "could not make the Debian roots of Blenders ${MAJORS[*]}"
+    fi
+    rm -f "$prep_log"
+  fi
+  for m in "${MAJORS[@]}"; do run_blender_suite "$m"; done
   t1=$(date +%s)
   say "test time: $((t1 - t0)) s"
   echo "$PASSED passed, $FAILED failed"
@@ -249,9 +314,129 @@ cmd_bench() {
   done
 }
 
+# ---- Debian roots for the newer Blenders ----------------------------------------------------
+
+# The mirror this machine's apt takes Debian from, so the roots come from the same place;
+# empty lets debootstrap use its own default.
+host_mirror() {
+  local f
+  for f in /etc/apt/sources.list.d/*.sources /etc/apt/sources.list; do
+    [ -f "$f" ] || continue
+    sed -n -E 's#^(URIs:[[:space:]]*|deb[[:space:]]+(\[[^]]*\][[:space:]]+)?)([a-z]+://[^[:space:]]+/debian)/?([[:space:]].*)?$#\3#p' "$f"
+  done | head -n 1
+}
+
+# Runs a command as root inside the Debian root of `suite`, in a mount namespace of its own:
+# /proc, /sys, /dev, a tmpfs on /dev/shm and this checkout (at the same path) are mounted
+# there and vanish with the command, so nothing is left mounted whatever happens. The
+# command sees a clean environment plus the TSK_*, CI and OMP_* variables, and starts in the
+# current folder when that is inside the checkout.
+in_root() { # suite, command...
+  local dir="$ROOTS/$1" kv pass=() cwd=/
+  shift
+  case "$PWD/" in "$ROOT"/*) cwd="$PWD" ;; esac
+  while IFS= read -r kv; do pass+=("$kv"); done < <(env | grep -E '^(TSK_[A-Z0-9_]*|CI|OMP_[A-Z_]*)=' || true)
+  unshare --mount --propagation private -- /bin/sh -euc '
+    d="$1"; src="$2"; shift 2
+    mount -t proc proc "$d/proc"
+    mount --rbind /sys "$d/sys"
+    mount --rbind /dev "$d/dev"
+    mount -t tmpfs -o mode=1777 tmpfs "$d/dev/shm"
+    mkdir -p "$d$src"
+    mount --bind "$src" "$d$src"
+    exec chroot "$d" "$@"' in_root "$dir" "$ROOT" \
+    env -i -C "$cwd" PATH=/usr/local/bin:/usr/bin:/bin:/usr/sbin:/sbin HOME=/root LANG=C.UTF-8 \
+    TERM=dumb DEBIAN_FRONTEND=noninteractive "${pass[@]}" "$@"
+}
+
+# Makes (or brings up to date) the Debian root of `suite` with ROOT_PACKAGES installed.
+# A root whose stamp lists the same packages is reused as it is.
+root_ensure() { # suite
+  local suite="$1" dir="$ROOTS/$1" want="${ROOT_PACKAGES[*]}" mirror
+  if [ -f "$dir/.tussock-packages" ] && [ "$(cat "$dir/.tussock-packages")" = "$want" ]; then
+    return 0
+  fi
+  mkdir -p "$ROOTS"
+  if [ ! -x "$dir/usr/bin/apt-get" ]; then
+    say "build.sh: making the Debian $suite root in $dir (debootstrap)"
+    rm -rf "$dir.tmp"
+    mirror="$(host_mirror)"
+    quiet debootstrap --variant=minbase "$suite" "$dir.tmp" ${mirror:+"$mirror"} \
+      || die "debootstrap $suite failed"
+    rm -rf "$dir"
+    mv "$dir.tmp" "$dir"
+  fi
+  # sid's Release file can be past its Valid-Until date between two archive updates
+  printf 'Acquire::Check-Valid-Until "false";\n' >"$dir/etc/apt/apt.conf.d/99tussock"
+  if [ -f /etc/resolv.conf ]; then cp -L /etc/resolv.conf "$dir/etc/resolv.conf"; fi
+  say "build.sh: installing into the $suite root: $want"
+  quiet in_root "$suite" apt-get update -qq || die "apt-get update in the $suite root failed"
+  quiet in_root "$suite" apt-get install -y -qq --no-install-recommends "${ROOT_PACKAGES[@]}" \
+    || die "apt-get install in the $suite root failed"
+  printf '%s\n' "$want" >"$dir/.tussock-packages"
+}
+
+# An add-on folder for a build: links to addon/'s sources, with that build's own binaries.
+addon_for() { # build dir, add-on dir
+  local from="$1" to="$2" e name
+  mkdir -p "$to"
+  for e in "$to"/*; do  # sources removed from addon/ since the last run
+    if [ -L "$e" ] && [ ! -e "$e" ]; then rm -f "$e"; fi
+  done
+  for e in "$ROOT"/addon/*; do
+    name="${e##*/}"
+    case "$name" in _tussock*.so|tussock_oni_reader|__pycache__) continue ;; esac
+    [ -L "$to/$name" ] || ln -sfn "$e" "$to/$name"
+  done
+  for name in _tussock.abi3.so tussock_oni_reader; do
+    cmp -s "$from/$name" "$to/$name" || cp "$from/$name" "$to/$name"
+  done
+}
+
+# The root of Blender `major` made and its add-on built: $BUILD/root-SUITE/{release,addon,dist}
+root_build() { # major
+  local suite b
+  suite="$(suite_of "$1")"
+  [ -n "$suite" ] || return 0
+  b="$BUILD/root-$suite"
+  root_ensure "$suite"
+  if [ ! -f "$b/release/build.ninja" ]; then
+    quiet in_root "$suite" cmake -S "$ROOT/native" -B "$b/release" -G Ninja \
+      -DCMAKE_BUILD_TYPE=Release || die "cmake configure failed in the $suite root"
+  fi
+  quiet in_root "$suite" cmake --build "$b/release" --target _tussock tussock_oni_reader \
+    || die "native build failed in the $suite root"
+  addon_for "$b/release" "$b/addon"
+  quiet in_root "$suite" python3 "$ROOT/tools/package.py" "$ROOT" "$b/dist" "$b/addon" \
+    || die "packaging failed in the $suite root"
+}
+
+# Runs a Python script of the checkout with Blender `major`: this machine's own, or the one
+# in its Debian root with the add-on built there (TSK_ADDON, TSK_DIST tell tools/blender_env.py
+# and the tests where that build is).
+with_blender() { # major, python script, args...
+  local suite
+  suite="$(suite_of "$1")"
+  shift
+  if [ -z "$suite" ]; then
+    "$PY" "$@"
+  else
+    in_root "$suite" env TSK_ADDON="$BUILD/root-$suite/addon" TSK_DIST="$BUILD/root-$suite/dist" \
+      python3 "$@"
+  fi
+}
+
 cmd_package() {
   cmd_build
   "$PY" "$ROOT/tools/package.py" "$ROOT" "$ROOT/dist"
+}
+
+# Makes the Debian roots of the Blenders named (default: all but this machine's own) and
+# builds the add-on in each.
+cmd_roots() {
+  local m
+  [ $# -gt 0 ] || set -- 4 5
+  for m in "$@"; do root_build "$m"; done
 }
 
 main() {
@@ -260,13 +445,17 @@ main() {
   case "$cmd" in
     deps) cmd_deps ;;
     build) cmd_deps; cmd_build ;;
-    test) cmd_test ;;
-    demo) cmd_demo ;;
+    test) cmd_test "$@" ;;
+    demo) cmd_demo "$@" ;;
     bench) cmd_deps; cmd_bench "$@" ;;
     package) cmd_deps; cmd_package ;;
     fuzz) cmd_deps; cmd_fuzz "$@" ;;
-    *) say "usage: ./build.sh deps | build | test | demo | bench [NAME...] | package | fuzz [SECONDS [NAME...]]"; exit 2 ;;
+    roots) cmd_deps; cmd_roots "$@" ;;
+    *) say "usage: ./build.sh deps | build | test [--blender 3|4|5[,...]] | demo [--blender N]"
+       say "                  | bench [--blender N] [NAME...] | package | fuzz [SECONDS [NAME...]]"
+       say "                  | roots [4] [5]"
+       exit 2 ;;
   esac
 }
 
-main "$@"
+if [ "${BASH_SOURCE[0]}" = "$0" ]; then main "$@"; fi  # sourcing only defines the steps

@@ -45,6 +45,11 @@ def main():
     if filters:
         files = [f for f in files if any(x in os.path.basename(f) for x in filters)]
     total_p = total_f = 0
+    version = subprocess.run([os.environ.get("BLENDER", "blender"), "--version"],
+                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                             errors="replace").stdout.strip().splitlines()
+    print(f"{version[0] if version else 'Blender (no version printed)'} "
+          f"(add-on: {blender_env.ADDON})")
     for path in files:
         name = os.path.basename(path)
         out, code, secs = run_file(path, timeout)

@@ -13,7 +13,7 @@ from harness import test  # noqa: E402
 import addon_utils  # noqa: E402
 import bpy  # noqa: E402
 
-DIST = os.path.join(harness.REPO, "dist")
+DIST = os.environ.get("TSK_DIST") or os.path.join(harness.REPO, "dist")
 
 
 def manifest():

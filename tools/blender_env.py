@@ -1,7 +1,8 @@
 """Runs a script in background Blender (`blender -b --factory-startup`) with a fresh,
-private user folder whose addons/tussock links to this checkout's addon/, so nothing of
-the person's own Blender setup is read or changed. Used by the test runner, the demo,
-the docs pictures and the Blender benchmarks."""
+private user folder whose addons/tussock links to this checkout's addon/ (or to $TSK_ADDON:
+the add-on folder build.sh lays out for a Blender in a Debian root, with the native library
+built there), so nothing of the person's own Blender setup is read or changed. Used by the
+test runner, the demo, the docs pictures and the Blender benchmarks."""
 
 import os
 import shutil
@@ -9,6 +10,8 @@ import subprocess
 import tempfile
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ADDON = os.environ.get("TSK_ADDON") or os.path.join(REPO, "addon")
+DIST = os.environ.get("TSK_DIST") or os.path.join(REPO, "dist")
 
 
 class BlenderUser:
@@ -18,7 +21,7 @@ class BlenderUser:
         self.root = tempfile.mkdtemp(prefix="tussock-blender-")
         addons = os.path.join(self.root, "scripts", "addons")
         os.makedirs(addons)
-        os.symlink(os.path.join(REPO, "addon"), os.path.join(addons, "tussock"))
+        os.symlink(ADDON, os.path.join(addons, "tussock"))
         self.tmp = os.path.join(self.root, "tmp")
         os.makedirs(self.tmp)
         env = dict(os.environ)

@@ -4,7 +4,8 @@
   dist/tussock-VERSION-extension.zip  files at the root with blender_manifest.toml, for 4.2+
 blender_manifest.toml is written from manifest.toml, the single source of metadata.
 
-usage: package.py REPO DIST"""
+usage: package.py REPO DIST [ADDON_DIR]   (ADDON_DIR: an add-on folder laid out by build.sh
+for a Blender in a Debian root, whose sources are links into addon/; default REPO/addon)"""
 
 import os
 import sys
@@ -41,7 +42,7 @@ def blender_manifest(meta):
 
 
 def addon_files(addon_dir):
-    for root, dirs, files in os.walk(addon_dir):
+    for root, dirs, files in os.walk(addon_dir, followlinks=True):
         dirs[:] = sorted(d for d in dirs if d not in EXCLUDE_DIRS)
         for name in sorted(files):
             if os.path.splitext(name)[1] in EXCLUDE_EXT:
@@ -67,13 +68,13 @@ def write_zip(path, entries):
     os.replace(tmp, path)
 
 
-def main(repo, dist):
+def main(repo, dist, addon_dir=None):
     with open(os.path.join(repo, "manifest.toml"), "rb") as f:
         meta = tomllib.load(f)
-    addon_dir = os.path.join(repo, "addon")
+    addon_dir = addon_dir or os.path.join(repo, "addon")
     for built in ("_tussock.abi3.so", "tussock_oni_reader"):
         if not os.path.isfile(os.path.join(addon_dir, built)):
-            sys.exit(f"package.py: addon/{built} is missing; run ./build.sh build")
+            sys.exit(f"package.py: {addon_dir}/{built} is missing; run ./build.sh build")
     os.makedirs(dist, exist_ok=True)
     files = list(addon_files(addon_dir))
     base = f'{meta["id"]}-{meta["version"]}'
@@ -87,4 +88,4 @@ def main(repo, dist):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2])
+    main(*sys.argv[1:4])
