@@ -136,22 +136,62 @@ def node_group_socket_identifier(group, in_out, name):
     raise KeyError(f"node group {group.name} has no {in_out.lower()} {name!r}")
 
 
+def _modifier_input(modifier, name):
+    """(container, key) of a Geometry Nodes modifier input. Blender 3.4-5.1: the modifier
+    is an ID-property container keyed by the socket's identifier. Blender 5.2+: inputs are
+    RNA structs, modifier.properties.inputs.<identifier>, each holding its `value`."""
+    ident = node_group_socket_identifier(modifier.node_group, "INPUT", name)
+    props = getattr(modifier, "properties", None)
+    if props is not None and hasattr(props, "inputs"):  # 5.2+
+        return getattr(props.inputs, ident), "value"
+    return modifier, ident
+
+
 def set_modifier_input(modifier, name, value):
-    """Sets the value of a Geometry Nodes modifier's input by the socket's name."""
-    modifier[node_group_socket_identifier(modifier.node_group, "INPUT", name)] = value
+    """Sets the value of a Geometry Nodes modifier's input by the socket's name. The object
+    is tagged for re-evaluation: 5.2's input properties do not tag it when written."""
+    container, key = _modifier_input(modifier, name)
+    if container is modifier:
+        modifier[key] = value
+    else:
+        setattr(container, key, value)
+        modifier.id_data.update_tag()
 
 
 def get_modifier_input(modifier, name):
-    return modifier[node_group_socket_identifier(modifier.node_group, "INPUT", name)]
+    container, key = _modifier_input(modifier, name)
+    return modifier[key] if container is modifier else getattr(container, key)
 
 
 def settings_of(idblock, name):
     """The Tussock property group `name` of a datablock if it was ever set, else None.
     Reading `obj.<group>` would create an empty group on every object looked at (and so
-    change the file); this looks without touching."""
-    if idblock is None or name not in idblock.keys():
+    change the file); this looks without touching. is_property_set answers that in every
+    version; `name in idblock.keys()` did too until 5.0, which took the storage of
+    registered properties out of keys()."""
+    if idblock is None or not idblock.is_property_set(name):
         return None
     return getattr(idblock, name, None)
+
+
+def fcurves(anim_data):
+    """The F-curves that animate a datablock through `anim_data` (its AnimData, or None):
+    the action's own list up to 4.x; from 5.0 (slotted actions) the channel bag of the
+    action's layer for the slot assigned to this datablock. Empty when nothing is keyed."""
+    action = anim_data.action if anim_data is not None else None
+    if action is None:
+        return ()
+    if hasattr(action, "fcurves"):  # 3.4-4.5 (4.4+: the first slot's, as before)
+        return action.fcurves
+    from bpy_extras import anim_utils  # 5.0+
+    bag = anim_utils.action_get_channelbag_for_slot(action, anim_data.action_slot)
+    return bag.fcurves if bag is not None else ()
+
+
+def fcurve(anim_data, path, index=0):
+    """The F-curve animating `path`[`index`] through `anim_data`, or None."""
+    curves = fcurves(anim_data)
+    return curves.find(path, index=index) if len(curves) else None
 
 
 def compositor_output(tree):
@@ -168,14 +208,18 @@ def compositor_output(tree):
 
 def map_uv_like_ewa(node):
     """Makes a Map UV node filter as the native 'map_uv' sampling: always EWA in 3.x; the
-    'Anisotropic' filter from 4.x on (a property up to 4.x, an input socket later)."""
-    if hasattr(node, "filter_type"):
+    'ANISOTROPIC' filter_type property in 4.1-4.5; from 5.0 the "Interpolation" menu input
+    set to "Anisotropic" (it defaults to "Bilinear"). Raises when a 5.x has none of these,
+    so a Blender that renamed it again is noticed instead of rendering other pixels."""
+    if hasattr(node, "filter_type"):  # 4.1-4.5
         node.filter_type = "ANISOTROPIC"
-    elif "Filter" in node.inputs:
-        try:
-            node.inputs["Filter"].default_value = "Anisotropic"
-        except (TypeError, AttributeError):
-            pass
+        return
+    socket = node.inputs.get("Interpolation") or node.inputs.get("Filter")  # 5.0+
+    if socket is None and VERSION < (5, 0, 0):  # 3.x, 4.0: EWA is all it does
+        return
+    if socket is None:
+        raise RuntimeError("this Blender's Map UV node has no anisotropic filter setting")
+    socket.default_value = "Anisotropic"
 
 
 def alpha_over_premultiplied(node):
@@ -206,3 +250,46 @@ def image_node_sequence(node, first, count):
     for name, value in values.items():
         if getattr(user, name) != value:
             setattr(user, name, value)
+
+
+def compositor_math(tree, operation):
+    """A Math node in a compositor tree: CompositorNodeMath up to 4.5; 5.0 removed it, and
+    compositor trees take the shader Math node instead (same inputs and operations)."""
+    node = tree.nodes.new("ShaderNodeMath" if VERSION >= (5, 0, 0) else "CompositorNodeMath")
+    node.operation = operation
+    return node
+
+
+def set_file_format(settings, file_format):
+    """ImageFormatSettings.file_format = file_format. From 5.0 a format belongs to a media
+    type (image, multilayer image, video) that must be chosen first: a File Output node
+    starts as a multilayer image, and "FFMPEG" is only offered for video."""
+    if hasattr(settings, "media_type"):  # 5.0+
+        settings.media_type = {"FFMPEG": "VIDEO",
+                               "OPEN_EXR_MULTILAYER": "MULTI_LAYER_IMAGE"}.get(file_format, "IMAGE")
+    settings.file_format = file_format
+
+
+def file_output(tree, directory, name, file_format):
+    """A File Output node whose one input is written at frame f as directory/name0001.ext
+    (f with four digits). Returns (node, input socket); the caller sets node.format. Up to
+    4.5: base_path and the first slot's path, which Blender follows with the frame. From
+    5.0: directory, a file name whose #### the frame replaces, and one item with an empty
+    name (an item's name is written after the file name)."""
+    node = tree.nodes.new("CompositorNodeOutputFile")
+    set_file_format(node.format, file_format)
+    if hasattr(node, "file_output_items"):  # 5.0+
+        node.directory = directory
+        node.file_name = name + "####"
+        node.file_output_items.clear()
+        node.file_output_items.new("RGBA", "")
+    else:
+        node.base_path = directory
+        node.file_slots[0].path = name
+    return node, node.inputs[0]
+
+
+def sequencer_strips(editor):
+    """The strips of a sequence editor: `sequences` up to 4.x, `strips` from 4.4 (5.0
+    removed `sequences`)."""
+    return editor.strips if hasattr(editor, "strips") else editor.sequences

@@ -20,7 +20,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 harness.enable_addon()
-from tussock import native  # noqa: E402
+from tussock import compat, native  # noqa: E402
 from tussock.picture import frames  # noqa: E402
 from tussock.wind import runtime as wind_runtime  # noqa: E402
 
@@ -313,7 +313,7 @@ def test_keyed_wind_source_drives_the_picture():
     src.keyframe_insert("tussock_wind_source.strength", frame=1)
     src.tussock_wind_source.strength = 1.0
     src.keyframe_insert("tussock_wind_source.strength", frame=20)
-    for fc in src.animation_data.action.fcurves:
+    for fc in compat.fcurves(src.animation_data):
         for k in fc.keyframe_points:
             k.interpolation = "CONSTANT"
     for f in (5, 19):  # no push before frame 20: still

@@ -16,7 +16,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 harness.enable_addon()
-from tussock import native  # noqa: E402
+from tussock import compat, native  # noqa: E402
 
 lib = native.require()
 
@@ -50,8 +50,7 @@ def _render_map_uv(layer_bottom_up, uv_bottom_up, mode, background_bottom_up=Non
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = W, H
     scene.render.resolution_percentage = 100
-    scene.use_nodes = True
-    tree = scene.node_tree
+    tree = compat.compositor_tree(scene)
     if hasattr(tree, "execution_mode"):
         tree.execution_mode = mode
     tree.nodes.clear()
@@ -60,9 +59,8 @@ def _render_map_uv(layer_bottom_up, uv_bottom_up, mode, background_bottom_up=Non
     n_uv = tree.nodes.new("CompositorNodeImage")
     n_uv.image = _float_image("tsk_uv", uv_bottom_up)
     map_uv = tree.nodes.new("CompositorNodeMapUV")
-    if hasattr(map_uv, "filter_type"):
-        map_uv.filter_type = "ANISOTROPIC"
-    out = tree.nodes.new("CompositorNodeComposite")
+    compat.map_uv_like_ewa(map_uv)
+    out = compat.compositor_output(tree)
     tree.links.new(n_layer.outputs["Image"], map_uv.inputs["Image"])
     tree.links.new(n_uv.outputs["Image"], map_uv.inputs["UV"])
     if background_bottom_up is None:
@@ -71,9 +69,10 @@ def _render_map_uv(layer_bottom_up, uv_bottom_up, mode, background_bottom_up=Non
         n_bg = tree.nodes.new("CompositorNodeImage")
         n_bg.image = _float_image("tsk_background", background_bottom_up)
         over = tree.nodes.new("CompositorNodeAlphaOver")
-        over.use_premultiply = False  # the layer is premultiplied already
-        tree.links.new(n_bg.outputs["Image"], over.inputs[1])
-        tree.links.new(map_uv.outputs["Image"], over.inputs[2])
+        compat.alpha_over_premultiplied(over)  # the layer is premultiplied already
+        back, front = compat.alpha_over_inputs(over)
+        tree.links.new(n_bg.outputs["Image"], back)
+        tree.links.new(map_uv.outputs["Image"], front)
         tree.links.new(over.outputs["Image"], out.inputs["Image"])
     settings = scene.render.image_settings
     settings.file_format = "OPEN_EXR"

@@ -14,7 +14,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 harness.enable_addon()
-from tussock import native  # noqa: E402
+from tussock import compat, native  # noqa: E402
 from tussock.wind import runtime  # noqa: E402
 
 
@@ -74,7 +74,7 @@ def test_keyframed_source_drives_the_fluid():
     s.keyframe_insert("strength", frame=12)
     s.strength = 1.0
     s.keyframe_insert("strength", frame=13)
-    for fc in src.animation_data.action.fcurves:
+    for fc in compat.fcurves(src.animation_data):
         for kp in fc.keyframe_points:
             kp.interpolation = "CONSTANT"
     probe = np.array([[-1.0, 0.0, 0.0]], np.float32)

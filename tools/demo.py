@@ -192,6 +192,7 @@ def picture_clip():
 
 def encode_video(folder, prefix, frames, path, fps, size):
     """Frames -> MP4 with Blender's sequencer and FFmpeg output (no extra tools)."""
+    from tussock import compat  # the sequencer and video output differ in Blender 5
     vscene = bpy.data.scenes.new("Video")
     vscene.render.resolution_x, vscene.render.resolution_y = size
     vscene.render.resolution_percentage = 100
@@ -199,10 +200,10 @@ def encode_video(folder, prefix, frames, path, fps, size):
     vscene.frame_start, vscene.frame_end = 1, frames
     seq = vscene.sequence_editor_create()
     files = sorted(f for f in os.listdir(folder) if f.startswith(prefix))
-    strip = seq.sequences.new_image("frames", os.path.join(folder, files[0]), 1, 1)
+    strip = compat.sequencer_strips(seq).new_image("frames", os.path.join(folder, files[0]), 1, 1)
     for f in files[1:]:
         strip.elements.append(f)
-    vscene.render.image_settings.file_format = "FFMPEG"
+    compat.set_file_format(vscene.render.image_settings, "FFMPEG")
     vscene.render.ffmpeg.format = "MPEG4"
     vscene.render.ffmpeg.codec = "H264"
     vscene.render.filepath = path

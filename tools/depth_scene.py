@@ -120,22 +120,20 @@ def setup_camera_scene():
 
 
 def _file_output(tree, base, name, fmt, depth):
-    out = tree.nodes.new("CompositorNodeOutputFile")
-    out.base_path = base
-    out.format.file_format = fmt
+    from tussock import compat
+    out, socket = compat.file_output(tree, base, name, fmt)
     # Blender 3.4 writes OpenEXR only as RGB(A); the three channels hold the same depth.
     out.format.color_mode = "BW" if fmt == "PNG" else "RGB"
     out.format.color_depth = depth
     if fmt == "OPEN_EXR":
         out.format.exr_codec = "ZIP"
-    out.file_slots[0].path = name
-    return out
+    return socket
 
 
 def render_depth(scene, directory, stem, frame=1, far=10.0):
     """Renders the current frame's depth and writes <stem>.exr (metres, float32, 0 where
     nothing was hit) and <stem>.png (uint16 millimetres, 0 = no data). Returns both paths."""
-    from tussock import compat  # compositor tree location differs in Blender 5
+    from tussock import compat  # the compositor's API differs in Blender 5
     os.makedirs(directory, exist_ok=True)
     scene.frame_set(frame)
     scene.render.use_compositing = True
@@ -144,23 +142,20 @@ def render_depth(scene, directory, stem, frame=1, far=10.0):
         tree.nodes.remove(node)
     rl = tree.nodes.new("CompositorNodeRLayers")
     # valid = depth < far; metres = depth * valid; png value = metres * 1000 / 65535
-    less = tree.nodes.new("CompositorNodeMath")
-    less.operation = "LESS_THAN"
+    less = compat.compositor_math(tree, "LESS_THAN")
     less.inputs[1].default_value = far
     tree.links.new(rl.outputs["Depth"], less.inputs[0])
-    metres = tree.nodes.new("CompositorNodeMath")
-    metres.operation = "MULTIPLY"
+    metres = compat.compositor_math(tree, "MULTIPLY")
     tree.links.new(rl.outputs["Depth"], metres.inputs[0])
     tree.links.new(less.outputs[0], metres.inputs[1])
-    mm = tree.nodes.new("CompositorNodeMath")
-    mm.operation = "MULTIPLY"
+    mm = compat.compositor_math(tree, "MULTIPLY")
     mm.inputs[1].default_value = 1000.0 / 65535.0
     tree.links.new(metres.outputs[0], mm.inputs[0])
     tmp = os.path.join(directory, ".render_tmp")
     exr = _file_output(tree, tmp, "exr_", "OPEN_EXR", "32")
     png = _file_output(tree, tmp, "png_", "PNG", "16")
-    tree.links.new(metres.outputs[0], exr.inputs[0])
-    tree.links.new(mm.outputs[0], png.inputs[0])
+    tree.links.new(metres.outputs[0], exr)
+    tree.links.new(mm.outputs[0], png)
     bpy.ops.render.render(write_still=False)
     paths = []
     for prefix, ext in (("exr_", ".exr"), ("png_", ".png")):

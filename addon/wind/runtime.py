@@ -19,12 +19,8 @@ _cache = {}  # scene name -> Stepper
 
 def _animated(obj, path, index, frame, default):
     """Value of an animated property at `frame` from its F-curve, else `default`."""
-    ad = obj.animation_data
-    if ad is not None and ad.action is not None:
-        fc = ad.action.fcurves.find(path, index=index)
-        if fc is not None:
-            return fc.evaluate(frame)
-    return default
+    fc = compat.fcurve(obj.animation_data, path, index)
+    return fc.evaluate(frame) if fc is not None else default
 
 
 def sources(scene, frame):
