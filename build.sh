@@ -338,6 +338,7 @@ in_root() { # suite, command...
   while IFS= read -r kv; do pass+=("$kv"); done < <(env | grep -E '^(TSK_[A-Z0-9_]*|CI|OMP_[A-Z_]*)=' || true)
   unshare --mount --propagation private -- /bin/sh -euc '
     d="$1"; src="$2"; shift 2
+    mount --bind "$d" "$d"  # the root a mount point, so that commands inside can unshare too
     mount -t proc proc "$d/proc"
     mount --rbind /sys "$d/sys"
     mount --rbind /dev "$d/dev"

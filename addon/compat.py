@@ -1,9 +1,19 @@
 """The few Blender API differences between 3.4, 4.x and 5.x live here and nowhere else."""
 
+import os
+
 import bpy
 import numpy as np
 
 VERSION = bpy.app.version
+
+
+# Options of a file path property: from 4.5 (5.2 measured) a path that may start with "//"
+# (relative to the .blend, as farms need) must say so, or Blender warns and takes it as is.
+# Earlier versions do not know the option and refuse to register a property that names it.
+PATH_OPTIONS = {"ANIMATABLE", "PATH_SUPPORTS_BLEND_RELATIVE"} \
+    if "is_path_supports_blend_relative" in bpy.types.Property.bl_rna.properties \
+    else {"ANIMATABLE"}
 
 
 def mesh_indices(values):
@@ -109,6 +119,20 @@ def preferences_id(package):
     """bl_idname for AddonPreferences: the add-on's package, which is 'tussock' for a
     legacy add-on and 'bl_ext.<repo>.tussock' for a 4.2+ extension."""
     return package
+
+
+# "tussock" for a legacy add-on; "bl_ext.<repository>.tussock" when installed as a 4.2+
+# extension (this module sits at the add-on's top level).
+ADDON_PACKAGE = __package__
+
+
+def user_data_dir(name, create=False):
+    """A folder for the artist's own files of kind `name` (e.g. tree presets). An extension
+    (4.2+) writes only below bpy.utils.extension_path_user, which survives updates of the
+    extension; a legacy add-on uses presets/<name> in Blender's user scripts folder."""
+    if ADDON_PACKAGE.startswith("bl_ext.") and hasattr(bpy.utils, "extension_path_user"):
+        return bpy.utils.extension_path_user(ADDON_PACKAGE, path=name, create=create)
+    return bpy.utils.user_resource("SCRIPTS", path=os.path.join("presets", name), create=create)
 
 
 def enabled_output(node, name=None):
@@ -220,6 +244,14 @@ def map_uv_like_ewa(node):
     if socket is None:
         raise RuntimeError("this Blender's Map UV node has no anisotropic filter setting")
     socket.default_value = "Anisotropic"
+
+
+def map_uv_sampling():
+    """The native warp's sampling that equals what this Blender's Map UV node draws once
+    map_uv_like_ewa set it: 'map_uv' (the EWA of 3.x-4.3: central-difference derivatives)
+    or, from 5.0, 'map_uv_5' (the rewritten node: derivatives across 2x2 pixel blocks and
+    its own anisotropic sampler). 4.4 and 4.5 are not in Debian and were not measured."""
+    return "map_uv_5" if VERSION >= (5, 0, 0) else "map_uv"
 
 
 def alpha_over_premultiplied(node):

@@ -25,16 +25,39 @@ Error = lib.Error if lib is not None else RuntimeError
 
 # OpenNI2 recordings are read by a helper program beside the library (a damaged recording
 # can crash OpenNI2's player; in its own process that crash is only an error message).
-# Blender unpacks add-on zips without file modes, so give the program back its execute bit.
+# Blender unpacks add-on zips and extensions without file modes, so the program needs its
+# execute bit back. Where the installed folder is read-only (a studio's shared install),
+# a copy in a private temporary folder runs instead: the library spawns $TSK_ONI_READER
+# when it is set (native/src/capture/depth_oni_proxy.c).
 ONI_READER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "tussock_oni_reader")
 
 
+def _private_reader_copy():
+    import atexit
+    import shutil
+    import tempfile
+    folder = tempfile.mkdtemp(prefix="tussock-")  # mode 0700, this process's alone
+    atexit.register(shutil.rmtree, folder, True)
+    copy = os.path.join(folder, "tussock_oni_reader")
+    shutil.copyfile(ONI_READER, copy)
+    os.chmod(copy, 0o700)
+    return copy
+
+
 def _ensure_reader_executable():
+    if os.environ.get("TSK_ONI_READER") or not os.path.isfile(ONI_READER) \
+            or os.access(ONI_READER, os.X_OK):
+        return
     try:
-        if os.path.isfile(ONI_READER) and not os.access(ONI_READER, os.X_OK):
-            os.chmod(ONI_READER, os.stat(ONI_READER).st_mode | 0o111)
+        os.chmod(ONI_READER, os.stat(ONI_READER).st_mode | 0o111)
+        if os.access(ONI_READER, os.X_OK):
+            return
     except OSError:
-        pass  # a read-only install: opening a recording then reports the reader missing
+        pass
+    try:
+        os.environ["TSK_ONI_READER"] = _private_reader_copy()
+    except OSError:
+        pass  # nowhere to run it from: opening a recording then reports the reader missing
 
 
 if lib is not None:

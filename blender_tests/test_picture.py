@@ -176,7 +176,7 @@ def test_rendered_frames_equal_native_composite():
     worst = 0.0
     for frame in (1, 14, 30):
         rendered = render(scene, frame)
-        native_frame = frames.native_composite(scene, frame, sampling="map_uv")
+        native_frame = frames.native_composite(scene, frame, sampling=compat.map_uv_sampling())
         err = float(np.max(np.abs(rendered - native_frame)))
         print(f"    frame {frame}: max |render - native| = {err:.3g}")
         worst = max(worst, err)

@@ -28,6 +28,7 @@ class BlenderUser:
         env["BLENDER_USER_SCRIPTS"] = os.path.join(self.root, "scripts")
         env["BLENDER_USER_CONFIG"] = os.path.join(self.root, "config")
         env["BLENDER_USER_DATAFILES"] = os.path.join(self.root, "datafiles")
+        env["BLENDER_USER_EXTENSIONS"] = os.path.join(self.root, "extensions")  # 4.2+
         env["TSK_TEST_TMP"] = self.tmp
         self.env = env
         return self

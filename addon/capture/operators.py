@@ -7,7 +7,7 @@ import time
 import bpy
 import numpy as np
 
-from .. import errors, native
+from .. import compat, errors, native
 from . import blades, pipeline, preview
 from .props import SOURCE_ITEMS
 
@@ -19,7 +19,7 @@ class TUSSOCK_OT_capture_blades(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     source: bpy.props.EnumProperty(name="Source", items=SOURCE_ITEMS, default="FILES")
-    filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH")
+    filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH", options=compat.PATH_OPTIONS)
     device_uri: bpy.props.StringProperty(name="Device", default="")
     near: bpy.props.FloatProperty(name="Near", default=0.0, min=0.0, unit="LENGTH",
                                   description="Near end of the depth band (0 = automatic)")

@@ -3,6 +3,8 @@ operator when the artist presses Capture."""
 
 import bpy
 
+from .. import compat
+
 SOURCE_ITEMS = [
     ("FILES", "Depth images", "A 16-bit PNG (millimetres) or 32-bit OpenEXR (metres), or a "
      "numbered sequence with # for the frame number (depth_####.png)"),
@@ -13,7 +15,7 @@ SOURCE_ITEMS = [
 
 class TussockCaptureSettings(bpy.types.PropertyGroup):
     source: bpy.props.EnumProperty(name="Source", items=SOURCE_ITEMS, default="FILES")
-    filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH")
+    filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH", options=compat.PATH_OPTIONS)
     device_uri: bpy.props.StringProperty(name="Device", default="",
                                          description="OpenNI2 device URI (empty: the first)")
     auto_band: bpy.props.BoolProperty(name="Auto", default=True,

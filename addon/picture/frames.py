@@ -16,7 +16,7 @@ import json
 
 import numpy as np
 
-from .. import native
+from .. import compat, native
 from ..wind import runtime as wind_runtime
 from . import layers
 
@@ -327,11 +327,13 @@ def update(scene, frame=None):
     _written[scene.name] = key
 
 
-def native_composite(scene, frame, sampling="map_uv"):
+def native_composite(scene, frame, sampling=None):
     """The frame as Tussock computes it (premultiplied RGBA (H, W, 4), top row first):
-    every layer warped with `sampling` and laid over the background plate. With 'map_uv'
-    it is what the compositor renders."""
+    every layer warped with `sampling` and laid over the background plate. By default the
+    sampling of this Blender's Map UV node (compat.map_uv_sampling), so that it is what
+    the compositor renders."""
     lib = native.require()
+    sampling = sampling or compat.map_uv_sampling()
     b = built(scene)
     frames = layer_frames(scene, frame, rgba=True, sampling=sampling)
     out = np.empty((b.height, b.width, 4), np.float32)

@@ -7,7 +7,7 @@ import types
 import bpy
 import numpy as np
 
-from .. import errors, native
+from .. import compat, errors, native
 from ..nodes import picture_compositor
 from ..wind import runtime as wind_runtime
 from . import frames, layers
@@ -91,10 +91,10 @@ class TUSSOCK_OT_animate_picture(bpy.types.Operator):
     bl_label = "Animate Picture"
     bl_options = {"REGISTER", "UNDO"}
 
-    filepath: bpy.props.StringProperty(name="Picture", subtype="FILE_PATH",
+    filepath: bpy.props.StringProperty(name="Picture", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
                                        description="Picture file; empty = the scene's "
                                        "Tussock picture settings")
-    mask_path: bpy.props.StringProperty(name="Mask", subtype="FILE_PATH",
+    mask_path: bpy.props.StringProperty(name="Mask", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
                                         description="Mask file of a single layer with "
                                         "default motion, replacing the scene's layers; "
                                         "empty = the scene's layers")

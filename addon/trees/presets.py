@@ -1,20 +1,18 @@
 """Tree presets: the native library's built-in species and the artist's own, saved as
-JSON files in Blender's user folder (presets/tussock_trees)."""
+JSON files in the add-on's user folder (compat.user_data_dir: presets/tussock_trees in
+Blender's user scripts for a legacy add-on, the extension's own user folder from 4.2)."""
 
 import json
 import os
 import re
 
-import bpy
-
-from .. import native
+from .. import compat, native
 
 _items = []  # kept alive: Blender needs enum item strings to outlive the callback
 
 
 def user_dir(create=False):
-    return bpy.utils.user_resource("SCRIPTS", path=os.path.join("presets", "tussock_trees"),
-                                   create=create)
+    return compat.user_data_dir("tussock_trees", create=create)
 
 
 def user_presets():
