@@ -172,14 +172,15 @@ def _modifier_input(modifier, name):
 
 
 def set_modifier_input(modifier, name, value):
-    """Sets the value of a Geometry Nodes modifier's input by the socket's name. The object
-    is tagged for re-evaluation: 5.2's input properties do not tag it when written."""
+    """Sets the value of a Geometry Nodes modifier's input by the socket's name, and tags
+    the object for re-evaluation: neither the ID property of 3.4-5.1 nor the input property
+    of 5.2 tags it when written (test_compat checks the evaluated mesh)."""
     container, key = _modifier_input(modifier, name)
     if container is modifier:
         modifier[key] = value
     else:
         setattr(container, key, value)
-        modifier.id_data.update_tag()
+    modifier.id_data.update_tag()
 
 
 def get_modifier_input(modifier, name):

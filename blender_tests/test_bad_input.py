@@ -763,4 +763,53 @@ def test_picture_8_and_16_bit_files_are_both_read():
         assert s.last_error == ""
 
 
+class _FailOnCall:
+    """Replaces module.name for the duration of a `with`: its `nth` call raises `exc`
+    (after the earlier calls went through), as a Blender API that behaves otherwise in a
+    new version, or a bug, raises in the middle of an operator's work."""
+
+    def __init__(self, module, name, exc, nth=1):
+        self.module, self.name, self.exc, self.nth = module, name, exc, nth
+
+    def __enter__(self):
+        self.original = getattr(self.module, self.name)
+        calls = [0]
+
+        def failing(*args, **kwargs):
+            calls[0] += 1
+            if calls[0] >= self.nth:
+                raise self.exc
+            return self.original(*args, **kwargs)
+        setattr(self.module, self.name, failing)
+        return self
+
+    def __exit__(self, *exc):
+        setattr(self.module, self.name, self.original)
+
+
+@test
+def test_any_exception_mid_operator_cancels_with_the_scene_unchanged():
+    """Not only tussock.Error: a TypeError, KeyError or AttributeError raised half-way
+    through an operator's work (after it created and linked objects) is reported, and what
+    the work created is removed (errors.run)."""
+    from tussock.capture import blades
+    from tussock.meadow import build as meadow_build
+    from tussock.trees import build as tree_build
+    fresh()
+    # capture: the second blade fails after the first one joined the scene
+    with _FailOnCall(blades, "blade_mesh", TypeError("bpy_struct[key] = val: no"), nth=2):
+        expect_cancel(ops.capture_blades, "TypeError", source="FILES", filepath=PNG)
+    assert "Tussock Blades" not in bpy.data.collections
+    assert ops.capture_blades(source="FILES", filepath=PNG) == {"FINISHED"}
+    n = len(bpy.data.objects)
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.context.view_layer.objects.active = None  # a meadow on its own new ground
+    with _FailOnCall(meadow_build, "write", KeyError("Socket_3")):
+        expect_cancel(ops.add_meadow, "KeyError", size=(2.0, 2.0))
+    with _FailOnCall(tree_build, "write_posed", AttributeError("no fcurves")):
+        expect_cancel(ops.add_tree, "AttributeError", preset="black_tupelo")
+    assert len(bpy.data.objects) == n
+    assert ops.add_tree(preset="black_tupelo") == {"FINISHED"}
+
+
 harness.main()
