@@ -290,27 +290,41 @@ cmd_test() {
   [ "$FAILED" -eq 0 ]
 }
 
+# ./build.sh demo [--blender N]: the demo's two clips and frames into out/, rendered by this
+# machine's Blender 3.4 or by Blender N from its Debian root.
 cmd_demo() {
+  parse_blenders 3 "$@"
+  [ ${#ARGS[@]} -eq 0 ] && [ ${#MAJORS[@]} -eq 1 ] || die "demo: takes one --blender N"
   cmd_deps
   cmd_build
+  root_build "${MAJORS[0]}"
   mkdir -p "$ROOT/out"
-  TSK_OUT="$ROOT/out" "$PY" "$ROOT/tools/blender_run.py" "$ROOT/tools/demo.py" -- "$ROOT/out"
+  with_blender "${MAJORS[0]}" "$ROOT/tools/blender_run.py" "$ROOT/tools/demo.py" -- "$ROOT/out"
 }
 
+# ./build.sh bench [--blender N[,N]] [NAME...]: the native benchmarks and the Blender ones in
+# this machine's Blender; with --blender, only the Blender ones, in each Blender named.
 cmd_bench() {
+  local m b s
+  parse_blenders 3 "$@"
+  set -- ${ARGS[@]+"${ARGS[@]}"}
   cmd_build
   # as inside Blender (addon/native.py): OpenMP waiters sleep instead of spinning
   export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-PASSIVE}"
-  local b
-  for b in "$BUILD/release"/bench_*; do
-    [ -x "$b" ] || continue
-    "$b" "$@"
-  done
-  # benchmarks that need Blender itself
-  local s
-  for s in "$ROOT"/tools/bench_*.py; do
-    [ -f "$s" ] || continue
-    "$PY" "$ROOT/tools/blender_run.py" "$s" -- "$@" | grep '^{' || true
+  if [ "$BLENDER_CHOSEN" = 0 ]; then
+    for b in "$BUILD/release"/bench_*; do
+      [ -x "$b" ] || continue
+      "$b" "$@"
+    done
+  fi
+  # benchmarks that need Blender itself; each line's params name the Blender
+  for m in "${MAJORS[@]}"; do
+    root_build "$m"
+    for s in "$ROOT"/tools/bench_*.py; do
+      [ -f "$s" ] || continue
+      case "${s##*/}" in bench_common.py) continue ;; esac
+      with_blender "$m" "$ROOT/tools/blender_run.py" "$s" -- "$@" | grep '^{' || true
+    done
   done
 }
 

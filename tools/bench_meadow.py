@@ -14,8 +14,9 @@ import sys
 import time
 
 import bpy
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_common import ARGS, emit, wanted  # noqa: E402
 
-ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 TILE, PER_TILE = 0.25, 64
 
 
@@ -93,18 +94,6 @@ def run_variant(kind, blades):
             return json.loads(line[7:])
     sys.stderr.write(proc.stdout[-3000:])
     return None
-
-
-def emit(name, value, unit, params, peer=None):
-    line = {"name": name, "value": value, "unit": unit, "params": params}
-    if peer:
-        line["peer"] = peer
-    print(json.dumps(line), flush=True)
-
-
-def wanted(name):
-    names = [a for a in ARGS if not a.startswith("-")]
-    return not names or any(name.startswith(n) for n in names)
 
 
 def main():

@@ -11,7 +11,6 @@
 
 usage: blender_run.py tools/bench_picture_bake.py -- [NAME...]"""
 
-import json
 import os
 import statistics
 import sys
@@ -21,22 +20,13 @@ import time
 import addon_utils
 import bpy
 import numpy as np
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_common import emit, wanted  # noqa: E402
 
-ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 PICTURE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "samples",
                        "picture")
 FRAMES = 12
 REPEATS = 3
-
-
-def wanted(prefix):
-    names = [a for a in ARGS if not a.startswith("-")]
-    return not names or any(prefix.startswith(a) or a.startswith(prefix) for a in names)
-
-
-def emit(name, value, unit, params):
-    print(json.dumps({"name": name, "value": round(value, 6), "unit": unit, "params": params}),
-          flush=True)
 
 
 def enlarge(lib, src, dst, f=4):

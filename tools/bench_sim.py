@@ -6,7 +6,6 @@ Viewport display at 0.1 as since the first session (target >= 24 fps);
 and the peer, Blender's own particle hair
 dynamics with the same segments, in ns per strand-step. Prints JSON lines (DESIGN.md)."""
 
-import json
 import os
 import resource
 import statistics
@@ -14,21 +13,8 @@ import sys
 import time
 
 import bpy
-
-ARGS = [a for a in (sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])
-        if not a.startswith("-")]
-
-
-def wanted(name):
-    return not ARGS or any(name.startswith(a) for a in ARGS)
-
-
-def emit(name, value, unit, params, peer=None):
-    line = {"name": name, "value": value, "unit": unit, "params": params}
-    if peer:
-        line["peer"] = peer
-    print(json.dumps(line), flush=True)
-
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_common import emit, wanted  # noqa: E402
 
 def cpu_seconds():
     """CPU time of this process, all threads (steadier than wall time on a shared machine)."""

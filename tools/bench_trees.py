@@ -16,7 +16,6 @@
 usage: blender_run.py tools/bench_trees.py -- [NAME...]"""
 
 import ast
-import json
 import os
 import statistics
 import sys
@@ -25,24 +24,12 @@ import time
 import addon_utils
 import bpy
 import numpy as np
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_common import emit, wanted  # noqa: E402
 
-ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 SAPLING_DIR = None  # found when the add-on is enabled
 SPECIES = ("quaking_aspen", "weeping_willow", "douglas_fir", "small_pine", "white_birch")
 REPEATS = 5
-
-
-def wanted(prefix):
-    """True without names, or when a name and the prefix of a group of lines overlap."""
-    names = [a for a in ARGS if not a.startswith("-")]
-    return not names or any(prefix.startswith(a) or a.startswith(prefix) for a in names)
-
-
-def emit(name, value, unit, params, peer=None):
-    line = {"name": name, "value": round(value, 6), "unit": unit, "params": params}
-    if peer:
-        line["peer"] = peer
-    print(json.dumps(line), flush=True)
 
 
 def fresh():
