@@ -11,7 +11,8 @@ BLENDER="${BLENDER:-blender}"
 export BLENDER
 
 PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ clang
-          libclang-rt-dev libopencv-dev libopenni2-dev libosd-dev valgrind debootstrap)
+          libclang-rt-dev libopencv-dev libopenni2-dev libosd-dev valgrind debootstrap
+          xvfb xauth libgl1-mesa-dri)
 
 # The Blenders the suite runs in: 3 is this machine's own (Debian 12's 3.4); 4 and 5 are
 # Debian trixie's (4.3) and sid's (5.x), each in a Debian root made by debootstrap from
@@ -20,7 +21,7 @@ PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ cla
 # OpenSubdiv (their sonames differ between releases).
 ROOTS="${TSK_ROOTS:-/var/cache/tussock/roots}"
 ROOT_PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ clang
-               libopencv-dev libopenni2-dev libosd-dev)
+               libopencv-dev libopenni2-dev libosd-dev xvfb xauth libgl1-mesa-dri)
 suite_of() { # blender major -> Debian suite ("" for the machine's own)
   case "$1" in
     3) echo "" ;;

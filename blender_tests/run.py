@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Runs every blender_tests/test_*.py in its own background Blender
 (`blender -b --factory-startup`), so a crash in one file is that file's failure and not a
-lost suite. Each Blender gets a fresh user folder whose addons/tussock links to addon/
+lost suite; test_window_*.py files run in a real Blender window on Xvfb instead. Each Blender gets a fresh user folder whose addons/tussock links to addon/
 (tools/blender_env.py).
 Prints per-file results and, last, "N passed, N failed"; exits non-zero on any failure.
 
@@ -26,7 +26,8 @@ def run_file(path, timeout):
     start = time.time()
     with blender_env.BlenderUser() as user:
         try:
-            proc = subprocess.run(blender_env.command(path, [REPO]), env=user.env,
+            window = os.path.basename(path).startswith("test_window_")
+            proc = subprocess.run(blender_env.command(path, [REPO], window=window), env=user.env,
                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                   timeout=timeout, text=True, errors="replace")
             out, code = proc.stdout, proc.returncode

@@ -37,13 +37,21 @@ class BlenderUser:
         shutil.rmtree(self.root, ignore_errors=True)
 
 
-def command(script, args=(), blend=None):
+def command(script, args=(), blend=None, window=False):
+    """Blender running `script`: in background (`-b`), or with `window` in a real window on
+    a virtual X server (Xvfb with Mesa; UI tests, screenshots), where `--enable-event-simulate`
+    lets the script send real input events and keeps the machine's own from reaching it."""
     blender = os.environ.get("BLENDER", "blender")
-    cmd = [blender, "-b"]
+    if window:
+        cmd = ["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", blender]
+    else:
+        cmd = [blender, "-b"]
     if blend:
         cmd.append(blend)
-    cmd += ["--factory-startup", "-noaudio", "--python-exit-code", "1", "--python", script,
-            "--", *args]
+    cmd += ["--factory-startup", "-noaudio", "--python-exit-code", "1"]
+    if window:
+        cmd += ["--enable-event-simulate"]
+    cmd += ["--python", script, "--", *args]
     return cmd
 
 
