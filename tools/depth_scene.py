@@ -165,3 +165,104 @@ def render_depth(scene, directory, stem, frame=1, far=10.0):
         paths.append(dst)
     os.rmdir(tmp)
     return tuple(paths)
+
+
+# ---- tufts: fans of blades that share a base (issue 31) ------------------------------------
+
+WIDTH_FAMILIES = ("grass", "lanceolate", "bamboo", "acuminate")
+
+
+def family_width(family, s, max_width):
+    """Full width (m) along a blade of a width family, at arc parameter s in [0, 1], with
+    `max_width` its widest. Every family ends in a point at s = 1 and keeps some width at
+    the base, where the blade attaches:
+      grass       nearly parallel sides narrowing a little, a short pointed tip (last 15 %)
+      lanceolate  widest at about a third of the length, tapering to both ends
+      bamboo      a narrow stalk-like base widening fast, widest at 0.3, a long taper
+      acuminate   widest at the base, concave sides running out into a long point"""
+    s = np.clip(np.asarray(s, np.float64), 0.0, 1.0)
+    dense = np.linspace(0.0, 1.0, 2001)
+    return max_width * _family_shape(family, s) / _family_shape(family, dense).max()
+
+
+def _family_shape(family, s):
+    if family == "grass":
+        return (1.0 - 0.3 * s) * np.sqrt(np.clip((1.0 - s) / 0.15, 0.0, 1.0))
+    if family == "lanceolate":
+        return (s + 0.12) ** 0.7 * (1.0 - s) ** 0.8
+    if family == "bamboo":
+        return (s + 0.05) ** 0.9 * (1.0 - s) ** 0.9
+    if family == "acuminate":
+        return (1.0 - s) ** 0.75 * (1.0 - 0.3 * s)
+    raise ValueError(f"unknown width family {family!r}")
+
+
+def tuft_fan(family, count, length, depth, max_width, overlap=0.2, cross=True, bend=0.3,
+             base_v=455.0, knots=2001, seed=0):
+    """A tuft of `count` blades of one width family sharing one base `depth` metres in front
+    of the camera, its base at image row `base_v`. Neighbouring blades lean apart just fast
+    enough that they cover each other over about their first `overlap` of length; with
+    `cross`, each blade's root lies on the other side of the base from its lean, so
+    neighbours cross just above the base. Blades alternate a few millimetres in depth, so
+    the crossing ones occlude each other. Returns the ground truth: per blade a dict with
+    the world centreline ("centre", knots x 3), arc parameter "s", full widths "width" (m)
+    and "length" (m)."""
+    rng = np.random.default_rng(seed)
+    z_base = -(base_v - 239.5) * depth / FX  # world z of the base row at that depth
+    lean_step = max_width / (overlap * length)
+    blades = []
+    for i in range(count):
+        u = i - (count - 1) / 2.0
+        lean = lean_step * u + rng.uniform(-0.03, 0.03)
+        side = -1.0 if cross else 1.0
+        root_x = side * 0.25 * max_width * u
+        blade_depth = depth + 0.003 * ((i % 2) - 0.5) + 0.001 * rng.uniform(-1, 1)
+        blade_len = length * (1.0 - 0.1 * abs(u) / max(1.0, (count - 1) / 2.0))
+        curve = bend * np.sign(u) * min(1.0, abs(u)) + rng.uniform(-0.1, 0.1)
+        centre, s = blade_centreline((root_x, blade_depth, z_base), blade_len, lean, curve,
+                                     knots=knots)
+        blades.append({"centre": centre, "s": s, "width": family_width(family, s, max_width),
+                       "length": blade_len, "family": family})
+    return blades
+
+
+# Fans of the capture accuracy tests: every width family, 1-6 blades, 0.10-0.35 m long,
+# 0.5-1.2 m away, overlapping over their first 10-30 %, most crossing above the base.
+# (family, blades, length m, depth m, widest m, overlap, cross)
+TEST_TUFTS = (
+    ("grass", 5, 0.20, 0.60, 0.008, 0.20, True),
+    ("lanceolate", 3, 0.14, 0.50, 0.016, 0.30, True),
+    ("bamboo", 4, 0.28, 0.90, 0.022, 0.15, False),
+    ("acuminate", 2, 0.12, 0.55, 0.014, 0.25, True),
+    ("grass", 6, 0.35, 1.20, 0.012, 0.10, True),
+    ("lanceolate", 1, 0.10, 0.70, 0.015, 0.20, False),
+    ("acuminate", 4, 0.22, 0.80, 0.018, 0.15, True),
+)
+
+
+def render_tuft(scene, directory, stem, tuft, seed=0):
+    """Builds one TEST_TUFTS entry (removing the previous blade meshes), renders its depth
+    and returns (truth, exr path, png path)."""
+    for obj in [o for o in scene.objects if o.type == "MESH"]:
+        mesh = obj.data
+        bpy.data.objects.remove(obj)
+        bpy.data.meshes.remove(mesh)
+    family, count, length, depth, width, overlap, cross = tuft
+    truth = tuft_fan(family, count, length, depth, width, overlap=overlap, cross=cross,
+                     seed=seed)
+    for i, b in enumerate(truth):
+        blade_mesh(f"{stem} {i}", b["centre"], b["width"])
+    exr, png = render_depth(scene, directory, stem)
+    return truth, exr, png
+
+
+def sensor_noise(depth, seed):
+    """Depth-camera noise on a depth map (metres, 0 = no data): Gaussian with sigma
+    1.5 mm * (z / 1 m)^2, rounded to whole millimetres, and 2 % of the pixels zeroed."""
+    rng = np.random.default_rng(seed)
+    out = depth.astype(np.float64).copy()
+    valid = out > 0
+    out[valid] += rng.normal(0.0, 1.5e-3, valid.sum()) * out[valid] ** 2
+    out = np.round(out * 1000.0) / 1000.0
+    out[rng.random(out.shape) < 0.02] = 0.0
+    return np.clip(out, 0.0, None).astype(np.float32)
