@@ -1,11 +1,13 @@
 /* Tests of the picture module: the warp grid of seed 004 (eq. 5-8) against closed forms and
  * an independent bilinear sampler, the UV pass against a Blender-style Map UV sampler,
- * layers (GrabCut, inpainting, mattes), file loading and bad input. */
+ * Blender 5.x's Map UV filter against a double-precision reference, layers (GrabCut,
+ * inpainting, mattes), file loading and bad input. */
 #define _POSIX_C_SOURCE 200809L /* mkstemp */
 #include "test.h"
 #include "tussock/picture.h"
 
 #include "bridge/opencv_picture_bridge.h"
+#include "picture/picture_internal.h"
 
 #include <stdint.h>
 #include <unistd.h>
@@ -242,7 +244,7 @@ TEST(test_warp_allocation_failures_are_reported) {
     float* dst = malloc(n4 * sizeof(float));
     float* uv = malloc(n4 * sizeof(float));
     CHECK(tsk_set_threads(1) == TSK_OK); /* allocations in a fixed order */
-    for (int sampling = TSK_SAMPLE_BILINEAR; sampling <= TSK_SAMPLE_MAP_UV; ++sampling) {
+    for (int sampling = TSK_SAMPLE_BILINEAR; sampling <= TSK_SAMPLE_MAP_UV_5; ++sampling) {
         CHECK(tsk_warp_apply(W, H, src, n4, C, C, dx, dy, nc, (tsk_warp_sampling)sampling, ref,
                              n4, uv, n4, 0) == TSK_OK);
         const size_t held = tsk_allocated_bytes();
@@ -506,6 +508,247 @@ TEST(test_map_uv_sampling_exact_at_rest_and_for_integer_shifts) {
     CHECK_MSG(worst < 1e-6, "flat colour changed by %g", worst);
     free(src);
     free(dst);
+}
+
+/* ---- Blender 5.x's Map UV (TSK_SAMPLE_MAP_UV_5) ----------------------------------------- */
+
+/* Normalised UV of pixel (x, y) of a bottom-up RGBA UV pass, clamped into the picture. */
+static void uv_clamped(const float* uv, int w, int h, int x, int y, double out[2]) {
+    x = x < w - 1 ? x : w - 1;
+    y = y < h - 1 ? y : h - 1;
+    out[0] = uv[((size_t)y * w + x) * 4];
+    out[1] = uv[((size_t)y * w + x) * 4 + 1];
+}
+
+/* The filter of Blender 5.x's Map UV at output pixel (x, y) (bottom-up), from its definition
+ * and in double. The pixel's jacobian J (picture pixels per output pixel) is the UV
+ * difference across its 2x2 block along each axis (blocks start at even x and y, neighbours
+ * clamped into the picture). The footprint is J's image of the unit disc: the ellipse whose
+ * semi-axes are J's singular values s1 >= s2, along the eigenvectors of J J^T. Blender's
+ * adjustments: the minor semi-axis is at least 0.875 px (the major too, when shorter); and
+ * where det(J)^2 <= 1e-5 W^2 (its "degenerate" test, in its own scaling) the major
+ * semi-axis squared becomes max(|dU|^2, |dV|^2), the larger squared row of J, and the minor
+ * 0.875 px. A texel at r^2 < 1 (its centre in ellipse units) weighs
+ * (exp(-2 k / 255) - exp(-2)) / (1 - exp(-2)) with k = floor(256 r^2); texels outside the
+ * picture are zero but keep their weight; the weighted mean is multiplied by the UV pass's
+ * blue. `ambiguous` is set where float rounding may decide otherwise than double: a texel
+ * with 256 r^2 within 0.002 of a table step, or a footprint within 0.1 % of one of the two
+ * thresholds. */
+static void ref_map_uv_5(const float* img_top_first, const float* uv, int w, int h, int x,
+                         int y, double out[4], int* ambiguous) {
+    const int x0 = x - x % 2, y0 = y - y % 2;
+    double a[2], b[2], jx[2], jy[2];
+    uv_clamped(uv, w, h, x0, y, a);
+    uv_clamped(uv, w, h, x0 + 1, y, b);
+    jx[0] = (b[0] - a[0]) * w; /* dU/dx, dV/dx in pixels */
+    jx[1] = (b[1] - a[1]) * h;
+    uv_clamped(uv, w, h, x, y0, a);
+    uv_clamped(uv, w, h, x, y0 + 1, b);
+    jy[0] = (b[0] - a[0]) * w; /* dU/dy, dV/dy */
+    jy[1] = (b[1] - a[1]) * h;
+    /* J J^T = [[p, q], [q, s]]: its eigenvalues are the squared singular values */
+    const double p = jx[0] * jx[0] + jy[0] * jy[0], q = jx[0] * jx[1] + jy[0] * jy[1],
+                 s = jx[1] * jx[1] + jy[1] * jy[1];
+    const double det = jx[0] * jy[1] - jy[0] * jx[1];
+    const double mid = 0.5 * (p + s), half = sqrt(0.25 * (p - s) * (p - s) + q * q);
+    double major2 = mid + half, minor2 = fmax(mid - half, 0.0);
+    /* direction of the major axis: eigenvector of the larger eigenvalue */
+    double e1[2] = {q, major2 - p};
+    if (fabs(q) < 1e-300) {
+        e1[0] = p >= s ? 1.0 : 0.0;
+        e1[1] = p >= s ? 0.0 : 1.0;
+    }
+    const double n = hypot(e1[0], e1[1]);
+    e1[0] /= n;
+    e1[1] /= n;
+    const double limit = 1e-5 * (double)w * w, rmin2 = 0.765625;
+    *ambiguous = fabs(det * det - limit) < 1e-3 * limit;
+    if (det * det <= limit) {
+        major2 = fmax(p, s);
+        minor2 = 0.0;
+    }
+    *ambiguous |= fabs(minor2 - rmin2) < 1e-3 || fabs(major2 - rmin2) < 1e-3;
+    if (minor2 < rmin2) {
+        minor2 = rmin2;
+        if (major2 < rmin2) major2 = rmin2;
+    }
+    const double u0 = uv[((size_t)y * w + x) * 4] * (double)w;
+    const double v0 = uv[((size_t)y * w + x) * 4 + 1] * (double)h;
+    const double alpha = uv[((size_t)y * w + x) * 4 + 2];
+    const int reach = (int)ceil(sqrt(major2)) + 2;
+    double acc[4] = {0, 0, 0, 0}, wsum = 0;
+    const double ea = exp(-2.0);
+    for (int j = (int)floor(v0) - reach; j <= (int)floor(v0) + reach; ++j)
+        for (int i = (int)floor(u0) - reach; i <= (int)floor(u0) + reach; ++i) {
+            const double du = i + 0.5 - u0, dv = j + 0.5 - v0;
+            const double along = du * e1[0] + dv * e1[1], across = -du * e1[1] + dv * e1[0];
+            const double t = 256.0 * (along * along / major2 + across * across / minor2);
+            if (t >= 256.0 + 0.002) continue;
+            if (fabs(t - floor(t + 0.5)) < 0.002) *ambiguous = 1;
+            if (t >= 256.0) continue;
+            const double wt = (exp(-2.0 * floor(t) / 255.0) - ea) / (1.0 - ea);
+            wsum += wt;
+            if (i < 0 || j < 0 || i >= w || j >= h) continue;
+            const float* px = img_top_first + ((size_t)(h - 1 - j) * w + i) * 4;
+            for (int c = 0; c < 4; ++c) acc[c] += wt * px[c];
+        }
+    for (int c = 0; c < 4; ++c) out[c] = acc[c] / wsum * alpha;
+}
+
+/* A bottom-up UV pass: the identity, then `shape` 0 keeps it, 1 shears, scales (from 1.3x
+ * smaller to 1.6x larger), bends and partly leaves the picture, 2 flattens v to a constant
+ * (a degenerate jacobian), 3 magnifies both axes about 2.3x (the smallest, round
+ * footprint); blue = alpha in [0.25, 1] when `with_alpha`, else 1. Offsets keep texel
+ * centres off the exact table steps that a grid-aligned footprint would hit. */
+static float* test_uv_pass(int w, int h, int shape, int with_alpha) {
+    float* uv = malloc((size_t)w * h * 4 * sizeof(float));
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            float* p = uv + ((size_t)y * w + x) * 4;
+            const float u = (x + 0.5f) / (float)w, v = (y + 0.5f) / (float)h;
+            p[0] = u;
+            p[1] = v;
+            if (shape == 1) {
+                p[0] = 0.5f + 1.3f * (u - 0.5f) + 0.25f * (v - 0.5f) +
+                       0.05f * sinf(9.0f * v + 4.0f * u);
+                p[1] = 0.5f - 0.2f * (u - 0.5f) + 0.62f * (v - 0.5f) +
+                       0.04f * cosf(7.0f * u - 5.0f * v);
+            } else if (shape == 2) {
+                p[0] = 0.97f * u + 0.0123f;
+                p[1] = 0.4871f;
+            } else if (shape == 3) {
+                p[0] = 0.5f + 0.4f * (u - 0.5f) - 0.15f * (v - 0.5f);
+                p[1] = 0.5f + 0.1f * (u - 0.5f) + 0.45f * (v - 0.5f);
+            }
+            p[2] = with_alpha ? 0.25f + 0.75f * tsk_rand01(77, (uint64_t)(y * w + x), 0, 0) : 1.0f;
+            p[3] = 1.0f;
+        }
+    return uv;
+}
+
+TEST(test_map_uv_5_matches_reference_ewa) {
+    const int W = 45, H = 31; /* odd: the last block column and row are half blocks */
+    float* src = random_image(W, H, 21);
+    float* dst = malloc((size_t)W * H * 4 * sizeof(float));
+    for (int shape = 1; shape <= 3; ++shape) {
+        float* uv = test_uv_pass(W, H, shape, 1);
+        tsk_picture_map_uv_5(W, H, src, uv, dst);
+        double worst = 0;
+        int skipped = 0, outside = 0;
+        for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x) {
+                double ref[4];
+                int ambiguous = 0;
+                ref_map_uv_5(src, uv, W, H, x, y, ref, &ambiguous);
+                if (ambiguous) {
+                    ++skipped;
+                    continue;
+                }
+                const float* got = dst + ((size_t)(H - 1 - y) * W + x) * 4;
+                outside += ref[3] == 0.0;
+                for (int c = 0; c < 4; ++c) worst = fmax(worst, fabs(got[c] - ref[c]));
+            }
+        printf("    shape %d: max |native - reference| = %.3g, %d of %d pixels too close to a "
+               "float/double decision to compare, %d sampled wholly outside\n",
+               shape, worst, skipped, W * H, outside);
+        CHECK_MSG(worst < 1e-5, "shape %d: max error %g", shape, worst);
+        CHECK_MSG(skipped < W * H / 10, "shape %d: %d pixels skipped", shape, skipped);
+        free(uv);
+    }
+    free(src);
+    free(dst);
+}
+
+TEST(test_map_uv_5_identity_keeps_a_constant_and_the_picture) {
+    const int W = 37, H = 23;
+    float* src = malloc((size_t)W * H * 4 * sizeof(float));
+    float* dst = malloc((size_t)W * H * 4 * sizeof(float));
+    for (int i = 0; i < W * H * 4; ++i) src[i] = 0.2f + 0.15f * (float)(i % 4);
+    float* uv = test_uv_pass(W, H, 0, 0);
+    tsk_picture_map_uv_5(W, H, src, uv, dst);
+    double worst = 0;
+    for (int i = 0; i < W * H * 4; ++i) worst = fmax(worst, fabs(dst[i] - src[i]));
+    CHECK_MSG(worst < 1e-6, "a constant picture changed by %g", worst);
+    /* the identity's jacobian is one pixel: the ellipse holds the pixel itself alone */
+    free(src);
+    src = random_image(W, H, 5);
+    tsk_picture_map_uv_5(W, H, src, uv, dst);
+    CHECK(memcmp(src, dst, (size_t)W * H * 4 * sizeof(float)) == 0);
+    /* the same through the warp at rest */
+    float vx, vy;
+    tsk_picture_field f = uniform_field(&vx, &vy, 0.0f, 0.0f);
+    tsk_warp_def d = free_def(8, 8);
+    d.sampling = TSK_SAMPLE_MAP_UV_5;
+    memset(dst, 0, (size_t)W * H * 4 * sizeof(float));
+    CHECK(warp(&d, &f, W, H, src, dst, NULL, 0) == TSK_OK);
+    CHECK(memcmp(src, dst, (size_t)W * H * 4 * sizeof(float)) == 0);
+    free(uv);
+    free(src);
+    free(dst);
+}
+
+TEST(test_map_uv_5_multiplies_by_the_uv_alpha) {
+    const int W = 30, H = 21;
+    float* src = random_image(W, H, 8);
+    float* opaque = malloc((size_t)W * H * 4 * sizeof(float));
+    float* scaled = malloc((size_t)W * H * 4 * sizeof(float));
+    float* uv1 = test_uv_pass(W, H, 1, 0);
+    float* uva = test_uv_pass(W, H, 1, 1);
+    tsk_picture_map_uv_5(W, H, src, uv1, opaque);
+    tsk_picture_map_uv_5(W, H, src, uva, scaled);
+    int bad = 0;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const float a = uva[((size_t)y * W + x) * 4 + 2];
+            const size_t o = ((size_t)(H - 1 - y) * W + x) * 4;
+            for (int c = 0; c < 4; ++c) bad += scaled[o + c] != opaque[o + c] * a;
+        }
+    CHECK_MSG(bad == 0, "%d values are not the opaque sample times the UV pass's blue", bad);
+    free(src);
+    free(opaque);
+    free(scaled);
+    free(uv1);
+    free(uva);
+}
+
+TEST(test_warp_map_uv_5_samples_its_own_uv_pass) {
+    const int W = 53, H = 35;
+    float* src = random_image(W, H, 31);
+    float* dst = malloc((size_t)W * H * 4 * sizeof(float));
+    float* uv = malloc((size_t)W * H * 4 * sizeof(float));
+    float* again = malloc((size_t)W * H * 4 * sizeof(float));
+    float* old = malloc((size_t)W * H * 4 * sizeof(float));
+    float vxs[16], vys[16];
+    for (int k = 0; k < 16; ++k) {
+        vxs[k] = 0.6f * sinf(1.1f * k);
+        vys[k] = 0.5f * cosf(0.8f * k);
+    }
+    tsk_picture_field g = {vxs, vys, 4, 4, 0};
+    tsk_warp_def d = free_def(8, 8);
+    d.sampling = TSK_SAMPLE_MAP_UV_5;
+    CHECK(warp(&d, &g, W, H, src, dst, uv, 1) == TSK_OK);
+    tsk_picture_map_uv_5(W, H, src, uv, again);
+    CHECK(memcmp(dst, again, (size_t)W * H * 4 * sizeof(float)) == 0);
+    /* 3.x's central differences give other ellipses on a bent warp */
+    d.sampling = TSK_SAMPLE_MAP_UV;
+    CHECK(warp(&d, &g, W, H, src, old, NULL, 1) == TSK_OK);
+    double apart = 0;
+    for (int i = 0; i < W * H * 4; ++i) apart = fmax(apart, fabs(old[i] - dst[i]));
+    CHECK_MSG(apart > 1e-3, "3.x and 5.x sampling agree within %g", apart);
+    /* a sampling that does not exist is refused, naming the argument */
+    int cx, cy;
+    CHECK(tsk_warp_grid_size(W, H, 8, 8, &cx, &cy) == TSK_OK);
+    float* zeros = calloc((size_t)cx * cy, sizeof(float));
+    CHECK_STATUS(tsk_warp_apply(W, H, src, (size_t)W * H * 4, 8, 8, zeros, zeros,
+                                (size_t)cx * cy, (tsk_warp_sampling)3, dst, (size_t)W * H * 4,
+                                NULL, 0, 1),
+                 TSK_ERR_ARGUMENT, "sampling");
+    free(zeros);
+    free(src);
+    free(dst);
+    free(uv);
+    free(again);
+    free(old);
 }
 
 /* ---- layers --------------------------------------------------------------------------- */
@@ -1103,7 +1346,7 @@ TEST(test_identical_bytes_with_1_and_2_threads) {
         vy[i] = cosf(0.21f * i);
     }
     tsk_picture_field f = {vx, vy, FW, FH, 1};
-    float* out[2][4];
+    float* out[2][5];
     for (int t = 0; t < 2; ++t) {
         CHECK(tsk_set_threads(t + 1) == TSK_OK);
         tsk_picture* p = NULL;
@@ -1111,7 +1354,7 @@ TEST(test_identical_bytes_with_1_and_2_threads) {
         CHECK(tsk_picture_add_layer_u8(p, mask, W * H, NULL) == TSK_OK);
         tsk_layers_def ld = tsk_default_layers_def();
         CHECK(tsk_picture_build(p, &ld) == TSK_OK);
-        for (int k = 0; k < 4; ++k) out[t][k] = malloc(W * H * 4 * sizeof(float));
+        for (int k = 0; k < 5; ++k) out[t][k] = malloc(W * H * 4 * sizeof(float));
         tsk_warp_def d = tsk_default_warp_def();
         d.cell_x = 12;
         d.cell_y = 10;
@@ -1122,9 +1365,12 @@ TEST(test_identical_bytes_with_1_and_2_threads) {
         d.sampling = TSK_SAMPLE_MAP_UV;
         CHECK(tsk_picture_layer_frame(p, 0, &d, &f, NULL, 0, out[t][3], W * H * 4, NULL, 0, 1) ==
               TSK_OK);
+        d.sampling = TSK_SAMPLE_MAP_UV_5;
+        CHECK(tsk_picture_layer_frame(p, 0, &d, &f, NULL, 0, out[t][4], W * H * 4, NULL, 0, 1) ==
+              TSK_OK);
         tsk_picture_destroy(p);
     }
-    for (int k = 0; k < 4; ++k) {
+    for (int k = 0; k < 5; ++k) {
         CHECK(memcmp(out[0][k], out[1][k], W * H * 4 * sizeof(float)) == 0);
         free(out[0][k]);
         free(out[1][k]);
@@ -1170,6 +1416,10 @@ TEST_MAIN(TEST_ENTRY(test_picture_and_layers_over_memory_budget_are_refused),
           TEST_ENTRY(test_horizon_root_line_does_not_move),
           TEST_ENTRY(test_uv_pass_reproduces_native_warp),
           TEST_ENTRY(test_map_uv_sampling_exact_at_rest_and_for_integer_shifts),
+          TEST_ENTRY(test_map_uv_5_matches_reference_ewa),
+          TEST_ENTRY(test_map_uv_5_identity_keeps_a_constant_and_the_picture),
+          TEST_ENTRY(test_map_uv_5_multiplies_by_the_uv_alpha),
+          TEST_ENTRY(test_warp_map_uv_5_samples_its_own_uv_pass),
           TEST_ENTRY(test_inpainting_removes_the_layer),
           TEST_ENTRY(test_matte_is_one_inside_zero_outside_monotone),
           TEST_ENTRY(test_grabcut_separates_green_blob),

@@ -186,9 +186,19 @@ typedef enum tsk_warp_sampling {
     /// with filter "Anisotropic", not verified): an elliptical weighted average whose
     /// ellipse comes from the UV pass's differences between neighbouring pixels, reading
     /// zeros outside the picture. Use it when the native frame must equal the render
-    /// (previews, bakes, tests): it matches Blender 3.4.1 within 5e-7. About 15x slower than
-    /// bilinear (still several times faster than Blender's own node).
+    /// (previews, bakes, tests): it matches Blender 3.4.1 bit for bit on the tests' frames.
+    /// About 15x slower than bilinear (still several times faster than Blender's own node).
     TSK_SAMPLE_MAP_UV = 1,
+    /// As Blender 5.x's rewritten Map UV node draws the UV pass with Interpolation
+    /// "Anisotropic" on the CPU compositor: the same elliptical weighted average, but the
+    /// pixels go in 2x2 blocks that share the UV pass's differences (each pixel takes its
+    /// block row's horizontal and its block column's vertical difference), and the sample
+    /// is multiplied by the UV pass's third channel (1 in Tussock's passes). It matches
+    /// Blender 5.2.2 bit for bit on the tests' frames. Blender's GPU compositor (5.x's
+    /// default device) samples through the graphics driver's anisotropic filter and
+    /// mipmaps instead, which no native mode reproduces: set the scene's compositor device
+    /// to CPU where frames must match.
+    TSK_SAMPLE_MAP_UV_5 = 2,
 } tsk_warp_sampling;
 
 /// Largest |lambda| of a warp (cells per unit of Vp*dt). Beyond, any wind moves the grid by
@@ -244,7 +254,7 @@ tsk_status tsk_warp_corners(const tsk_warp_def* def, int width, int height,
 /// Outputs (either may be NULL, not both; count 4*W*H each):
 ///  - dst: the warped image (rows top-first like src): src sampled at s bilinearly with
 ///    pixel centres at half-integers (TSK_SAMPLE_BILINEAR), or as Blender's Map UV samples
-///    the UV pass below (TSK_SAMPLE_MAP_UV);
+///    the UV pass below (TSK_SAMPLE_MAP_UV for Blender 3.x/4.x, TSK_SAMPLE_MAP_UV_5 for 5.x);
 ///  - uv: the UV pass for Blender's compositor Map UV node: (u, v, 1, 1) per pixel with
 ///    u = s_x / W and v = (H - s_y) / H, i.e. Blender's bottom-left origin with pixel
 ///    centres at ((i + 0.5) / W, (j_from_bottom + 0.5) / H); blue = 1 is the alpha Map UV

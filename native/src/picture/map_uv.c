@@ -1,10 +1,19 @@
-/* The native warp as Blender's compositor draws it: Blender's Map UV node (3.x; 4.x with
- * filter "Anisotropic") does not sample bilinearly but with an elliptical weighted average
- * (EWA, Greene & Heckbert 1986) whose ellipse comes from the UV pass's differences between
- * neighbouring pixels. This file re-implements that sampling from the UV pass, so that a
- * native frame equals the compositor's output (within float rounding) and previews, bakes
- * and renders agree. The weights are (exp(a r) - exp(a)) / (1 - exp(a)), a = -2, tabulated
- * at 256 steps of r = Q / 256 like Blender's table. */
+/* The native warp as Blender's compositor draws it: Blender's Map UV node does not sample
+ * bilinearly but with an elliptical weighted average (EWA, Greene & Heckbert 1986) whose
+ * ellipse comes from differences of the UV pass between neighbouring pixels. This file
+ * re-implements that sampling from the UV pass, so that a native frame equals the
+ * compositor's output (within float rounding) and previews, bakes and renders agree.
+ *
+ * Two Blenders draw it differently, and both are kept exact:
+ *  - 3.x (4.x with filter "Anisotropic"): every pixel's derivatives are one-pixel central
+ *    differences of the UV pass in pixels (one-sided at the border);
+ *  - 5.x (Interpolation "Anisotropic", CPU compositor): pixels go in 2x2 blocks whose four
+ *    pixels share forward differences of the normalised UV pass (a pixel takes its row's
+ *    horizontal and its column's vertical difference), and the result is multiplied by the
+ *    UV pass's third channel (alpha).
+ * The EWA itself is the same in both: weights (exp(a r) - exp(a)) / (1 - exp(a)), a = -2,
+ * tabulated at 256 steps of r = Q / 256 like Blender's table, zeros read outside the
+ * picture with their weights counted. */
 #include "picture_internal.h"
 
 #include <math.h>
@@ -66,7 +75,10 @@ static void read_pixel(const map_uv_ctx* c, int x, int y, float out[4]) {
 }
 
 /* EWA around (uv0, uv1) (normalised) with derivatives du, dv (normalised); no
- * interpolation minimum (Blender's compositor passes intpol = false), alpha averaged. */
+ * interpolation minimum (Blender's compositor passes intpol = false), alpha averaged.
+ * Blender 5.x passes the jacobian's columns, du = d(uv)/dx and dv = d(uv)/dy; Blender 3.x
+ * passed its rows, (dU/dx / W, dU/dy / H) and (dV/dx / W, dV/dy / H), and map_uv_rows does
+ * the same to draw what 3.x draws. */
 static void ewa(const map_uv_ctx* c, float uv0, float uv1, const float du[2], const float dv[2],
                 float out[4]) {
     const int W = c->width, H = c->height;
@@ -200,18 +212,98 @@ static void map_uv_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     }
 }
 
-void tsk_picture_map_uv(int width, int height, const float* src, const float* uv_bottom_up,
-                        float* dst) {
-    map_uv_ctx c;
-    c.width = width;
-    c.height = height;
-    c.src = src;
-    c.uv = uv_bottom_up;
-    c.dst = dst;
+/* Blender 5.x: one output pixel (x, y) (Blender coordinates, y up) sampled at its own UV
+ * with the differences its block gave it. */
+static void map_uv5_pixel(const map_uv_ctx* c, int x, int y, const float uv[2],
+                          const float x_grad[2], const float y_grad[2]) {
+    float* out = c->dst + ((size_t)(c->height - 1 - y) * c->width + x) * 4;
+    ewa(c, uv[0], uv[1], x_grad, y_grad, out);
+    /* the UV pass's third channel is an alpha that Map UV multiplies in (1 in our passes,
+     * which leaves the sample's bits as they are) */
+    const float alpha = c->uv[((size_t)y * c->width + x) * 4 + 2];
+    out[0] *= alpha;
+    out[1] *= alpha;
+    out[2] *= alpha;
+    out[3] *= alpha;
+}
+
+/* The normalised UV of pixel (x, y), clamped to the picture (Blender reads the block's
+ * right and upper neighbours "extended" when they lie outside). */
+static void uv_extended(const map_uv_ctx* c, int x, int y, float uv[2]) {
+    if (x > c->width - 1) x = c->width - 1;
+    if (y > c->height - 1) y = c->height - 1;
+    const float* p = c->uv + ((size_t)y * c->width + x) * 4;
+    uv[0] = p[0];
+    uv[1] = p[1];
+}
+
+/* Blender 5.x: the 2x2 pixels of the block whose lower-left pixel is (2 bx, 2 by) share the
+ * four differences between their UVs: a pixel takes its row's horizontal difference and its
+ * column's vertical one, so derivatives are forward differences for the even pixels and
+ * backward ones for the odd. A last half block (odd width or height) differences its
+ * pixels against themselves: zero, as in Blender. */
+static void map_uv5_block_rows(size_t b, size_t e, size_t chunk, void* vctx) {
+    (void)chunk;
+    const map_uv_ctx* c = vctx;
+    const int W = c->width, H = c->height;
+    for (size_t by = b; by < e; ++by) {
+        const int y = 2 * (int)by;
+        for (int x = 0; x < W; x += 2) {
+            float ll[2], lr[2], ul[2], ur[2];
+            uv_extended(c, x, y, ll);
+            uv_extended(c, x + 1, y, lr);
+            uv_extended(c, x, y + 1, ul);
+            uv_extended(c, x + 1, y + 1, ur);
+            /* forward differences in normalised UV, as floats (the same bits as Blender's) */
+            const float lower_x[2] = {lr[0] - ll[0], lr[1] - ll[1]};
+            const float upper_x[2] = {ur[0] - ul[0], ur[1] - ul[1]};
+            const float left_y[2] = {ul[0] - ll[0], ul[1] - ll[1]};
+            const float right_y[2] = {ur[0] - lr[0], ur[1] - lr[1]};
+            map_uv5_pixel(c, x, y, ll, lower_x, left_y);
+            if (x + 1 < W) map_uv5_pixel(c, x + 1, y, lr, lower_x, right_y);
+            if (y + 1 < H) {
+                map_uv5_pixel(c, x, y + 1, ul, upper_x, left_y);
+                if (x + 1 < W) map_uv5_pixel(c, x + 1, y + 1, ur, upper_x, right_y);
+            }
+        }
+    }
+}
+
+static void init_ctx(map_uv_ctx* c, int width, int height, const float* src,
+                     const float* uv_bottom_up, float* dst) {
+    c->width = width;
+    c->height = height;
+    c->src = src;
+    c->uv = uv_bottom_up;
+    c->dst = dst;
+    /* Blender's table holds the weights as decimal literals of 6 significant digits; the
+     * same rounding here gives the same floats (all 256 checked against the tables in the
+     * 3.4 and 5.2.2 binaries), where the unrounded weights left up to 4e-7 between a native
+     * frame and the render. */
     const double e_a = exp(-2.0);
     for (int i = 0; i < EWA_STEPS; ++i) {
         const double r = (double)i / (double)(EWA_STEPS - 1);
-        c.weights[i] = (float)((exp(-2.0 * r) - e_a) / (1.0 - e_a));
+        const double wt = (exp(-2.0 * r) - e_a) / (1.0 - e_a);
+        double rounded = 0.0;
+        if (wt > 0.0) {
+            const double scale = pow(10.0, 5.0 - floor(log10(wt)));
+            rounded = nearbyint(wt * scale) / scale;
+        }
+        c->weights[i] = (float)rounded;
     }
+}
+
+void tsk_picture_map_uv(int width, int height, const float* src, const float* uv_bottom_up,
+                        float* dst) {
+    map_uv_ctx c;
+    init_ctx(&c, width, height, src, uv_bottom_up, dst);
     tsk_parallel_for((size_t)height, 8, map_uv_rows, &c);
+}
+
+void tsk_picture_map_uv_5(int width, int height, const float* src, const float* uv_bottom_up,
+                          float* dst) {
+    map_uv_ctx c;
+    init_ctx(&c, width, height, src, uv_bottom_up, dst);
+    /* a block row writes its two pixel rows and no other: chunks never share a pixel */
+    tsk_parallel_for(((size_t)height + 1) / 2, 4, map_uv5_block_rows, &c);
 }

@@ -31,9 +31,15 @@ tsk_status tsk_picture_check_size(int width, int height, int min_side, const cha
 void tsk_picture_copy_rows(float* dst, const float* src, int width, int height, int channels,
                            int flip);
 
-/* Samples src (premultiplied RGBA, top-first) through a UV pass (bottom-up rows) the way
- * Blender's compositor Map UV node does (EWA); dst top-first. */
+/* Samples src (premultiplied RGBA, top-first) through a UV pass (bottom-up rows, RGBA) the
+ * way Blender 3.x's compositor Map UV node does (EWA); dst top-first. */
 void tsk_picture_map_uv(int width, int height, const float* src, const float* uv_bottom_up,
                         float* dst);
+
+/* As tsk_picture_map_uv, the way Blender 5.x's Map UV node does with Interpolation
+ * "Anisotropic" on the CPU: derivatives across 2x2 pixel blocks, the sample multiplied by
+ * the UV pass's third channel. */
+void tsk_picture_map_uv_5(int width, int height, const float* src, const float* uv_bottom_up,
+                          float* dst);
 
 #endif

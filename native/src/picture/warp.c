@@ -441,8 +441,10 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
     if (uv != NULL && uv_count != n4)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "uv", "must have 4*%d*%d = %zu values, got %zu",
                              width, height, n4, uv_count);
-    if (sampling != TSK_SAMPLE_BILINEAR && sampling != TSK_SAMPLE_MAP_UV)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "sampling", "must be bilinear (0) or map_uv (1), got %d",
+    if (sampling != TSK_SAMPLE_BILINEAR && sampling != TSK_SAMPLE_MAP_UV &&
+        sampling != TSK_SAMPLE_MAP_UV_5)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "sampling",
+                             "must be bilinear (0), map_uv (1) or map_uv_5 (2), got %d",
                              (int)sampling);
     if (corner_dx == NULL || corner_dy == NULL)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_dx, corner_dy", "is NULL");
@@ -466,7 +468,7 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
                   uv_bottom_up != 0, ufrac,
                   (int)fminf(ceilf(reach_x) + 1.0f, (float)width),
                   (int)fminf(ceilf(reach_y) + 1.0f, (float)height), 0};
-    if (dst != NULL && sampling == TSK_SAMPLE_MAP_UV) {
+    if (dst != NULL && sampling != TSK_SAMPLE_BILINEAR) {
         /* Map UV needs the whole UV pass (bottom-up) before it samples */
         float* uvb = uv != NULL && uv_bottom_up ? uv : tsk_alloc(n4 * sizeof(float), "uv pass");
         if (uvb == NULL) {
@@ -477,7 +479,12 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
             c.uv_bottom_up = 1;
             tsk_parallel_for((size_t)height, WARP_GRAIN, warp_rows, &c);
             /* never sample through a UV pass with rows missing (reported below) */
-            if (!atomic_load(&c.failed)) tsk_picture_map_uv(width, height, src, uvb, dst);
+            if (!atomic_load(&c.failed)) {
+                if (sampling == TSK_SAMPLE_MAP_UV_5)
+                    tsk_picture_map_uv_5(width, height, src, uvb, dst);
+                else
+                    tsk_picture_map_uv(width, height, src, uvb, dst);
+            }
             if (uvb != uv) {
                 tsk_free(uvb);
                 if (uv != NULL) { /* the caller wants it top-first */

@@ -228,8 +228,10 @@ typedef struct warp_args {
 static int parse_sampling(const char* name, tsk_warp_sampling* out) {
     if (strcmp(name, "bilinear") == 0) *out = TSK_SAMPLE_BILINEAR;
     else if (strcmp(name, "map_uv") == 0) *out = TSK_SAMPLE_MAP_UV;
+    else if (strcmp(name, "map_uv_5") == 0) *out = TSK_SAMPLE_MAP_UV_5;
     else {
-        tsk_py_raise_arg("sampling", "must be 'bilinear' or 'map_uv', got '%s'", name);
+        tsk_py_raise_arg("sampling", "must be 'bilinear', 'map_uv' or 'map_uv_5', got '%s'",
+                         name);
         return 0;
     }
     return 1;
@@ -487,8 +489,10 @@ PyMethodDef tsk_py_picture_methods[] = {
      "picture_layer_frame(picture, layer, vx, vy, field_width, field_height, rgba=None, "
      "uv=None, field_y_up=True, uv_bottom_up=True, cell_x=16, cell_y=16, lambda_x=4, "
      "lambda_y=4, dt=1/24, rigidity=1, root='bottom'|'top'|'none', root_y=None, height=None, "
-     "scale_map=None, sampling='bilinear'|'map_uv'): one frame; rgba (premultiplied, top-first) and/or uv (u, v, 1, 1 for "
-     "Map UV), float32 4*W*H."},
+     "scale_map=None, sampling='bilinear'|'map_uv'|'map_uv_5'): one frame; rgba "
+     "(premultiplied, top-first) and/or uv (u, v, 1, 1 for Map UV), float32 4*W*H. "
+     "'map_uv' samples as Blender 3.x/4.x's Map UV node, 'map_uv_5' as Blender 5.x's "
+     "(Interpolation 'Anisotropic', CPU compositor)."},
     {"picture_composite", py_picture_composite, METH_VARARGS,
      "picture_composite(picture, layers, out): layers back to front (warped frames or None "
      "for at rest) over the background; premultiplied over."},
@@ -501,6 +505,7 @@ PyMethodDef tsk_py_picture_methods[] = {
      "displacements in pixels."},
     {"warp_apply", KW py_warp_apply, METH_VARARGS | METH_KEYWORDS,
      "warp_apply(width, height, src, cell_x, cell_y, corner_dx, corner_dy, dst=None, uv=None, "
-     "uv_bottom_up=True, sampling='bilinear'|'map_uv'): eq. 8 inverse warp of premultiplied RGBA and/or the UV pass."},
+     "uv_bottom_up=True, sampling='bilinear'|'map_uv'|'map_uv_5'): eq. 8 inverse warp of "
+     "premultiplied RGBA and/or the UV pass; sampling as in picture_layer_frame."},
     {NULL, NULL, 0, NULL},
 };
