@@ -1,8 +1,12 @@
 """The UV pass through Blender's own compositor: a layer image and the native UV pass fed to
-a Map UV node render (to an EXR) exactly what the native warp computes with sampling
-'map_uv' (within 1e-5, far inside 1/255), in both compositor execution modes; and at rest
-the render is the layer itself. This pins the UV convention (origin bottom-left, pixel
-centres at (i + 0.5) / W, blue = alpha) and Map UV's EWA filter against real Blender."""
+a Map UV node render (to an EXR) exactly what the native warp computes with the sampling of
+this Blender's Map UV node (compat.map_uv_sampling: 'map_uv' before 5.0, 'map_uv_5' from
+5.0) within 1e-5, far inside 1/255, in both compositor execution modes where there are two;
+and at rest the render is the layer itself. This pins the UV convention (origin bottom-left,
+pixel centres at (i + 0.5) / W, blue = alpha) and Map UV's EWA filter against real Blender.
+The compositor runs on the CPU: Blender's GPU compositor (the default from 5.0, in
+background Blender too when a driver is found) samples through the driver's anisotropic
+texture filter, which no native sampling reproduces."""
 
 import os
 import sys
@@ -50,6 +54,8 @@ def _render_map_uv(layer_bottom_up, uv_bottom_up, mode, background_bottom_up=Non
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = W, H
     scene.render.resolution_percentage = 100
+    if hasattr(scene.render, "compositor_device"):  # 4.2+: GPU is the default from 5.0
+        scene.render.compositor_device = "CPU"
     tree = compat.compositor_tree(scene)
     if hasattr(tree, "execution_mode"):
         tree.execution_mode = mode
@@ -104,7 +110,7 @@ def test_compositor_map_uv_equals_native_warp():
     layer = np.empty((H, W, 4), np.float32)
     lib.picture_read_layer(pic, 0, layer, bottom_up=True)
     for amplitude in (0.0, 0.9, 3.0):
-        native_rgba, uv = _frame(pic, amplitude, "map_uv")
+        native_rgba, uv = _frame(pic, amplitude, compat.map_uv_sampling())
         for mode in ("TILED", "FULL_FRAME"):
             rendered = _render_map_uv(layer, uv, mode)
             err = float(np.max(np.abs(rendered - native_rgba)))
@@ -123,7 +129,7 @@ def test_compositor_alpha_over_equals_native_composite():
     lib.picture_read_layer(pic, 0, layer, bottom_up=True)
     background = np.empty((H, W, 4), np.float32)
     lib.picture_read_background(pic, background, bottom_up=True)
-    native_layer, uv = _frame(pic, 1.5, "map_uv")
+    native_layer, uv = _frame(pic, 1.5, compat.map_uv_sampling())
     native = np.empty((H, W, 4), np.float32)
     lib.picture_composite(pic, [native_layer], native)
     rendered = _render_map_uv(layer, uv, "TILED", background)
