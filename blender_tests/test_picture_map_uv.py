@@ -54,8 +54,7 @@ def _render_map_uv(layer_bottom_up, uv_bottom_up, mode, background_bottom_up=Non
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = W, H
     scene.render.resolution_percentage = 100
-    if hasattr(scene.render, "compositor_device"):  # 4.2+: GPU is the default from 5.0
-        scene.render.compositor_device = "CPU"
+    compat.compositor_on_cpu(scene)
     tree = compat.compositor_tree(scene)
     if hasattr(tree, "execution_mode"):
         tree.execution_mode = mode

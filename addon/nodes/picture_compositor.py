@@ -22,6 +22,7 @@ def build(scene, background, layers):
     """Replaces the scene's compositor nodes. `layers` is a list of (layer image, UV image)
     back to front. Returns the tree."""
     tree = compat.compositor_tree(scene)
+    compat.compositor_on_cpu(scene)  # renders equal the native frames (previews, bakes)
     tree.nodes.clear()
     bg = _image_node(tree, "Tussock Background", background, 0, 0)
     behind = bg.outputs["Image"]
