@@ -276,6 +276,13 @@ def alpha_over_premultiplied(node):
         node.inputs["Straight Alpha"].default_value = False
 
 
+def alpha_over_takes_premultiplied(node):
+    """True when alpha_over_premultiplied(node) is in effect."""
+    if hasattr(node, "use_premultiply"):
+        return not node.use_premultiply and node.premul == 0.0
+    return not node.inputs["Straight Alpha"].default_value
+
+
 def alpha_over_inputs(node):
     """(background, foreground) image inputs of an Alpha Over node."""
     images = [s for s in node.inputs if s.type == "RGBA"]

@@ -147,9 +147,10 @@ def test_compositor_tree_is_built_with_map_uv_per_layer():
         assert map_uv.inputs["Image"].links[0].from_node.image == out.layer_image
         assert map_uv.inputs["UV"].links[0].from_node.image == out.uv_image
         over = tree.nodes[f"Tussock Alpha Over {i}"]
-        assert not over.use_premultiply and over.premul == 0.0
-        assert over.inputs[2].links[0].from_node == map_uv
-        behind = over.inputs[1].links[0].from_node
+        assert compat.alpha_over_takes_premultiplied(over)
+        back, front = compat.alpha_over_inputs(over)
+        assert front.links[0].from_node == map_uv
+        behind = back.links[0].from_node
         assert behind == (tree.nodes["Tussock Background"] if i == 1
                           else tree.nodes[f"Tussock Alpha Over {i - 1}"])
         for img in (out.layer_image, out.uv_image):
