@@ -91,6 +91,21 @@ static inline int scene_fan(scene_blade* out, double base_x, double base_y) {
     return 5;
 }
 
+/* A tuft whose 4 blades share their first ~30 % and cross just above the base: each root
+ * lies on the other side of the base from its lean, and neighbours alternate 1 cm in depth,
+ * so the crossing blades hide each other in turn. */
+static inline int scene_crossing_fan(scene_blade* out, double base_x, double base_y) {
+    static const double len[4] = {270, 300, 310, 260};
+    static const double kappa[4] = {-0.0009, -0.0004, 0.0005, 0.0010};
+    for (int i = 0; i < 4; ++i) {
+        const double u = i - 1.5;
+        scene_blade b = {base_x - 6.0 * u, base_y, 0.22 * u, kappa[i], len[i], 14.0,
+                         0.75 + 0.01 * (i % 2), -0.0002};
+        out[i] = b;
+    }
+    return 4;
+}
+
 /* Renders blades over a background depth (metres, 0 = no data). */
 static inline void scene_render(const scene_blade* blades, int count, int w, int h,
                                 float background, float* depth) {

@@ -10,6 +10,7 @@
 
 #define MATCH_WINDOW 4 /* the matched point may advance up to this many samples per step */
 #define DEPTH_MAX_WINDOW 5
+#define TIP_EXT_MAX 64 /* half-pixel steps the tip may run on beyond the contour's tip */
 
 static float median_depth(const tsk_capture* cap, float u, float v, int r) {
     const int w = cap->width, h = cap->height;
@@ -53,17 +54,21 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
     const int nr = (span->hi - tip + n) % n;
     if (nl < 2 || nr < 2) return TSK_OK;
     const int pairs_max = nl + 1;
+    /* the skeleton continues beyond its matched pairs: at most the image's width + height
+     * (1 px steps) below them and TIP_EXT_MAX half-pixel steps above them */
+    const int root_max = cap->width + cap->height;
+    const int slots = pairs_max + root_max + TIP_EXT_MAX;
     /* scratch: 3 arrays of pairs (x, y, w) + 3 smoothed + arc */
-    if (!tsk_cap_grow((void**)&cap->skel, &cap->skel_cap, 7 * (size_t)pairs_max + 8,
+    if (!tsk_cap_grow((void**)&cap->skel, &cap->skel_cap, 7 * (size_t)slots + 8,
                       sizeof(float), "skeleton"))
         return TSK_ERR_MEMORY;
     float* px = cap->skel;
-    float* py = px + pairs_max;
-    float* pw = py + pairs_max;
-    float* qx = pw + pairs_max;
-    float* qy = qx + pairs_max;
-    float* qw = qy + pairs_max;
-    float* arc = qw + pairs_max;
+    float* py = px + slots;
+    float* pw = py + slots;
+    float* qx = pw + slots;
+    float* qy = qx + slots;
+    float* qw = qy + slots;
+    float* arc = qw + slots;
 
     /* symmetric matching (seed 000 Fig. 5b): left side i walks back from the tip, the
      * right side follows with the point nearest to it, never going back */
@@ -121,10 +126,32 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
     tsk_smooth_open(px, qx, count, 2.0f);
     tsk_smooth_open(py, qy, count, 2.0f);
     memcpy(qw, pw, (size_t)count * sizeof(float));
+    /* the blade beyond its matched pairs (issue 31): through the part it shares with its
+     * neighbours down to the base, and out to the last pixel of its tip. The raw pairs are
+     * no longer needed: px, py, pw hold the root part. */
+    const int matched = count;
+    const int rn = tsk_capture_extend_root(cap, qx, qy, qw, count, root_max, px, py, pw);
+    float tx[TIP_EXT_MAX], ty[TIP_EXT_MAX], tw[TIP_EXT_MAX];
+    const int tn = tsk_capture_extend_tip(cap, qx, qy, qw, count, TIP_EXT_MAX, tx, ty, tw);
+    memmove(qx + tn, qx, (size_t)count * sizeof(float));
+    memmove(qy + tn, qy, (size_t)count * sizeof(float));
+    memmove(qw + tn, qw, (size_t)count * sizeof(float));
+    for (int k = 0; k < tn; ++k) {
+        qx[tn - 1 - k] = tx[k];
+        qy[tn - 1 - k] = ty[k];
+        qw[tn - 1 - k] = tw[k];
+    }
+    memcpy(qx + tn + count, px, (size_t)rn * sizeof(float));
+    memcpy(qy + tn + count, py, (size_t)rn * sizeof(float));
+    memcpy(qw + tn + count, pw, (size_t)rn * sizeof(float));
+    count = tn + count + rn;
     arc[0] = 0.0f;
     for (int i = 1; i < count; ++i)
         arc[i] = arc[i - 1] + hypotf(qx[i] - qx[i - 1], qy[i] - qy[i - 1]);
     const float total = arc[count - 1];
+    /* arc from the tip where the matched pairs end and the shared part begins */
+    const float matched_end = arc[tn + matched - 1];
+    const float matched_start = arc[tn];
     int knots = (int)lroundf(total / def->knot_spacing) + 1;
     if (knots < 2) knots = 2;
     if (knots < def->min_knots) return TSK_OK;
@@ -180,6 +207,36 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
     }
     for (int k = 0; k < knots; ++k)
         if (isnan(kz[k])) kz[k] = tb[k];
+    /* Below the matched pairs the pixels belong to whichever blade is in front: the blade
+     * keeps its own depth, the line through its matched knots' depths against arc length
+     * over the lower half of them, continued. */
+    if (rn > 0) {
+        double sx = 0, sy = 0, sxx = 0, sxy = 0;
+        int nfit = 0;
+        const float lo = 0.5f * (matched_start + matched_end);
+        for (int k = 0; k < knots; ++k) {
+            const float s = total * (1.0f - (float)k / (float)(knots - 1));
+            if (s < lo || s > matched_end) continue;
+            sx += s;
+            sy += kz[k];
+            sxx += (double)s * s;
+            sxy += (double)s * kz[k];
+            ++nfit;
+        }
+        if (nfit >= 3) {
+            const double den = nfit * sxx - sx * sx;
+            const double slope = fabs(den) > 1e-9 ? (nfit * sxy - sx * sy) / den : 0.0;
+            const double icpt = (sy - slope * sx) / nfit;
+            for (int k = 0; k < knots; ++k) {
+                const float s = total * (1.0f - (float)k / (float)(knots - 1));
+                if (s <= matched_end) break;
+                float z = (float)(icpt + slope * s);
+                if (z < cap->near_m) z = cap->near_m;
+                if (z > cap->far_m) z = cap->far_m;
+                kz[k] = z;
+            }
+        }
+    }
     memcpy(ta, kz, (size_t)knots * sizeof(float));
     tsk_smooth_open(ta, kz, knots, def->width_smooth);
 

@@ -91,4 +91,17 @@ int tsk_capture_partition(tsk_capture* cap, const tsk_capture_def* def);
 tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
                                 const tsk_blade_span* span);
 
+/* Continues a matched skeleton (x, y, w: count samples ordered tip -> root, smoothed,
+ * about 1 px apart) beyond its root end through the part shared with neighbouring blades to
+ * where the mask ends (the base), by the blade's own heading, heading change and width
+ * trend. Writes up to max_out samples (1 px apart, root end first) and returns their count. */
+int tsk_capture_extend_root(const tsk_capture* cap, const float* x, const float* y,
+                            const float* w, int count, int max_out, float* ox, float* oy,
+                            float* ow);
+/* The same beyond the tip: along the last direction to the edge of the last mask pixel,
+ * in 0.5 px steps (nearest the tip first), widths tapering to 0. */
+int tsk_capture_extend_tip(const tsk_capture* cap, const float* x, const float* y,
+                           const float* w, int count, int max_out, float* ox, float* oy,
+                           float* ow);
+
 #endif
