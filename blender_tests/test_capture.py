@@ -302,6 +302,7 @@ TUFT_LIMITS = {  # found >=, mean |length error| <=, centreline mm <=, within 5 
     "clean": (0.95, 0.05, 2.0, 0.95, 0.10),
     "noisy": (0.90, 0.08, 3.0, 0.90, 0.15),
 }
+TUFT_WORST_LENGTH = {"clean": 0.10, "noisy": 0.15}  # and no single blade's length beyond
 
 
 def render_tufts():
@@ -417,6 +418,7 @@ def check_tufts(summary, label):
     assert summary["centre_mm"] <= centre, summary
     assert summary["within5"] >= within, summary
     assert summary["width"] <= width, summary
+    assert abs(summary["length_worst"]) <= TUFT_WORST_LENGTH[label], summary
 
 
 TUFTS = render_tufts()

@@ -70,10 +70,15 @@ static void fit_line(const double* x, const double* y, int n, double* a, double*
     *a = (sy - *b * sx) / n;
 }
 
-int tsk_capture_extend_root(const tsk_capture* cap, const float* x, const float* y,
-                            const float* w, int count, int max_out, float* ox, float* oy,
-                            float* ow) {
+int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, const float* x,
+                            const float* y, const float* w, int count, int max_out, float* ox,
+                            float* oy, float* ow) {
     if (count < FIT_MIN || max_out <= 0) return 0;
+    /* the walk is at most twice as long as the matched part (a blade two thirds hidden) */
+    double matched_len = 0.0;
+    for (int i = 1; i < count; ++i)
+        matched_len += hypot((double)(x[i] - x[i - 1]), (double)(y[i] - y[i - 1]));
+    if ((double)max_out > 2.0 * matched_len) max_out = (int)(2.0 * matched_len);
     const int e = count - 1;
     /* arc from the root end back towards the tip */
     double arc_back[FIT_MAX], ang[FIT_MAX], wid[FIT_MAX];
@@ -134,6 +139,9 @@ int tsk_capture_extend_root(const tsk_capture* cap, const float* x, const float*
     float px = x[e], py = y[e];
     float drift = 0.0f;
     int out = 0, miss = 0, last_in = 0;
+    float last_dx = 0.0f, last_dy = 0.0f;
+    const int to_centre = def->root == TSK_ROOT_CENTROID;
+    float centre_best = hypotf(px - cap->ring.cx, py - cap->ring.cy);
     for (int step = 1; step <= max_out; ++step) {
         const double s = (double)step;
         double turn = kappa * s;
@@ -143,9 +151,9 @@ int tsk_capture_extend_root(const tsk_capture* cap, const float* x, const float*
         const float dx = (float)cos(h), dy = (float)sin(h);
         px += dx;
         py += dy;
+        int moved = 0;
         if (!mask_at(cap, px, py)) {
             /* slide sideways into the mask, within the drift budget */
-            int moved = 0;
             for (int side = -1; side <= 1 && !moved; side += 2) {
                 const float nx = px - (float)side * dy, ny = py + (float)side * dx;
                 if (fabsf(drift + (float)side) <= 0.5f * wend && mask_at(cap, nx, ny)) {
@@ -167,24 +175,30 @@ int tsk_capture_extend_root(const tsk_capture* cap, const float* x, const float*
         if (wk < 0.3f * wend) wk = 0.3f * wend;
         if (wk > 1.5f * wend) wk = 1.5f * wend;
         if (wk < 1.0f) wk = 1.0f;
+        if (to_centre) { /* blades radiate from the centroid: stop once past it */
+            const float dc = hypotf(px - cap->ring.cx, py - cap->ring.cy);
+            if (dc > centre_best + 1.0f) break;
+            if (dc < centre_best) centre_best = dc;
+        }
         ox[out] = px;
         oy[out] = py;
         ow[out] = wk;
         ++out;
-        if (miss == 0) last_in = out;
+        /* the walk ends at the last step that met the mask straight ahead: steps that only
+         * slid along the mask's edge at the end are the base's edge, not the blade */
+        if (miss == 0 && !moved) {
+            last_in = out;
+            last_dx = dx;
+            last_dy = dy;
+        }
     }
     /* end half a pixel past the last pixel centre in the mask: at the mask's edge */
     out = last_in;
-    if (out > 0) {
-        const float ddx = out > 1 ? ox[out - 1] - ox[out - 2] : ox[0] - x[e];
-        const float ddy = out > 1 ? oy[out - 1] - oy[out - 2] : oy[0] - y[e];
-        const float dl = hypotf(ddx, ddy);
-        if (dl > 1e-6f && out < max_out) {
-            ox[out] = ox[out - 1] + 0.5f * ddx / dl;
-            oy[out] = oy[out - 1] + 0.5f * ddy / dl;
-            ow[out] = ow[out - 1];
-            ++out;
-        }
+    if (out > 0 && out < max_out) {
+        ox[out] = ox[out - 1] + 0.5f * last_dx;
+        oy[out] = oy[out - 1] + 0.5f * last_dy;
+        ow[out] = ow[out - 1];
+        ++out;
     }
     return out;
 }

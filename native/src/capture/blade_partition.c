@@ -110,6 +110,8 @@ tsk_status tsk_capture_make_ring(tsk_capture* cap, const tsk_capture_def* def,
         cx = (float)(sum / (cnt > 0 ? cnt : 1));
         cy = ymax;
     }
+    cap->ring.cx = cx;
+    cap->ring.cy = cy;
     float* raw = cap->tmp; /* the raw contour is no longer needed */
     if ((size_t)m > cap->tmp_cap &&
         !tsk_cap_grow((void**)&cap->tmp, &cap->tmp_cap, (size_t)m, sizeof(float), "contour"))

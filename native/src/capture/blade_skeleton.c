@@ -130,7 +130,8 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
      * neighbours down to the base, and out to the last pixel of its tip. The raw pairs are
      * no longer needed: px, py, pw hold the root part. */
     const int matched = count;
-    const int rn = tsk_capture_extend_root(cap, qx, qy, qw, count, root_max, px, py, pw);
+    const int rn = tsk_capture_extend_root(cap, def, qx, qy, qw, count, root_max, px, py,
+                                           pw);
     float tx[TIP_EXT_MAX], ty[TIP_EXT_MAX], tw[TIP_EXT_MAX];
     const int tn = tsk_capture_extend_tip(cap, qx, qy, qw, count, TIP_EXT_MAX, tx, ty, tw);
     memmove(qx + tn, qx, (size_t)count * sizeof(float));

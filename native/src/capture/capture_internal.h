@@ -14,6 +14,7 @@ typedef struct tsk_ring {
     float* d;      /* smoothed distance to the cluster centre */
     uint8_t* edge; /* 1 if the sample lies on the image border */
     int n;
+    float cx, cy;  /* the cluster centre the distances are measured from */
 } tsk_ring;
 
 /* One blade's part of a ring: the tip sample and the split samples before and after it
@@ -94,10 +95,12 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
 /* Continues a matched skeleton (x, y, w: count samples ordered tip -> root, smoothed,
  * about 1 px apart) beyond its root end through the part shared with neighbouring blades to
  * where the mask ends (the base), by the blade's own heading, heading change and width
- * trend. Writes up to max_out samples (1 px apart, root end first) and returns their count. */
-int tsk_capture_extend_root(const tsk_capture* cap, const float* x, const float* y,
-                            const float* w, int count, int max_out, float* ox, float* oy,
-                            float* ow);
+ * trend, at most twice as far as the matched part is long and, with the centroid as
+ * centre, not past the centre.
+ * Writes up to max_out samples (1 px apart, root end first) and returns their count. */
+int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, const float* x,
+                            const float* y, const float* w, int count, int max_out, float* ox,
+                            float* oy, float* ow);
 /* The same beyond the tip: along the last direction to the edge of the last mask pixel,
  * in 0.5 px steps (nearest the tip first), widths tapering to 0. */
 int tsk_capture_extend_tip(const tsk_capture* cap, const float* x, const float* y,
