@@ -18,21 +18,39 @@ class TUSSOCK_OT_capture_blades(bpy.types.Operator):
     bl_label = "Capture Blades"
     bl_options = {"REGISTER", "UNDO"}
 
-    source: bpy.props.EnumProperty(name="Source", items=SOURCE_ITEMS, default="FILES")
-    filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH", options=compat.PATH_OPTIONS)
-    device_uri: bpy.props.StringProperty(name="Device", default="")
+    source: bpy.props.EnumProperty(name="Source", items=SOURCE_ITEMS, default="FILES",
+                                   description="Where the depth frames come from")
+    filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH",
+                                       options=compat.PATH_OPTIONS,
+                                       description="Depth image, numbered depth image sequence (# "
+                                                   "for the frame number) or .oni recording")
+    device_uri: bpy.props.StringProperty(name="Device", default="",
+                                         description="OpenNI2 device URI (empty: the first)")
     near: bpy.props.FloatProperty(name="Near", default=0.0, min=0.0, unit="LENGTH",
                                   description="Near end of the depth band (0 = automatic)")
     far: bpy.props.FloatProperty(name="Far", default=0.0, min=0.0, unit="LENGTH",
                                  description="Far end of the depth band (0 = automatic)")
-    fx: bpy.props.FloatProperty(name="fx", default=0.0, min=0.0, subtype="PIXEL")
-    fy: bpy.props.FloatProperty(name="fy", default=0.0, min=0.0, subtype="PIXEL")
-    cx: bpy.props.FloatProperty(name="cx", default=0.0, min=0.0, subtype="PIXEL")
-    cy: bpy.props.FloatProperty(name="cy", default=0.0, min=0.0, subtype="PIXEL")
+    fx: bpy.props.FloatProperty(name="fx", default=0.0, min=0.0, subtype="PIXEL",
+                                description="Horizontal focal length of the depth camera in "
+                                            "pixels (0: from the device or defaults)")
+    fy: bpy.props.FloatProperty(name="fy", default=0.0, min=0.0, subtype="PIXEL",
+                                description="Vertical focal length of the depth camera in pixels "
+                                            "(0: from the device or defaults)")
+    cx: bpy.props.FloatProperty(name="cx", default=0.0, min=0.0, subtype="PIXEL",
+                                description="Principal point, pixels from the left (0: from the "
+                                            "device or defaults)")
+    cy: bpy.props.FloatProperty(name="cy", default=0.0, min=0.0, subtype="PIXEL",
+                                description="Principal point, pixels from the top (0: from the "
+                                            "device or defaults)")
     min_area: bpy.props.IntProperty(name="Minimum blade area", default=150, min=1,
-                                    subtype="PIXEL")
-    frames: bpy.props.IntProperty(name="Frames to average", default=1, min=1, max=300)
-    frame: bpy.props.IntProperty(name="First frame", default=0, min=0)
+                                    subtype="PIXEL",
+                                    description="Smaller regions of the depth band are noise, not "
+                                                "blades")
+    frames: bpy.props.IntProperty(name="Frames to average", default=1, min=1, max=300,
+                                  description="Depth frames averaged into one before the blades "
+                                              "are found (less sensor noise)")
+    frame: bpy.props.IntProperty(name="First frame", default=0, min=0,
+                                 description="First frame of the sequence or recording to read")
 
     _timer = None
     _reader = None

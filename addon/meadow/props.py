@@ -47,9 +47,14 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
                                       description="Collection of blade objects to grow "
                                       "(empty: Tussock's default blade)", update=_rebuild)
     tile_size: bpy.props.FloatProperty(name="Tile size", default=0.25, min=0.01, max=100.0,
-                                       unit="LENGTH", update=_rebuild)
+                                       unit="LENGTH", update=_rebuild,
+                                       description="Side of a square tile: the meadow is a grid "
+                                                   "of tiles, each an instance of part of the "
+                                                   "patch")
     blades_per_tile: bpy.props.IntProperty(name="Blades per tile", default=64, min=1,
-                                           max=65536, update=_rebuild)
+                                           max=65536, update=_rebuild,
+                                           description="Blades in a tile where the density is "
+                                                       "full")
     patch_blades: bpy.props.IntProperty(name="Patch size", default=16384, min=16,
                                         max=1 << 20, update=_rebuild,
                                         description="Blades in the patch that all tiles reuse")
@@ -58,20 +63,32 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
                                         description="Blades per instanced chunk; counts per "
                                         "tile are multiples of it")
     scale_min: bpy.props.FloatProperty(name="Scale min", default=0.8, min=0.01, max=100.0,
-                                       update=_rebuild)
+                                       update=_rebuild,
+                                       description="Smallest random scale of a blade")
     scale_max: bpy.props.FloatProperty(name="Scale max", default=1.2, min=0.01, max=100.0,
-                                       update=_rebuild)
+                                       update=_rebuild,
+                                       description="Largest random scale of a blade")
     density: bpy.props.EnumProperty(name="Density", items=DENSITY_ITEMS, default="NOISE",
-                                    update=_rebuild)
+                                    update=_rebuild,
+                                    description="How the number of blades varies over the ground")
     noise_scale: bpy.props.FloatProperty(name="Noise scale", default=8.0, min=0.01,
-                                         unit="LENGTH", update=_rebuild)
+                                         unit="LENGTH", update=_rebuild,
+                                         description="Size of the patches of the noise density "
+                                                     "(Perlin noise, seed 000)")
     noise_octaves: bpy.props.IntProperty(name="Octaves", default=3, min=1, max=12,
-                                         update=_rebuild)
+                                         update=_rebuild,
+                                         description="Octaves of the noise density: more add "
+                                                     "finer detail")
     noise_threshold: bpy.props.FloatProperty(name="Threshold", default=0.2, min=0.0,
-                                             max=0.99, update=_rebuild)
+                                             max=0.99, update=_rebuild,
+                                             description="Noise below this value grows no blades: "
+                                                         "higher leaves more bare ground")
     density_image: bpy.props.PointerProperty(name="Density image", type=bpy.types.Image,
-                                             update=_rebuild)
-    seed: bpy.props.IntProperty(name="Seed", default=1, min=0, update=_rebuild)
+                                             update=_rebuild,
+                                             description="Image whose brightness is the density "
+                                                         "over the ground (white = full)")
+    seed: bpy.props.IntProperty(name="Seed", default=1, min=0, update=_rebuild,
+                                description="Random seed of blade placement, scale and turn")
     display: bpy.props.FloatProperty(name="Viewport display", default=0.25, min=0.0,
                                      max=1.0, subtype="FACTOR", update=_rebuild,
                                      description="Fraction of instances shown in the "
@@ -86,7 +103,9 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
                                          description="Objects that push blades aside (spheres "
                                          "or capsules fitted to their bounds; rigid bodies too)")
     sim_iterations: bpy.props.IntProperty(name="Iterations", default=4, min=1, max=64,
-                                          update=_reset_simulation)
+                                          update=_reset_simulation,
+                                          description="Constraint iterations per step: more keep "
+                                                      "lengths stiffer, at more cost")
     sim_damping: bpy.props.FloatProperty(name="Damping", default=4.0, min=0.0, max=1000.0,
                                          update=_reset_simulation,
                                          description="1/s: how fast blade motion dies down")

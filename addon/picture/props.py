@@ -48,7 +48,9 @@ INPAINT_ITEMS = [
 
 class TussockPictureLayer(bpy.types.PropertyGroup):
     # name (from PropertyGroup) labels the layer in the list
-    mask_mode: bpy.props.EnumProperty(name="Mask", items=MASK_ITEMS, default="FILE")
+    mask_mode: bpy.props.EnumProperty(name="Mask", items=MASK_ITEMS, default="FILE",
+                                      description="How this layer's vegetation is told apart from "
+                                                  "the background")
     mask_path: bpy.props.StringProperty(name="Mask file", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
                                         description="Image file the size of the picture; "
                                         "white (>= 50 %) is vegetation")
@@ -64,7 +66,8 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
                                            "the picture: red strokes force vegetation, blue "
                                            "strokes force background")
     grabcut_iterations: bpy.props.IntProperty(name="Iterations", default=5, soft_min=1,
-                                              soft_max=50)
+                                              soft_max=50,
+                                              description="GrabCut refinement rounds")
     grabcut_max_side: bpy.props.IntProperty(name="Proposal size", default=0, soft_min=0,
                                             soft_max=16384,
                                             description="Propose the mask on a copy "
@@ -89,7 +92,9 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
                                       "as (height above the roots / layer height)^r",
                                       update=_motion_changed)
     root: bpy.props.EnumProperty(name="Roots", items=ROOT_ITEMS, default="BOTTOM",
-                                 update=_motion_changed)
+                                 update=_motion_changed,
+                                 description="Where this layer is rooted: the farther from the "
+                                             "root line, the more it moves")
     root_auto: bpy.props.BoolProperty(name="Root line from mask", default=True,
                                       description="Root line and height from the mask's "
                                       "bounding box", update=_motion_changed)
@@ -110,16 +115,23 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
 class TussockPictureImages(bpy.types.PropertyGroup):
     """The images Tussock writes for one layer (kept apart from the layer settings, which
     the operator also takes as arguments and operators cannot hold data-blocks)."""
-    layer_image: bpy.props.PointerProperty(type=bpy.types.Image)
-    uv_image: bpy.props.PointerProperty(type=bpy.types.Image)
+    layer_image: bpy.props.PointerProperty(type=bpy.types.Image,
+                                           description="The layer's premultiplied colour, made by "
+                                                       "Animate Picture")
+    uv_image: bpy.props.PointerProperty(type=bpy.types.Image,
+                                        description="The layer's UV pass of the current frame, "
+                                                    "read by the compositor's Map UV")
 
 
 class TussockPicture(bpy.types.PropertyGroup):
     filepath: bpy.props.StringProperty(name="Picture", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
                                        description="PNG, JPEG or OpenEXR picture to animate")
-    layers: bpy.props.CollectionProperty(type=TussockPictureLayer)
+    layers: bpy.props.CollectionProperty(type=TussockPictureLayer,
+                                         description="Vegetation layers, back to front")
     active_layer: bpy.props.IntProperty(default=0, options={"HIDDEN"})
-    inpaint: bpy.props.EnumProperty(name="Inpainting", items=INPAINT_ITEMS, default="TELEA")
+    inpaint: bpy.props.EnumProperty(name="Inpainting", items=INPAINT_ITEMS, default="TELEA",
+                                    description="How the background behind the vegetation is "
+                                                "filled in")
     inpaint_radius: bpy.props.FloatProperty(name="Radius", default=5.0, soft_min=1.0,
                                             soft_max=100.0,
                                             description="Neighbourhood of each filled "

@@ -57,15 +57,19 @@ class TUSSOCK_OT_refine_blades(bpy.types.Operator):
     bl_label = "Refine Blades"
     bl_options = {"REGISTER", "UNDO"}
 
-    knots: bpy.props.EnumProperty(name="Knots", items=KNOT_ITEMS, default="16")
+    knots: bpy.props.EnumProperty(name="Knots", items=KNOT_ITEMS, default="16",
+                                  description="Knots each refined blade keeps")
     custom_knots: bpy.props.IntProperty(name="Custom knots", default=0, min=0, max=64,
                                         description="Any count from 2 to 64 (0: use Knots)")
-    method: bpy.props.EnumProperty(name="Method", items=METHOD_ITEMS, default="SIMILARITY")
+    method: bpy.props.EnumProperty(name="Method", items=METHOD_ITEMS, default="SIMILARITY",
+                                   description="How the knots to keep are chosen")
     mu: bpy.props.FloatProperty(name="μ", default=0.5, min=0.0, max=1.0,
                                 description="Weight of distance against variance of "
                                 "distance in the movement difference (seed 000 eq. 1); "
                                 "1 = distance only")
-    movement: bpy.props.EnumProperty(name="Movement", items=MOVEMENT_ITEMS, default="AUTO")
+    movement: bpy.props.EnumProperty(name="Movement", items=MOVEMENT_ITEMS, default="AUTO",
+                                     description="Which motion of the blade guides the choice of "
+                                                 "knots")
     frames: bpy.props.IntProperty(name="Frames", default=24, min=1, max=10000,
                                   description="Frames of movement compared")
 

@@ -12,10 +12,16 @@ class TUSSOCK_OT_add_tree(bpy.types.Operator):
     bl_label = "Add Tree"
     bl_options = {"REGISTER", "UNDO"}
 
-    preset: bpy.props.EnumProperty(name="Preset", items=presets.items)
-    seed: bpy.props.IntProperty(name="Seed", default=1, min=0)
-    leaves: bpy.props.BoolProperty(name="Leaves", default=True)
-    smooth_levels: bpy.props.IntProperty(name="Smooth", default=0, min=0, max=3)
+    preset: bpy.props.EnumProperty(name="Preset", items=presets.items,
+                                   description="Species preset: built-in Weber-Penn parameters or "
+                                               "one of your own")
+    seed: bpy.props.IntProperty(name="Seed", default=1, min=0,
+                                description="Random seed of the tree's branching")
+    leaves: bpy.props.BoolProperty(name="Leaves", default=True,
+                                   description="Grow leaves on the last branch level")
+    smooth_levels: bpy.props.IntProperty(name="Smooth", default=0, min=0, max=3,
+                                         description="Subdivision levels of the branch mesh "
+                                                     "(OpenSubdiv)")
 
     def execute(self, context):
         return errors.run(self, self._add, context)
@@ -81,7 +87,9 @@ class TUSSOCK_OT_tree_preset_remove(bpy.types.Operator):
     bl_idname = "tussock.tree_preset_remove"
     bl_label = "Remove Tree Preset"
 
-    preset: bpy.props.EnumProperty(name="Preset", items=presets.items)
+    preset: bpy.props.EnumProperty(name="Preset", items=presets.items,
+                                   description="Species preset: built-in Weber-Penn parameters or "
+                                               "one of your own")
 
     def execute(self, context):
         return errors.run(self, self._remove)
@@ -98,7 +106,9 @@ class TUSSOCK_OT_tree_apply_preset(bpy.types.Operator):
     bl_label = "Apply Tree Preset"
     bl_options = {"REGISTER", "UNDO"}
 
-    preset: bpy.props.EnumProperty(name="Preset", items=presets.items)
+    preset: bpy.props.EnumProperty(name="Preset", items=presets.items,
+                                   description="Species preset: built-in Weber-Penn parameters or "
+                                               "one of your own")
 
     @classmethod
     def poll(cls, context):

@@ -27,8 +27,10 @@ _generated = params.make_classes(_rebuild)
 annotations = {
     "is_tree": bpy.props.BoolProperty(default=False, options={"HIDDEN"}),
     "last_error": bpy.props.StringProperty(default="", options={"HIDDEN"}),
-    "seed": bpy.props.IntProperty(name="Seed", default=1, min=0, update=_rebuild),
-    "leaves": bpy.props.BoolProperty(name="Leaves", default=True, update=_rebuild),
+    "seed": bpy.props.IntProperty(name="Seed", default=1, min=0, update=_rebuild,
+                                  description="Random seed of the tree's branching"),
+    "leaves": bpy.props.BoolProperty(name="Leaves", default=True, update=_rebuild,
+                                     description="Grow leaves on the last branch level"),
     "smooth_levels": bpy.props.IntProperty(name="Smooth", default=0, min=0, max=3,
                                            update=_rebuild,
                                            description="Catmull-Clark levels (OpenSubdiv)"),
@@ -38,7 +40,8 @@ annotations = {
                                              "wind (0: the tree stands still)"),
 }
 if _generated:
-    annotations["params"] = bpy.props.PointerProperty(type=_generated[1])
+    annotations["params"] = bpy.props.PointerProperty(
+        type=_generated[1], description="The tree's Weber-Penn parameters")
 
 TussockTreeSettings = type("TussockTreeSettings", (bpy.types.PropertyGroup,),
                            {"__annotations__": annotations})

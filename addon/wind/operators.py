@@ -19,9 +19,12 @@ class TUSSOCK_OT_add_wind_source(bpy.types.Operator):
     bl_label = "Add Wind Source"
     bl_options = {"REGISTER", "UNDO"}
 
-    strength: bpy.props.FloatProperty(name="Strength", default=0.8, min=0.0, max=1.0)
-    radius: bpy.props.FloatProperty(name="Radius", default=1.5, min=0.001, unit="LENGTH")
-    interval: bpy.props.FloatProperty(name="Interval", default=0.0, min=0.0, unit="TIME_ABSOLUTE")
+    strength: bpy.props.FloatProperty(name="Strength", default=0.8, min=0.0, max=1.0,
+                                      description="Normalised speed at the centre (0..1)")
+    radius: bpy.props.FloatProperty(name="Radius", default=1.5, min=0.001, unit="LENGTH",
+                                    description="Reach of the source's push")
+    interval: bpy.props.FloatProperty(name="Interval", default=0.0, min=0.0, unit="TIME_ABSOLUTE",
+                                      description="Seconds between pushes (0 = continuous)")
 
     def execute(self, context):
         return errors.run(self, self._add, context)
@@ -72,7 +75,8 @@ class TUSSOCK_OT_wind_wave_remove(bpy.types.Operator):
     bl_label = "Remove Wave"
     bl_options = {"REGISTER", "UNDO"}
 
-    index: bpy.props.IntProperty(default=0, min=0)
+    index: bpy.props.IntProperty(default=0, min=0,
+                                 description="Number of the wave to remove, from 0")
 
     def execute(self, context):
         waves = context.scene.tussock_wind.waves
@@ -129,7 +133,8 @@ class TUSSOCK_OT_wind_debug_image(bpy.types.Operator):
     bl_label = "Show Wind"
     bl_options = {"REGISTER"}
 
-    size: bpy.props.IntProperty(name="Size", default=128, min=8, max=2048)
+    size: bpy.props.IntProperty(name="Size", default=128, min=8, max=2048,
+                                description="Pixels per side of the wind image")
 
     def execute(self, context):
         return errors.run(self, self._show, context)
