@@ -15,6 +15,7 @@
 #define FIT_MIN 6          /* fewest samples a fit uses */
 #define FIT_MAX 512        /* most samples a fit uses */
 #define MISS_MAX 2         /* consecutive steps outside the mask that end a walk */
+#define TIP_GAP_MAX 6      /* half-pixel steps off the mask a tip walk crosses */
 #define CURVE_TURN_MAX 0.6 /* radians the fitted heading change may add over the walk */
 
 static int mask_at(const tsk_capture* cap, float x, float y) {
@@ -214,30 +215,31 @@ int tsk_capture_extend_tip(const tsk_capture* cap, const float* x, const float* 
     dx /= dl;
     dy /= dl;
     float px = x[0], py = y[0];
-    int out = 0, last_in = 0;
+    int out = 0, last_in = 0, miss = 0;
     const float step = 0.5f;
     for (int k = 1; k <= max_out - 1; ++k) {
         float nx = px + step * dx, ny = py + step * dy;
-        if (!mask_at(cap, nx, ny)) {
+        int found = mask_at(cap, nx, ny);
+        for (int side = -1; side <= 1 && !found; side += 2) {
             /* a bending tip: one pixel sideways */
-            int found = 0;
-            for (int side = -1; side <= 1 && !found; side += 2) {
-                const float sx = nx - (float)side * dy, sy = ny + (float)side * dx;
-                if (mask_at(cap, sx, sy)) {
-                    nx = 0.5f * (nx + sx); /* half way: the tip turns, not jumps */
-                    ny = 0.5f * (ny + sy);
-                    found = 1;
-                }
+            const float sx = nx - (float)side * dy, sy = ny + (float)side * dx;
+            if (mask_at(cap, sx, sy)) {
+                nx = 0.5f * (nx + sx); /* half way: the tip turns, not jumps */
+                ny = 0.5f * (ny + sy);
+                found = 1;
             }
-            if (!found) break;
         }
+        /* a tip narrower than a pixel covers only some pixel centres: gaps of up to
+         * TIP_GAP_MAX steps are crossed if the mask goes on after them */
+        if (!found && ++miss > TIP_GAP_MAX) break;
+        if (found) miss = 0;
         px = nx;
         py = ny;
         ox[out] = px;
         oy[out] = py;
         ow[out] = w[0];
         ++out;
-        last_in = out;
+        if (found) last_in = out;
     }
     out = last_in;
     if (out < max_out) { /* the last sample lies on average a quarter pixel past the last
