@@ -128,6 +128,39 @@ def test_compat_mesh_indices_and_face_corners():
         bpy.data.meshes.remove(mesh)
 
 @test
+def test_every_operator_and_setting_has_a_tooltip():
+    """Blender shows an operator's description in its tooltip and in F3 search, and a
+    property's in its tooltip: every Tussock operator and every setting an artist can see
+    has one."""
+    harness.enable_addon()
+    missing, checked = [], 0
+    for name, module in list(sys.modules.items()):
+        if not name.startswith("tussock"):
+            continue
+        for cls in list(vars(module).values()):
+            if not isinstance(cls, type) or "bl_rna" not in cls.__dict__:
+                continue  # not a class Blender registered
+            if issubclass(cls, bpy.types.Operator):
+                category, op = cls.bl_idname.split(".")
+                rna = getattr(getattr(bpy.ops, category), op).get_rna_type()
+                checked += 1
+                if not rna.description:
+                    missing.append(cls.bl_idname)
+            elif issubclass(cls, (bpy.types.PropertyGroup, bpy.types.AddonPreferences)):
+                rna = cls.bl_rna
+            else:
+                continue
+            for prop in rna.properties:
+                if prop.identifier in ("rna_type", "name", "bl_idname") or prop.is_hidden:
+                    continue
+                checked += 1
+                if not prop.description:
+                    missing.append(f"{cls.__name__}.{prop.identifier}")
+    assert checked > 150, checked
+    assert not missing, f"{len(missing)} without a tooltip: {missing}"
+
+
+@test
 def test_missing_native_library_still_registers_with_clear_message():
     # A copy of the add-on without _tussock*.so, under another name.
     import tussock
@@ -160,39 +193,6 @@ def test_missing_native_library_still_registers_with_clear_message():
     finally:
         harness.disable_addon("tussock_nonative")
         shutil.rmtree(dst)
-
-
-@test
-def test_every_operator_and_setting_has_a_tooltip():
-    """Blender shows an operator's description in its tooltip and in F3 search, and a
-    property's in its tooltip: every Tussock operator and every setting an artist can see
-    has one."""
-    harness.enable_addon()
-    missing, checked = [], 0
-    for name, module in list(sys.modules.items()):
-        if not name.startswith("tussock"):
-            continue
-        for cls in list(vars(module).values()):
-            if not isinstance(cls, type) or "bl_rna" not in cls.__dict__:
-                continue  # not a class Blender registered
-            if issubclass(cls, bpy.types.Operator):
-                category, op = cls.bl_idname.split(".")
-                rna = getattr(getattr(bpy.ops, category), op).get_rna_type()
-                checked += 1
-                if not rna.description:
-                    missing.append(cls.bl_idname)
-            elif issubclass(cls, (bpy.types.PropertyGroup, bpy.types.AddonPreferences)):
-                rna = cls.bl_rna
-            else:
-                continue
-            for prop in rna.properties:
-                if prop.identifier in ("rna_type", "name", "bl_idname") or prop.is_hidden:
-                    continue
-                checked += 1
-                if not prop.description:
-                    missing.append(f"{cls.__name__}.{prop.identifier}")
-    assert checked > 150, checked
-    assert not missing, f"{len(missing)} without a tooltip: {missing}"
 
 
 harness.main()

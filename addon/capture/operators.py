@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import compat, errors, native
 from . import blades, pipeline, preview
-from .props import SOURCE_ITEMS
+from .props import SOURCE_ITEMS, TIPS
 
 
 class TUSSOCK_OT_capture_blades(bpy.types.Operator):
@@ -19,38 +19,31 @@ class TUSSOCK_OT_capture_blades(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     source: bpy.props.EnumProperty(name="Source", items=SOURCE_ITEMS, default="FILES",
-                                   description="Where the depth frames come from")
+                                   description=TIPS["source"])
     filepath: bpy.props.StringProperty(name="File", subtype="FILE_PATH",
                                        options=compat.PATH_OPTIONS,
-                                       description="Depth image, numbered depth image sequence (# "
-                                                   "for the frame number) or .oni recording")
+                                       description=TIPS["filepath"])
     device_uri: bpy.props.StringProperty(name="Device", default="",
-                                         description="OpenNI2 device URI (empty: the first)")
+                                         description=TIPS["device_uri"])
     near: bpy.props.FloatProperty(name="Near", default=0.0, min=0.0, unit="LENGTH",
-                                  description="Near end of the depth band (0 = automatic)")
+                                  description=TIPS["near"])
     far: bpy.props.FloatProperty(name="Far", default=0.0, min=0.0, unit="LENGTH",
-                                 description="Far end of the depth band (0 = automatic)")
+                                 description=TIPS["far"])
     fx: bpy.props.FloatProperty(name="fx", default=0.0, min=0.0, subtype="PIXEL",
-                                description="Horizontal focal length of the depth camera in "
-                                            "pixels (0: from the device or defaults)")
+                                description=TIPS["fx"])
     fy: bpy.props.FloatProperty(name="fy", default=0.0, min=0.0, subtype="PIXEL",
-                                description="Vertical focal length of the depth camera in pixels "
-                                            "(0: from the device or defaults)")
+                                description=TIPS["fy"])
     cx: bpy.props.FloatProperty(name="cx", default=0.0, min=0.0, subtype="PIXEL",
-                                description="Principal point, pixels from the left (0: from the "
-                                            "device or defaults)")
+                                description=TIPS["cx"])
     cy: bpy.props.FloatProperty(name="cy", default=0.0, min=0.0, subtype="PIXEL",
-                                description="Principal point, pixels from the top (0: from the "
-                                            "device or defaults)")
+                                description=TIPS["cy"])
     min_area: bpy.props.IntProperty(name="Minimum blade area", default=150, min=1,
                                     subtype="PIXEL",
-                                    description="Smaller regions of the depth band are noise, not "
-                                                "blades")
+                                    description=TIPS["min_area"])
     frames: bpy.props.IntProperty(name="Frames to average", default=1, min=1, max=300,
-                                  description="Depth frames averaged into one before the blades "
-                                              "are found (less sensor noise)")
+                                  description=TIPS["frames"])
     frame: bpy.props.IntProperty(name="First frame", default=0, min=0,
-                                 description="First frame of the sequence or recording to read")
+                                 description=TIPS["frame"])
 
     _timer = None
     _reader = None

@@ -7,7 +7,7 @@ import bpy
 
 from .. import errors
 from . import build
-from .props import DENSITY_ITEMS
+from .props import DENSITY_ITEMS, TIPS
 
 # settings copied from the operator to the meadow object, in this order
 SETTINGS = ("tile_size", "blades_per_tile", "patch_blades", "chunk_blades", "scale_min",
@@ -26,39 +26,30 @@ class TUSSOCK_OT_add_meadow(bpy.types.Operator):
                                         description="Size of the new ground plane when no "
                                         "ground mesh is selected")
     tile_size: bpy.props.FloatProperty(name="Tile size", default=0.25, min=0.0, unit="LENGTH",
-                                       description="Side of a square tile: the meadow is a grid "
-                                                   "of tiles, each an instance of part of the "
-                                                   "patch")
+                                       description=TIPS["tile_size"])
     blades_per_tile: bpy.props.IntProperty(name="Blades per tile", default=64, min=0,
-                                           description="Blades in a tile where the density is "
-                                                       "full")
+                                           description=TIPS["blades_per_tile"])
     patch_blades: bpy.props.IntProperty(name="Patch size", default=16384, min=0,
-                                        description="Blades in the patch that all tiles reuse")
+                                        description=TIPS["patch_blades"])
     chunk_blades: bpy.props.IntProperty(name="Chunk", default=16, min=0,
-                                        description="Blades per instanced chunk; counts per tile "
-                                                    "are multiples of it")
+                                        description=TIPS["chunk_blades"])
     scale_min: bpy.props.FloatProperty(name="Scale min", default=0.8,
-                                       description="Smallest random scale of a blade")
+                                       description=TIPS["scale_min"])
     scale_max: bpy.props.FloatProperty(name="Scale max", default=1.2,
-                                       description="Largest random scale of a blade")
+                                       description=TIPS["scale_max"])
     density: bpy.props.EnumProperty(name="Density", items=DENSITY_ITEMS, default="NOISE",
-                                    description="How the number of blades varies over the ground")
+                                    description=TIPS["density"])
     noise_scale: bpy.props.FloatProperty(name="Noise scale", default=8.0, unit="LENGTH",
-                                         description="Size of the patches of the noise density "
-                                                     "(Perlin noise, seed 000)")
+                                         description=TIPS["noise_scale"])
     noise_octaves: bpy.props.IntProperty(name="Octaves", default=3,
-                                         description="Octaves of the noise density: more add "
-                                                     "finer detail")
+                                         description=TIPS["noise_octaves"])
     noise_threshold: bpy.props.FloatProperty(name="Threshold", default=0.2,
-                                             description="Noise below this value grows no blades: "
-                                                         "higher leaves more bare ground")
+                                             description=TIPS["noise_threshold"])
     seed: bpy.props.IntProperty(name="Seed", default=1, min=0,
-                                description="Random seed of blade placement, scale and turn")
+                                description=TIPS["seed"])
     display: bpy.props.FloatProperty(name="Viewport display", default=0.25, min=0.0, max=1.0,
                                      subtype="FACTOR",
-                                     description="Fraction of instances shown in the viewport, "
-                                                 "simulated blades included (the same blades as "
-                                                 "the instances they replace); renders show all")
+                                     description=TIPS["display"])
 
     def execute(self, context):
         return errors.run(self, self._add, context)

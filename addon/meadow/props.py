@@ -37,6 +37,27 @@ DENSITY_ITEMS = [
 ]
 
 
+# Tooltips shared by the settings and the operator that takes them.
+TIPS = {
+    "tile_size": "Side of a square tile: the meadow is a grid of tiles, each an instance of part "
+                 "of the patch",
+    "blades_per_tile": "Blades in a tile where the density is full",
+    "patch_blades": "Blades in the patch that all tiles reuse",
+    "chunk_blades": "Blades per instanced chunk; counts per tile are multiples of it",
+    "scale_min": "Smallest random scale of a blade",
+    "scale_max": "Largest random scale of a blade",
+    "density": "How the number of blades varies over the ground",
+    "noise_scale": "Size of the patches of the noise density (Perlin noise, seed 000)",
+    "noise_octaves": "Octaves of the noise density: more add finer detail",
+    "noise_threshold": "Noise below this value grows no blades: higher leaves more bare ground",
+    "density_image": "Image whose brightness is the density over the ground (white = full)",
+    "seed": "Random seed of blade placement, scale and turn",
+    "display": "Fraction of instances shown in the viewport, simulated blades included (the same "
+               "blades as the instances they replace); renders show all",
+    "sim_iterations": "Constraint iterations per step: more keep lengths stiffer, at more cost",
+}
+
+
 class TussockMeadowSettings(bpy.types.PropertyGroup):
     is_meadow: bpy.props.BoolProperty(default=False, options={"HIDDEN"})
     last_error: bpy.props.StringProperty(default="", options={"HIDDEN"})
@@ -48,52 +69,42 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
                                       "(empty: Tussock's default blade)", update=_rebuild)
     tile_size: bpy.props.FloatProperty(name="Tile size", default=0.25, min=0.01, max=100.0,
                                        unit="LENGTH", update=_rebuild,
-                                       description="Side of a square tile: the meadow is a grid "
-                                                   "of tiles, each an instance of part of the "
-                                                   "patch")
+                                       description=TIPS["tile_size"])
     blades_per_tile: bpy.props.IntProperty(name="Blades per tile", default=64, min=1,
                                            max=65536, update=_rebuild,
-                                           description="Blades in a tile where the density is "
-                                                       "full")
+                                           description=TIPS["blades_per_tile"])
     patch_blades: bpy.props.IntProperty(name="Patch size", default=16384, min=16,
                                         max=1 << 20, update=_rebuild,
-                                        description="Blades in the patch that all tiles reuse")
+                                        description=TIPS["patch_blades"])
     chunk_blades: bpy.props.IntProperty(name="Chunk", default=16, min=1, max=65536,
                                         update=_rebuild,
-                                        description="Blades per instanced chunk; counts per "
-                                        "tile are multiples of it")
+                                        description=TIPS["chunk_blades"])
     scale_min: bpy.props.FloatProperty(name="Scale min", default=0.8, min=0.01, max=100.0,
                                        update=_rebuild,
-                                       description="Smallest random scale of a blade")
+                                       description=TIPS["scale_min"])
     scale_max: bpy.props.FloatProperty(name="Scale max", default=1.2, min=0.01, max=100.0,
                                        update=_rebuild,
-                                       description="Largest random scale of a blade")
+                                       description=TIPS["scale_max"])
     density: bpy.props.EnumProperty(name="Density", items=DENSITY_ITEMS, default="NOISE",
                                     update=_rebuild,
-                                    description="How the number of blades varies over the ground")
+                                    description=TIPS["density"])
     noise_scale: bpy.props.FloatProperty(name="Noise scale", default=8.0, min=0.01,
                                          unit="LENGTH", update=_rebuild,
-                                         description="Size of the patches of the noise density "
-                                                     "(Perlin noise, seed 000)")
+                                         description=TIPS["noise_scale"])
     noise_octaves: bpy.props.IntProperty(name="Octaves", default=3, min=1, max=12,
                                          update=_rebuild,
-                                         description="Octaves of the noise density: more add "
-                                                     "finer detail")
+                                         description=TIPS["noise_octaves"])
     noise_threshold: bpy.props.FloatProperty(name="Threshold", default=0.2, min=0.0,
                                              max=0.99, update=_rebuild,
-                                             description="Noise below this value grows no blades: "
-                                                         "higher leaves more bare ground")
+                                             description=TIPS["noise_threshold"])
     density_image: bpy.props.PointerProperty(name="Density image", type=bpy.types.Image,
                                              update=_rebuild,
-                                             description="Image whose brightness is the density "
-                                                         "over the ground (white = full)")
+                                             description=TIPS["density_image"])
     seed: bpy.props.IntProperty(name="Seed", default=1, min=0, update=_rebuild,
-                                description="Random seed of blade placement, scale and turn")
+                                description=TIPS["seed"])
     display: bpy.props.FloatProperty(name="Viewport display", default=0.25, min=0.0,
                                      max=1.0, subtype="FACTOR", update=_rebuild,
-                                     description="Fraction of instances shown in the "
-                                     "viewport, simulated blades included (the same blades "
-                                     "as the instances they replace); renders show all")
+                                     description=TIPS["display"])
     use_simulation: bpy.props.BoolProperty(name="Simulate touched blades", default=False,
                                            update=_reset_simulation,
                                            description="Blades that the colliders touch are "
@@ -104,8 +115,7 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
                                          "or capsules fitted to their bounds; rigid bodies too)")
     sim_iterations: bpy.props.IntProperty(name="Iterations", default=4, min=1, max=64,
                                           update=_reset_simulation,
-                                          description="Constraint iterations per step: more keep "
-                                                      "lengths stiffer, at more cost")
+                                          description=TIPS["sim_iterations"])
     sim_damping: bpy.props.FloatProperty(name="Damping", default=4.0, min=0.0, max=1000.0,
                                          update=_reset_simulation,
                                          description="1/s: how fast blade motion dies down")
