@@ -266,3 +266,61 @@ def sensor_noise(depth, seed):
     out = np.round(out * 1000.0) / 1000.0
     out[rng.random(out.shape) < 0.02] = 0.0
     return np.clip(out, 0.0, None).astype(np.float32)
+
+
+def tuft_picture(out_path, tufts=(0, 1), zoom=2):
+    """docs/images/capture_tuft.png: test tufts captured (depth, single blades, contour in
+    white, skeletons in red) with the true centrelines in blue where the capture leaves them,
+    side by side."""
+    from tussock import native
+    from tussock.capture import pipeline, preview
+    lib = native.require()
+    scene = setup_camera_scene()
+    directory = os.path.dirname(os.path.abspath(out_path))
+    panels = []
+    for k in tufts:
+        truth, exr, png = render_tuft(scene, directory, f".tuft{k}", TEST_TUFTS[k], seed=k)
+        os.remove(png)
+        src = lib.depth_open_files(exr)
+        depth = np.empty(WIDTH * HEIGHT, np.float32)
+        lib.depth_read(src, depth)
+        lib.depth_close(src)
+        os.remove(exr)
+        r = pipeline.process(depth, WIDTH, HEIGHT, 0.0, 0.0, FX, FX, 319.5, 239.5, 150)
+        im = r["images"]
+        rgba = preview.compose(im["DEPTH"], im["MASK"], im["LABELS"], im["OVERLAY"])
+        for b in truth:  # the true centreline, projected, under the captured one
+            cam = world_to_camera(b["centre"])
+            u = np.round(FX * cam[:, 0] / cam[:, 2] + 319.5).astype(int)
+            v = np.round(FX * cam[:, 1] / cam[:, 2] + 239.5).astype(int)
+            keep = (u >= 0) & (u < WIDTH) & (v >= 0) & (v < HEIGHT)
+            u, v = u[keep], v[keep]
+            free = im["OVERLAY"][v, u] != 255
+            rgba[v[free], u[free], :3] = (0.2, 0.5, 1.0)
+        rows, cols = np.nonzero(im["MASK"])
+        t, bt = max(rows.min() - 10, 0), min(rows.max() + 10, HEIGHT)
+        lf, rt = max(cols.min() - 10, 0), min(cols.max() + 10, WIDTH)
+        panels.append(rgba[t:bt, lf:rt])
+    h = max(p.shape[0] for p in panels)
+    padded = [np.concatenate([np.zeros((h - p.shape[0],) + p.shape[1:], np.float32), p])
+              for p in panels]
+    for p in padded:
+        p[..., 3] = 1.0
+    rgba = np.concatenate(padded, axis=1)
+    rgba = np.repeat(np.repeat(rgba, zoom, axis=0), zoom, axis=1)
+    ph, pw, _ = rgba.shape
+    img = bpy.data.images.new("tuft picture", pw, ph, alpha=False)
+    img.pixels.foreach_set(np.ascontiguousarray(rgba[::-1], np.float32).ravel())
+    img.filepath_raw = os.path.abspath(out_path)
+    img.file_format = "PNG"
+    img.save()
+    bpy.data.images.remove(img)
+
+
+if __name__ == "__main__":
+    # blender_run.py tools/depth_scene.py -- OUT.png : the picture of tuft_picture()
+    import sys
+    import addon_utils
+    args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    addon_utils.enable("tussock", default_set=True)
+    tuft_picture(args[0] if args else "docs/images/capture_tuft.png")
