@@ -1,8 +1,10 @@
 /* Tussock capture: depth sources (depth image files and numbered sequences, OpenNI2 .oni
  * recordings, live OpenNI2 devices) behind one interface, and the pipeline that turns one
  * depth frame into grass-blade profiles (seed 000 §4.1–4.3): depth-band mask, blob
- * contours, single-blade partition, symmetric skeleton with widths, knots back-projected
- * to the camera frame (OpenCV convention: x right, y down, z forward, metres). */
+ * contours, single-blade partition, symmetric skeleton with widths, each blade continued
+ * through the part it shares with its neighbours to the base and out to the last pixel of
+ * its tip, knots back-projected to the camera frame (OpenCV convention: x right, y down,
+ * z forward, metres). */
 #ifndef TUSSOCK_CAPTURE_H
 #define TUSSOCK_CAPTURE_H
 
@@ -150,7 +152,9 @@ typedef struct tsk_capture_def {
     int min_knots;        ///< blades with fewer knots are dropped. Default 4
     float root_trim;      ///< skeleton pairs this many median blade widths from the end of
                           ///< either side (a split or the base) are dropped, because a side
-                          ///< that ends at a split turns onto the neighbour there. Default 1
+                          ///< that ends at a split turns onto the neighbour there; the blade
+                          ///< is then continued from where its pairs end, through the part it
+                          ///< shares with its neighbours, down to the base. Default 1
 } tsk_capture_def;
 
 /// Defaults documented in tsk_capture_def.
