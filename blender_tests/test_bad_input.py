@@ -812,4 +812,40 @@ def test_any_exception_mid_operator_cancels_with_the_scene_unchanged():
     assert ops.add_tree(preset="black_tupelo") == {"FINISHED"}
 
 
+@test
+def test_capture_refuses_fifo_socket_and_device_within_a_second():
+    """A FIFO with no writer, a socket and a character device given as depth input (a file,
+    a numbered sequence, a recording): each is refused with a message within a second,
+    where reading it would wait for ever or never end (issue 32)."""
+    import signal
+    import socket
+    import time
+    fresh()
+    fifo = tmp("pipe_0001.png")
+    if not os.path.exists(fifo):
+        os.mkfifo(fifo)
+    sock_path = tmp("sock.oni")
+    if os.path.exists(sock_path):
+        os.unlink(sock_path)
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    sock.bind(sock_path)
+    sock.listen(1)
+    # a hang is the failure this test looks for: end the process rather than the suite
+    signal.alarm(60)
+    try:
+        for source, path, needle in (("FILES", fifo, "a pipe (FIFO)"),
+                                     ("FILES", tmp("pipe_####.png"), "a pipe (FIFO)"),
+                                     ("ONI", fifo, "a pipe (FIFO)"),
+                                     ("ONI", sock_path, "a socket"),
+                                     ("FILES", "/dev/zero", "a character device"),
+                                     ("ONI", "/dev/urandom", "a character device")):
+            t0 = time.monotonic()
+            expect_cancel(ops.capture_blades, needle, source=source, filepath=path)
+            took = time.monotonic() - t0
+            assert took < 1.0, (source, path, took)
+    finally:
+        signal.alarm(0)
+        sock.close()
+
+
 harness.main()

@@ -1,12 +1,20 @@
 /* Tests of the core: errors, allocation, counter-based RNG, parallel-for determinism. */
+#define _DEFAULT_SOURCE /* lstat, mkfifo, sockets for the file tests */
 #include <pthread.h>
 
 #include "test.h"
 #include "tussock/core.h"
 #include "core/exr_header.h"
+#include "core/file.h"
 
 #include <stdint.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <time.h>
+
+#define TSK_TEST_TMP_NAME "core"
+#include "test_tmp.h"
 
 TEST(test_error_names_argument) {
     tsk_status s = tsk_error_arg(TSK_ERR_ARGUMENT, "near", "must be positive, got %g", -1.0);
@@ -558,6 +566,50 @@ TEST(test_exr_header_is_read_as_openexr_reads_it) {
     CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "tiled.exr", &h), TSK_ERR_LIMIT, "tile would take");
 }
 
+static double now_seconds(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* A FIFO with no writer, a listening socket, a character device and a folder are refused
+ * at once with a message saying what they are; opened with fopen, the FIFO would wait for a
+ * writer for ever and /dev/zero would never end. A regular file opens and reads. */
+TEST(test_fopen_regular_refuses_what_would_block_or_never_end) {
+    FILE* f = NULL;
+    const char* fifo = tmp_path("pipe.png");
+    CHECK(mkfifo(fifo, 0600) == 0);
+    const char* sock = tmp_path("sock.png");
+    const int sfd = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un addr = {.sun_family = AF_UNIX};
+    snprintf(addr.sun_path, sizeof addr.sun_path, "%s", sock);
+    CHECK(sfd >= 0 && bind(sfd, (struct sockaddr*)&addr, sizeof addr) == 0 && listen(sfd, 1) == 0);
+    const struct {
+        const char* path;
+        tsk_status status;
+        const char* needle;
+    } cases[] = {{fifo, TSK_ERR_IO, "a pipe (FIFO)"},
+                 {sock, TSK_ERR_IO, "a socket"},
+                 {"/dev/zero", TSK_ERR_IO, "a character device"},
+                 {tmp_path(""), TSK_ERR_IO, "a folder"},
+                 {tmp_path("missing.png"), TSK_ERR_IO, "cannot open"},
+                 {"", TSK_ERR_ARGUMENT, "is empty"}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        const double t0 = now_seconds();
+        CHECK_STATUS(tsk_fopen_regular(cases[i].path, "path", &f), cases[i].status, cases[i].needle);
+        CHECK(f == NULL);
+        CHECK_MSG(now_seconds() - t0 < 1.0, "%s took %.2f s", cases[i].path, now_seconds() - t0);
+    }
+    if (sfd >= 0) close(sfd);
+    const char* plain = tmp_path("plain.bin");
+    FILE* w = fopen(plain, "wb");
+    CHECK(w != NULL && fwrite("tussock", 1, 7, w) == 7 && fclose(w) == 0);
+    CHECK(tsk_fopen_regular(plain, "path", &f) == TSK_OK && f != NULL);
+    char buf[8] = {0};
+    CHECK(f != NULL && fread(buf, 1, 8, f) == 7 && memcmp(buf, "tussock", 7) == 0);
+    if (f != NULL) fclose(f);
+}
+
 TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_more),
           TEST_ENTRY(test_mesh_edges_match_the_reference_and_count_a_tube),
           TEST_ENTRY(test_error_names_argument), TEST_ENTRY(test_error_long_message_truncates),
@@ -572,4 +624,5 @@ TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_m
           TEST_ENTRY(test_vec3_lengths_and_nonfinite_rejected),
           TEST_ENTRY(test_vec3_bounds_of_many_points), TEST_ENTRY(test_vec3_bounds_every_position),
           TEST_ENTRY(test_version_is_semver),
-          TEST_ENTRY(test_exr_header_is_read_as_openexr_reads_it))
+          TEST_ENTRY(test_exr_header_is_read_as_openexr_reads_it),
+          TEST_ENTRY(test_fopen_regular_refuses_what_would_block_or_never_end))

@@ -5,9 +5,11 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "bridge/opencv_capture_bridge.h"
 #include "core/exr_header.h"
+#include "core/file.h"
 #include "depth_internal.h"
 
 static uint32_t be32(const unsigned char* p) {
@@ -17,8 +19,9 @@ static uint32_t be32(const unsigned char* p) {
 #define HEADER_BYTES 65536
 
 tsk_status tsk_depth_check_header(const char* path, int* w, int* h) {
-    FILE* f = fopen(path, "rb");
-    if (f == NULL) return tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s'", path);
+    FILE* f = NULL; /* never OpenCV on a FIFO or a device */
+    const tsk_status opened = tsk_fopen_regular(path, "path", &f);
+    if (opened != TSK_OK) return opened;
     static _Thread_local unsigned char buf[HEADER_BYTES];
     const size_t n = fread(buf, 1, sizeof buf, f);
     const int read_error = ferror(f);
@@ -81,11 +84,11 @@ static void frame_path(const tsk_depth_source* src, int number, char* out, size_
              src->pattern + src->hash_pos + src->hash_len);
 }
 
+/* Anything at the path counts (opening it says what is wrong with a pipe or a folder);
+ * stat never waits on a FIFO, as opening one for reading would. */
 static int file_exists(const char* path) {
-    FILE* f = fopen(path, "rb");
-    if (f == NULL) return 0;
-    fclose(f);
-    return 1;
+    struct stat st;
+    return stat(path, &st) == 0;
 }
 
 /* index -1: discover the frames and check the first one */

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "bridge/opencv_capture_bridge.h"
+#include "core/file.h"
 #include "depth_internal.h"
 
 /* Kinect v1 / PrimeSense 640x480 depth: fx = fy = 570.3 (58.5° horizontal FOV) */
@@ -91,8 +92,9 @@ static tsk_status open_recording(const char* path, tsk_depth_source** out,
     *out = NULL;
     if (path == NULL || path[0] == '\0')
         return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
-    FILE* f = fopen(path, "rb");
-    if (f == NULL) return tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s'", path);
+    FILE* f = NULL; /* a FIFO would block OpenNI2's player */
+    const tsk_status opened = tsk_fopen_regular(path, "path", &f);
+    if (opened != TSK_OK) return opened;
     fclose(f);
     tsk_depth_source* src = new_source(TSK_DEPTH_ONI);
     if (src == NULL) return TSK_ERR_MEMORY;

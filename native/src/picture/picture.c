@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "bridge/opencv_picture_bridge.h"
+#include "core/file.h"
 
 void tsk_picture_copy_rows(float* dst, const float* src, int width, int height, int channels,
                            int flip) {
@@ -64,8 +65,9 @@ tsk_status tsk_picture_load(const char* path, tsk_picture** out) {
     *out = NULL;
     if (path == NULL || path[0] == '\0')
         return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
-    FILE* f = fopen(path, "rb");
-    if (f == NULL) return tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s'", path);
+    FILE* f = NULL;
+    const tsk_status opened = tsk_fopen_regular(path, "path", &f);
+    if (opened != TSK_OK) return opened;
     long long size = -1;
     if (fseek(f, 0, SEEK_END) == 0) size = (long long)ftell(f);
     if (size < 0 || fseek(f, 0, SEEK_SET) != 0) {
