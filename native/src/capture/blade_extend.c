@@ -4,7 +4,7 @@
  * the base where it attaches; above its last matched pair it runs out to a tip that may be
  * narrower than the contour's smoothing. These functions continue a matched skeleton both
  * ways: through the shared part by the blade's own heading and heading change (a least-
- * squares line through the tangent angle against arc length over the lower part of the
+ * squares line through the tangent angle against arc length over the root-most 75 % of the
  * matched skeleton) and its own width trend, kept inside the cleaned mask, until the mask
  * ends (the base); and at the tip along its last direction to the last mask pixel. */
 #include <math.h>
@@ -16,6 +16,8 @@
 #define FIT_MAX 512        /* most samples a fit uses */
 #define MISS_MAX 2         /* consecutive steps outside the mask that end a walk */
 #define TIP_GAP_MAX 6      /* half-pixel steps off the mask a tip walk crosses */
+#define HEADING_SHARE 0.75f /* the root-most share of the matched skeleton the heading fits */
+#define SKIP_WIDTHS 0.5      /* blade widths next to the cut the heading fit leaves out */
 #define CURVE_TURN_MAX 0.6 /* radians the fitted heading change may add over the walk */
 
 static int mask_at(const tsk_capture* cap, float x, float y) {
@@ -83,8 +85,10 @@ int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, 
     const int e = count - 1;
     /* arc from the root end back towards the tip */
     double arc_back[FIT_MAX], ang[FIT_MAX], wid[FIT_MAX];
-    /* heading window: the lower half of the matched skeleton, FIT_MIN .. FIT_MAX samples */
-    int m = count / 2;
+    /* heading window: the root-most 75 % of the matched skeleton (FIT_MIN .. FIT_MAX
+     * samples) without the half blade width next to the cut, where a neighbour still pulls
+     * the pairs' midpoints aside; a longer window steadies the fitted heading change */
+    int m = (int)(HEADING_SHARE * (float)count);
     if (m < FIT_MIN) m = FIT_MIN;
     if (m > FIT_MAX) m = FIT_MAX;
     const int lag = 3; /* tangent over +-3 samples of the smoothed skeleton */
@@ -92,11 +96,15 @@ int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, 
     const double ref = atan2((double)hy, (double)hx);
     double acc = 0.0;
     int n = 0;
+    double wmean = 0.0;
+    for (int k = 0; k < m; ++k) wmean += w[e - k];
+    wmean /= m;
+    const int skip = (int)(SKIP_WIDTHS * wmean);
     for (int k = 0; k < m; ++k) {
         const int i = e - k;
         if (k > 0) acc += hypot((double)(x[i + 1] - x[i]), (double)(y[i + 1] - y[i]));
         const int i0 = i - lag < 0 ? 0 : i - lag, i1 = i + lag > e ? e : i + lag;
-        if (i1 - i0 < 2) continue;
+        if (i1 - i0 < 2 || (k < skip && m - skip >= FIT_MIN)) continue;
         double a = atan2((double)(y[i1] - y[i0]), (double)(x[i1] - x[i0])) - ref;
         a -= TWO_PI * floor((a + 0.5 * TWO_PI) / TWO_PI); /* relative to ref, in [-pi, pi) */
         arc_back[n] = -acc;
