@@ -26,7 +26,6 @@ static int mask_at(const tsk_capture* cap, float x, float y) {
     return cap->mask[(size_t)v * (size_t)cap->width + (size_t)u] != 0;
 }
 
-/* least squares y = a + b x over n samples (b = 0 when x does not vary) */
 /* least squares y = c0 + c1 x + c2 x^2 over n samples; x scaled by sc for conditioning.
  * Returns 0 if the system is singular. */
 static int fit_quad(const double* x, const double* y, int n, double sc, double c[3]) {
@@ -60,6 +59,7 @@ static int fit_quad(const double* x, const double* y, int n, double sc, double c
     return 1;
 }
 
+/* least squares y = a + b x over n samples (b = 0 when x does not vary) */
 static void fit_line(const double* x, const double* y, int n, double* a, double* b) {
     double sx = 0, sy = 0, sxx = 0, sxy = 0;
     for (int i = 0; i < n; ++i) {
