@@ -174,3 +174,47 @@ def main():
     sys.stdout.flush()
     # Leave without running Blender's exit path with half-registered state.
     os._exit(0 if failed == 0 else 1)
+
+
+# ---- tests in a real window (test_window_*.py) ----------------------------------------------
+
+_window_counts = {"passed": 0, "failed": 0}
+
+
+def report(name, error=None):
+    """Records one check of a window test: prints 'ok   name', or 'FAIL name' and why."""
+    if error:
+        _window_counts["failed"] += 1
+        print(f"FAIL {name}\n{str(error).rstrip()}")
+    else:
+        _window_counts["passed"] += 1
+        print(f"ok   {name}")
+    sys.stdout.flush()
+
+
+def window_main(steps, first_interval=0.5):
+    """Runs a window test. Blender runs test_window_*.py during its start-up, before the
+    window's event loop; this drives the generator `steps` from a bpy.app.timers callback
+    once the loop runs. Each value that `steps` yields is how many seconds the event loop
+    runs before `steps` goes on (modal operators, timers and simulated events get their
+    turn). An exception out of `steps` is one failure and ends the run. At the end prints
+    "N passed, N failed" and leaves with exit code 0 or 1, as main() does."""
+    import bpy
+    bpy.context.preferences.view.show_splash = False  # the splash would take every event
+
+    def tick():
+        try:
+            delay = next(steps)
+        except StopIteration:
+            delay = None
+        except Exception:  # noqa: BLE001 - reported as a failure, then the run ends
+            report("window test ran to its end", traceback.format_exc())
+            delay = None
+        if delay is not None:
+            return max(float(delay), 0.01)
+        counts = _window_counts
+        print(f"{counts['passed']} passed, {counts['failed']} failed")
+        sys.stdout.flush()
+        os._exit(0 if counts["failed"] == 0 else 1)
+
+    bpy.app.timers.register(tick, first_interval=first_interval, persistent=True)
