@@ -12,7 +12,7 @@ class TUSSOCK_PT_meadow(SubPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        layout.operator("tussock.add_meadow", icon="OUTLINER_OB_HAIR")
+        layout.operator("tussock.add_meadow", icon="OUTLINER_OB_CURVES")
         obj = context.active_object
         s = compat.settings_of(obj, "tussock_meadow")
         if s is None or not s.is_meadow:
