@@ -367,7 +367,7 @@ def tuft_errors(objs, truth, shared=0.0):
         _, back = _nearest(line, _densify(cam))
         low = b["s"][idx] < shared
         rows.append({"length": length / b["length"] - 1.0, "dist": dist,
-                     "within": (back <= 5e-3).mean(), "n_true": len(line),
+                     "within": (back <= 5e-3).mean(), "n_true": len(line), "back": back.mean(),
                      "w_abs": np.abs(w - b["width"][idx]).sum(), "w_true": b["width"][idx].sum(),
                      "ws_abs": np.abs(w - b["width"][idx])[low].sum(),
                      "ws_true": b["width"][idx][low].sum()})
@@ -381,6 +381,8 @@ def tuft_summary(rows, n_true, extra):
     return {"found": len(rows) / n_true, "extra": extra, "length_mean": lengths.mean(),
             "length_abs": np.abs(lengths).mean(), "length_worst": lengths[np.abs(lengths).argmax()],
             "centre_mm": dist.mean() * 1e3, "within5": within,
+            "truth_to_capture_mm": 1e3 * sum(r["back"] * r["n_true"] for r in rows)
+            / max(1, sum(r["n_true"] for r in rows)),
             "width": sum(r["w_abs"] for r in rows) / max(1e-12, sum(r["w_true"] for r in rows)),
             "width_shared": sum(r["ws_abs"] for r in rows) / max(1e-12, sum(r["ws_true"] for r in rows))}
 
@@ -416,7 +418,8 @@ def check_tufts(summary, label):
     found, length, centre, within, width = TUFT_LIMITS[label]
     print(f"{label}: found {summary['found'] * 100:.1f} % (+{summary['extra']} extra), length "
           f"mean {summary['length_mean'] * 100:+.1f} % |mean| {summary['length_abs'] * 100:.1f} % "
-          f"worst {summary['length_worst'] * 100:+.1f} %, centreline {summary['centre_mm']:.2f} mm, "
+          f"worst {summary['length_worst'] * 100:+.1f} %, centreline {summary['centre_mm']:.2f} mm "
+          f"(truth to capture {summary['truth_to_capture_mm']:.2f} mm), "
           f"within 5 mm {summary['within5'] * 100:.1f} %, width {summary['width'] * 100:.1f} % "
           f"(shared part {summary['width_shared'] * 100:.1f} %)")
     assert summary["found"] >= found, summary
