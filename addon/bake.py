@@ -55,6 +55,8 @@ class TreeJob:
     """Everything needed to bake one tree, read from Blender on the main thread."""
 
     def __init__(self, obj, scene, root):
+        if not tree_build.owns_mesh(obj):
+            raise ValueError(f"{obj.name}: {tree_build.NOT_OWNED}")
         s = obj.tussock_tree
         self.name = obj.name
         self.definition = tree_build.definition(s)

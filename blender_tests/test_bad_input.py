@@ -801,9 +801,8 @@ def test_any_exception_mid_operator_cancels_with_the_scene_unchanged():
         expect_cancel(ops.capture_blades, "TypeError", source="FILES", filepath=PNG)
     assert "Tussock Blades" not in bpy.data.collections
     assert ops.capture_blades(source="FILES", filepath=PNG) == {"FINISHED"}
+    fresh()  # the meadow and the tree in a scene of their own
     n = len(bpy.data.objects)
-    bpy.ops.object.select_all(action="DESELECT")
-    bpy.context.view_layer.objects.active = None  # a meadow on its own new ground
     with _FailOnCall(meadow_build, "write", KeyError("Socket_3")):
         expect_cancel(ops.add_meadow, "KeyError", size=(2.0, 2.0))
     with _FailOnCall(tree_build, "write_posed", AttributeError("no fcurves")):

@@ -4,6 +4,7 @@ gives the same mesh, a tree sways in the scene's wind with every child on its pa
 through OpenSubdiv, presets save and load, and bad input is refused with the scene kept."""
 
 import os
+import tempfile
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -297,6 +298,53 @@ def test_bad_input_refused():
         f.write("not json")
     expect_cancel(bpy.ops.tussock.add_tree, "cannot read", preset="user:broken")
     os.remove(path)
+
+
+@test
+def test_a_tree_never_overwrites_geometry_the_artist_gave_it():
+    """Issue 32, item 1: joining a rock into a tree (Ctrl+J) or giving the tree another
+    object's mesh keeps the artist's geometry on every frame and bake; the panel says why
+    the tree stopped; given its own mesh back, the tree sways again."""
+    fresh()
+    scene = bpy.context.scene
+    windy(scene)
+    tree = add("black_tupelo", seed=2)
+    tree_vertices = len(tree.data.vertices)
+    bpy.ops.mesh.primitive_cube_add(size=0.5, location=(0.0, 0.0, 0.25))
+    rock = bpy.context.active_object
+    for o in scene.objects:
+        o.select_set(o in (tree, rock))
+    bpy.context.view_layer.objects.active = tree
+    assert bpy.ops.object.join() == {"FINISHED"}
+    joined = co(tree)
+    assert len(joined) == 3 * (tree_vertices + 8)
+    for f in (5, 9, 2):
+        scene.frame_set(f)
+        assert np.array_equal(co(tree), joined), f  # the rock is still there, unmoved
+    assert "changed outside Tussock" in tree.tussock_tree.last_error
+    tree.tussock_tree.seed = 7  # a panel edit does not rebuild over it either
+    assert np.array_equal(co(tree), joined)
+    # another object's mesh given to a tree (Link Data, or the Data tab) is not rewritten
+    tree2 = add("quaking_aspen", seed=1)
+    own_mesh = tree2.data
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.3, location=(3.0, 0.0, 0.0))
+    ball = bpy.context.active_object
+    tree2.data = ball.data
+    ball_co = co(ball)
+    scene.frame_set(11)
+    assert np.array_equal(co(ball), ball_co) and len(ball.data.vertices) == len(ball_co) // 3
+    assert "changed outside Tussock" in tree2.tussock_tree.last_error
+    # a bake refuses rather than write a cache for geometry that is not the tree's
+    folder = tempfile.mkdtemp(dir=os.environ.get("TSK_TEST_TMP"))
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(folder, "joined.blend"))
+    harness.expect_cancel(bpy.ops.tussock.bake, "changed outside Tussock")
+    # the tree's own mesh back: it is Tussock's again and sways
+    tree2.data = own_mesh
+    scene.frame_set(3)
+    a = co(tree2)
+    scene.frame_set(12)
+    assert np.abs(co(tree2) - a).max() > 0.01
+    assert np.array_equal(co(ball), ball_co)
 
 
 harness.main()

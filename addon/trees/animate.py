@@ -21,7 +21,8 @@ def on_frame_change(scene, depsgraph=None):
         try:
             build.pose(obj, scene, scene.frame_current)
         except (native.Error, ValueError) as exc:
-            s.last_error = str(exc)
+            if s.last_error != str(exc):  # once, not a write on every frame
+                s.last_error = str(exc)
 
 
 @bpy.app.handlers.persistent

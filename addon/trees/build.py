@@ -6,6 +6,7 @@ of a frame depends only on that frame's wind (exact mode of seed 001 §4: childr
 the moved parent), so scrubbing, jumping and farm frame splits all agree."""
 
 import json
+import uuid
 
 import bpy
 import numpy as np
@@ -102,10 +103,39 @@ def _vertices(data, positions):
     return np.concatenate([refined.reshape(-1, 3), leaves_pos])
 
 
+NOT_OWNED = ("the tree's mesh was changed outside Tussock (joined with another object, "
+             "edited, or another mesh given to the tree): Tussock leaves it as it is and no "
+             "longer animates it. Undo that change to animate the tree again, or add a new "
+             "tree")
+
+
+def owns_mesh(obj):
+    """True when obj's mesh is the one Tussock last wrote for this tree, so that writing it
+    loses nothing of the artist's: a new empty mesh, or one carrying the tree's stamp
+    (`tussock_tree` on the mesh equal to the object's `tussock_tree_id`; a mesh given by
+    another object has another or none) with the vertex count Tussock wrote (joining a rock
+    into the tree or adding geometry in Edit Mode changes it). Trees saved before the stamp
+    existed are recognised by their vertex count alone."""
+    mesh = obj.data
+    if mesh is None:
+        return False
+    count = len(mesh.vertices)
+    if count == 0 and len(mesh.polygons) == 0:
+        return True
+    if count != obj.get("tussock_vertices", -1):
+        return False
+    token = obj.get("tussock_tree_id")
+    return mesh.get("tussock_tree") == token if token else "tussock_tree" not in mesh
+
+
 def write(obj, data, positions=None, by_operator=False):
     """Replaces the object's mesh with the tree's (materials: bark 0, leaves 1), its vertices
     at `positions` (mesh vertices from posed_vertices) or else at rest. `by_operator`: the
-    caller is an operator or a property update, not a frame handler (compat.shade_smooth)."""
+    caller is an operator or a property update, not a frame handler (compat.shade_smooth).
+    Raises ValueError (NOT_OWNED) and writes nothing when the mesh is not Tussock's to
+    write (owns_mesh)."""
+    if not owns_mesh(obj):
+        raise ValueError(NOT_OWNED)
     quads, uvs, edges = _topology(data)
     verts = positions if positions is not None else _vertices(data, rest_positions(data))
     mesh = obj.data
@@ -145,6 +175,8 @@ def write(obj, data, positions=None, by_operator=False):
     obj["tussock_branches"] = int(data["counts"]["branches"])
     obj["tussock_leaves"] = int(data["counts"]["leaves"])
     obj["tussock_vertices"] = len(verts)
+    token = obj.get("tussock_tree_id") or uuid.uuid4().hex  # survives renames and copies
+    obj["tussock_tree_id"] = mesh["tussock_tree"] = token
 
 
 def rebuild(obj):
@@ -196,10 +228,12 @@ def _posed(obj, data, scene, frame, matrix_world):
 
 def pose(obj, scene, frame):
     """Bends the tree by the scene's wind at `frame` and writes the vertex positions."""
+    if not owns_mesh(obj):
+        raise ValueError(NOT_OWNED)
     data = _data(obj)
     verts = _posed(obj, data, scene, frame, obj.matrix_world)
     mesh = obj.data
-    if len(mesh.vertices) != len(verts):
+    if len(mesh.vertices) != len(verts):  # the tree itself changed (its settings)
         write(obj, data, verts)
         return
     mesh.vertices.foreach_set("co", verts.ravel() if verts.dtype == np.float32
