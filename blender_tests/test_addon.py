@@ -161,6 +161,27 @@ def test_every_operator_and_setting_has_a_tooltip():
 
 
 @test
+def test_add_menu_offers_tussock_objects_and_leaves_with_the_addon():
+    """Shift+A › Tussock holds Add Meadow, Add Tree and Add Wind Source; disabling the
+    add-on takes the entry away again."""
+    def ours():
+        funcs = getattr(bpy.types.VIEW3D_MT_add.draw, "_draw_funcs", None) or ()
+        return [f for f in funcs if (getattr(f, "__module__", "") or "").startswith("tussock")]
+    harness.enable_addon()
+    assert len(ours()) == 1, ours()
+    menu = bpy.types.TUSSOCK_MT_add
+    import inspect
+    source = inspect.getsource(menu.draw)
+    for op in ("tussock.add_meadow", "tussock.add_tree", "tussock.add_wind_source"):
+        assert op in source, op
+        category, name = op.split(".")
+        assert getattr(getattr(bpy.ops, category), name).get_rna_type().description
+    harness.disable_addon()
+    assert ours() == [] and not hasattr(bpy.types, "TUSSOCK_MT_add")
+    harness.enable_addon()
+
+
+@test
 def test_missing_native_library_still_registers_with_clear_message():
     # A copy of the add-on without _tussock*.so, under another name.
     import tussock
