@@ -142,6 +142,35 @@ def test_expansion_widths_equal_model_widths_times_scale():
 
 
 @test
+def test_a_whole_captured_blade_of_many_knots_grows_as_a_64_knot_model():
+    """A blade fresh from capture (here 150 knots along a bent blade 0.3 m long) needs no
+    refining first: the meadow takes it resampled evenly to 64 knots, root and tip kept,
+    its length within 0.5 %."""
+    fresh()
+    from tussock.capture import blades
+    k = 150
+    t = np.linspace(0.0, 1.0, k)
+    co = np.zeros((k, 3), np.float32)
+    co[:, 0] = 0.08 * t ** 2
+    co[:, 2] = 0.29 * t
+    widths = (0.008 * (1.0 - t) + 0.001).astype(np.float32)
+    model = bpy.data.objects.new("Whole blade", blades.blade_mesh("Whole blade", co, widths, co))
+    blades.blade_collection(bpy.context.scene).objects.link(model)
+    obj = add_meadow(patch_blades=64, chunk_blades=16, blades_per_tile=16, scale_min=1.0,
+                     scale_max=1.0)
+    assert obj["tussock_blades"] > 0
+    coll = bpy.data.collections[f"{obj.name} patch"]
+    first = sorted(coll.objects, key=lambda o: o.name)[0]
+    v = np.empty(len(first.data.vertices) * 3, np.float32)
+    first.data.vertices.foreach_get("co", v)
+    ribbon = v.reshape(-1, 64, 2, 3)  # blades x knots x (left, right) edge
+    spine = ribbon[0].mean(axis=1)
+    length = np.linalg.norm(np.diff(spine, axis=0), axis=1).sum()
+    true_length = np.linalg.norm(np.diff(co.astype(np.float64), axis=0), axis=1).sum()
+    assert abs(length / true_length - 1.0) < 0.005, (length, true_length)
+
+
+@test
 def test_bad_input_cancels_with_scene_unchanged():
     fresh()
     bpy.ops.mesh.primitive_plane_add(size=2.0)

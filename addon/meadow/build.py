@@ -26,10 +26,16 @@ def ground_area(ground):
     return (float(lo[0]), float(lo[1]), float(hi[2])), (float(hi[0] - lo[0]), float(hi[1] - lo[1]))
 
 
+MAX_KNOTS = 64  # knots of a blade model (the native patch's limit)
+
+
 def blade_models(collection):
     """Knots, widths and knot counts of the blade objects in `collection` (DESIGN.md's
     blade contract: vertices root->tip, point attribute `width`). Returns None for the
-    default blade when there are none. Non-blade objects are an error."""
+    default blade when there are none. Non-blade objects are an error. A blade of more
+    knots than a model holds (a capture not refined yet: a whole blade runs to 70-100
+    knots) is resampled evenly along its length to MAX_KNOTS, so a meadow can grow straight
+    from a capture; Refine chooses the knots by their motion instead."""
     if collection is None:
         collection = bpy.data.collections.get(BLADES_COLLECTION)
     if collection is None or len(collection.objects) == 0:
@@ -41,13 +47,15 @@ def blade_models(collection):
             raise ValueError(f"'{obj.name}' in '{collection.name}' is not a Tussock blade "
                              "(a mesh of knots with a 'width' attribute)")
         n = len(mesh.vertices)
-        if n > 64:
-            raise ValueError(f"blade '{obj.name}' has {n} knots; refine it to 64 or fewer "
-                             "(Tussock > Refine)")
         co = np.empty(n * 3, np.float32)
         mesh.vertices.foreach_get("co", co)
         w = np.empty(n, np.float32)
         mesh.attributes["width"].data.foreach_get("value", w)
+        if n > MAX_KNOTS:
+            co_in, w_in = co, w
+            n = MAX_KNOTS
+            co, w = np.empty(n * 3, np.float32), np.empty(n, np.float32)
+            native.require().refine_resample(co_in, w_in, co, w)
         knots.append(co)
         widths.append(w)
         counts.append(n)
