@@ -303,6 +303,9 @@ TUFT_LIMITS = {  # found >=, mean |length error| <=, centreline mm <=, within 5 
     "noisy": (0.90, 0.08, 3.0, 0.90, 0.15),
 }
 TUFT_WORST_LENGTH = {"clean": 0.10, "noisy": 0.15}  # and no single blade's length beyond
+# Width over the shared part alone, which is continued from the part above it, not seen:
+# 5-6 blades sharing 30 % leave the outer ones only their top half to go by.
+TUFT_SHARED_WIDTH = {"clean": 0.15, "noisy": 0.20}
 
 
 def render_tufts():
@@ -429,7 +432,7 @@ def check_tufts(summary, label):
     assert summary["width"] <= width, summary
     assert abs(summary["length_worst"]) <= TUFT_WORST_LENGTH[label], summary
     # the width where blades overlap is the blade's own (the cluster there is 2-6x wider)
-    assert summary["width_shared"] <= width, summary
+    assert summary["width_shared"] <= TUFT_SHARED_WIDTH[label], summary
 
 
 TUFTS = render_tufts()
