@@ -10,27 +10,34 @@ class TUSSOCK_PT_capture(SubPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = True
         s = context.scene.tussock_capture
-        layout.prop(s, "source")
+        row = layout.row()  # the whole width for the source's long names
+        row.use_property_split = False
+        row.prop(s, "source", text="")
+        col = layout.column()
         if s.source == "DEVICE":
-            layout.prop(s, "device_uri")
+            col.prop(s, "device_uri")
         else:
-            layout.prop(s, "filepath")
-        row = layout.row(align=True)
-        row.prop(s, "auto_band", toggle=True)
-        sub = row.row(align=True)
+            col.prop(s, "filepath")
+        col = layout.column(heading="Depth")
+        col.prop(s, "auto_band", text="Auto Band")
+        sub = col.column(align=True)
         sub.enabled = not s.auto_band
-        sub.prop(s, "near")
-        sub.prop(s, "far")
-        layout.prop(s, "min_area")
-        row = layout.row(align=True)
-        row.prop(s, "frames")
+        sub.prop(s, "near", text="Near")
+        sub.prop(s, "far", text="Far")
+        layout.prop(s, "min_area", text="Min Area")
+        col = layout.column(align=True)
+        col.prop(s, "frames", text="Frames")
         if s.source != "DEVICE":
-            row.prop(s, "frame")
-        row = layout.row(align=True)
-        row.operator("tussock.capture_preview", icon="HIDE_OFF")
-        row.operator("tussock.capture_blades", icon="OUTLINER_OB_CAMERA")
-        layout.label(text="Preview: Image Editor › 'Tussock Capture Preview'", icon="IMAGE_DATA")
+            col.prop(s, "frame", text="First")
+        col = layout.column(align=True)
+        col.operator("tussock.capture_preview", icon="HIDE_OFF")
+        col.operator("tussock.capture_blades", icon="OUTLINER_OB_CAMERA")
+        col = layout.column(align=True)
+        col.label(text="Preview: Image Editor", icon="IMAGE_DATA")
+        col.label(text="Tussock Capture Preview", icon="BLANK1")
 
 
 classes = (TUSSOCK_PT_capture,)

@@ -1,9 +1,21 @@
-"""The Meadow panel in the Tussock sidebar tab."""
+"""The Meadow panel in the Tussock sidebar tab, with its Density, Performance and
+Simulation sub-panels (drawn for the active meadow only)."""
 
 import bpy
 
 from .. import compat
 from ..ui import SubPanel
+
+
+def _meadow(context):
+    """The active object's meadow settings, or None when it is not a meadow."""
+    s = compat.settings_of(context.active_object, "tussock_meadow")
+    return s if s is not None and s.is_meadow else None
+
+
+def _split(layout):
+    layout.use_property_split = True
+    layout.use_property_decorate = True
 
 
 class TUSSOCK_PT_meadow(SubPanel, bpy.types.Panel):
@@ -13,49 +25,97 @@ class TUSSOCK_PT_meadow(SubPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         layout.operator("tussock.add_meadow", icon="OUTLINER_OB_CURVES")
-        obj = context.active_object
-        s = compat.settings_of(obj, "tussock_meadow")
-        if s is None or not s.is_meadow:
+        s = _meadow(context)
+        if s is None:
             return
+        obj = context.active_object
         if s.last_error:
             box = layout.box()
             box.alert = True
             box.label(text=s.last_error, icon="ERROR")
         layout.label(text=f"{obj.get('tussock_blades', 0):,} blades, "
                           f"{obj.get('tussock_tiles', 0):,} tiles")
-        col = layout.column(align=True)
+        _split(layout)
+        col = layout.column()
         col.prop(s, "ground")
-        col.prop(s, "models")
+        col.prop(s, "models", text="Models")
         col = layout.column(align=True)
-        col.prop(s, "tile_size")
-        col.prop(s, "blades_per_tile")
-        col.prop(s, "patch_blades")
-        col.prop(s, "chunk_blades")
-        row = layout.row(align=True)
-        row.prop(s, "scale_min")
-        row.prop(s, "scale_max")
+        col.prop(s, "tile_size", text="Tile Size")
+        col.prop(s, "blades_per_tile", text="Blades")
+        col = layout.column(align=True)
+        col.prop(s, "scale_min", text="Scale Min")
+        col.prop(s, "scale_max", text="Max")
+        col = layout.column()
+        col.prop(s, "seed")
+        col.prop(s, "display", text="Display", slider=True)
+
+
+class MeadowSubPanel(SubPanel):
+    bl_parent_id = "TUSSOCK_PT_meadow"
+
+    @classmethod
+    def poll(cls, context):
+        return _meadow(context) is not None
+
+
+class TUSSOCK_PT_meadow_density(MeadowSubPanel, bpy.types.Panel):
+    bl_label = "Density"
+    bl_idname = "TUSSOCK_PT_meadow_density"
+
+    def draw(self, context):
+        layout = self.layout
+        _split(layout)
+        s = _meadow(context)
         layout.prop(s, "density")
         if s.density == "NOISE":
             col = layout.column(align=True)
-            col.prop(s, "noise_scale")
+            col.prop(s, "noise_scale", text="Scale")
             col.prop(s, "noise_octaves")
             col.prop(s, "noise_threshold")
         elif s.density == "IMAGE":
             layout.template_ID(s, "density_image", open="image.open")
-        layout.prop(s, "seed")
-        layout.prop(s, "display", slider=True)
-        box = layout.box()
-        box.prop(s, "use_simulation")
+
+
+class TUSSOCK_PT_meadow_performance(MeadowSubPanel, bpy.types.Panel):
+    bl_label = "Performance"
+    bl_idname = "TUSSOCK_PT_meadow_performance"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        _split(layout)
+        s = _meadow(context)
+        col = layout.column(align=True)
+        col.prop(s, "patch_blades", text="Patch Size")
+        col.prop(s, "chunk_blades", text="Chunk")
+
+
+class TUSSOCK_PT_meadow_simulation(MeadowSubPanel, bpy.types.Panel):
+    bl_label = "Simulation"
+    bl_idname = "TUSSOCK_PT_meadow_simulation"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw_header(self, context):
+        self.layout.prop(_meadow(context), "use_simulation", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        _split(layout)
+        s = _meadow(context)
+        obj = context.active_object
+        layout.active = s.use_simulation
+        layout.prop(s, "colliders")
+        col = layout.column(align=True)
+        col.prop(s, "sim_iterations")
+        col.prop(s, "sim_damping")
+        col = layout.column(align=True)
+        col.prop(s, "sim_stiffness", text="Stiffness")
+        col.prop(s, "sim_local_stiffness", text="Bending")
+        layout.prop(s, "sim_settle_time", text="Settle")
         if s.use_simulation:
-            box.prop(s, "colliders")
-            col = box.column(align=True)
-            col.prop(s, "sim_iterations")
-            col.prop(s, "sim_damping")
-            col.prop(s, "sim_stiffness")
-            col.prop(s, "sim_local_stiffness")
-            col.prop(s, "sim_settle_time")
-            box.label(text=f"{obj.get('tussock_active_tiles', 0)} tiles, "
-                           f"{obj.get('tussock_active_blades', 0):,} blades simulated")
+            layout.label(text=f"{obj.get('tussock_active_tiles', 0)} tiles, "
+                              f"{obj.get('tussock_active_blades', 0):,} blades active")
 
 
-classes = (TUSSOCK_PT_meadow,)
+classes = (TUSSOCK_PT_meadow, TUSSOCK_PT_meadow_density, TUSSOCK_PT_meadow_performance,
+           TUSSOCK_PT_meadow_simulation)

@@ -1,5 +1,5 @@
 """The Picture panel in the Tussock sidebar tab: the picture, its layer list, each layer's
-mask and motion, separation and loop settings, and Animate Picture."""
+mask and motion, and Animate Picture; separation and the shared wind in sub-panels."""
 
 import bpy
 
@@ -20,6 +20,8 @@ class TUSSOCK_PT_picture(SubPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = True
         s = context.scene.tussock_picture
         if s.last_error:
             box = layout.box()
@@ -35,62 +37,92 @@ class TUSSOCK_PT_picture(SubPanel, bpy.types.Panel):
         col.operator("tussock.picture_layer_remove", icon="REMOVE", text="")
         if 0 <= s.active_layer < len(s.layers):
             self._draw_layer(layout, s.layers[s.active_layer])
-        box = layout.box()
-        box.label(text="Separation")
-        box.prop(s, "inpaint")
-        row = box.row(align=True)
-        row.prop(s, "inpaint_radius")
-        row.prop(s, "grow")
-        box.prop(s, "feather")
         layout.prop(s, "loop_frames")
-        w = context.scene.tussock_wind  # the shared wind that moves the picture
-        box = layout.box()
-        box.label(text="Wind (shared with meadows and trees)")
-        row = box.row(align=True)
-        row.prop(w, "use_fluid", toggle=True)
-        row.prop(w, "use_continuum", toggle=True)
-        row = box.row(align=True)
-        row.prop(w, "fluid_size")
-        row.prop(w, "fluid_resolution")
-        row = box.row(align=True)
-        row.prop(w, "continuum_c")
-        row.prop(w, "continuum_gamma")
         if s.applied and frames.dumps(frames.spec(s, s.filepath, s.layers)) \
                 != s.applied:
-            layout.label(text="Picture or masks changed: animate again", icon="INFO")
+            col = layout.column(align=True)
+            col.label(text="Picture or masks changed:", icon="INFO")
+            col.label(text="animate again", icon="BLANK1")
         layout.operator("tussock.animate_picture", icon="IMAGE_DATA")
 
     @staticmethod
     def _draw_layer(layout, layer):
-        box = layout.box()
-        box.prop(layer, "mask_mode")
+        col = layout.column()
+        col.prop(layer, "mask_mode")
         if layer.mask_mode == "FILE":
-            box.prop(layer, "mask_path")
+            col.prop(layer, "mask_path", text="File")
         elif layer.mask_mode == "IMAGE":
-            box.prop_search(layer, "mask_image", bpy.data, "images")
+            col.prop_search(layer, "mask_image", bpy.data, "images", text="Image")
         else:
-            box.prop(layer, "rect")
-            box.prop(layer, "strokes_path")
-            row = box.row(align=True)
-            row.prop(layer, "grabcut_iterations")
-            row.prop(layer, "grabcut_max_side")
-        box = layout.box()
-        box.label(text="Motion")
-        row = box.row(align=True)
-        row.prop(layer, "lambda_x")
-        row.prop(layer, "lambda_y")
-        box.prop(layer, "scale_map_path")
-        box.prop(layer, "rigidity")
-        box.prop(layer, "root")
+            col.prop(layer, "rect")
+            col.prop(layer, "strokes_path")
+            sub = layout.column(align=True)
+            sub.prop(layer, "grabcut_iterations")
+            sub.prop(layer, "grabcut_max_side", text="Proposal")
+        layout.label(text="Motion")
+        col = layout.column(align=True)
+        col.prop(layer, "lambda_x")
+        col.prop(layer, "lambda_y")
+        col = layout.column()
+        col.prop(layer, "scale_map_path")
+        col.prop(layer, "rigidity")
+        col.prop(layer, "root")
         if layer.root != "NONE":
-            box.prop(layer, "root_auto")
+            col = layout.column(heading="Root Line")
+            col.prop(layer, "root_auto", text="From Mask")
             if not layer.root_auto:
-                row = box.row(align=True)
-                row.prop(layer, "root_line")
-                row.prop(layer, "root_height")
-        row = box.row(align=True)
-        row.prop(layer, "cell_x")
-        row.prop(layer, "cell_y")
+                sub = col.column(align=True)
+                sub.prop(layer, "root_line", text="Position")
+                sub.prop(layer, "root_height")
+        col = layout.column(align=True)
+        col.prop(layer, "cell_x", text="Cell X")
+        col.prop(layer, "cell_y", text="Y")
 
 
-classes = (TUSSOCK_UL_picture_layers, TUSSOCK_PT_picture)
+class TUSSOCK_PT_picture_separation(SubPanel, bpy.types.Panel):
+    bl_label = "Separation"
+    bl_idname = "TUSSOCK_PT_picture_separation"
+    bl_parent_id = "TUSSOCK_PT_picture"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = True
+        s = context.scene.tussock_picture
+        layout.prop(s, "inpaint", text="Inpaint")
+        col = layout.column(align=True)
+        col.prop(s, "inpaint_radius")
+        col.prop(s, "grow")
+        col.prop(s, "feather")
+
+
+class TUSSOCK_PT_picture_wind(SubPanel, bpy.types.Panel):
+    bl_label = "Wind"
+    bl_idname = "TUSSOCK_PT_picture_wind"
+    bl_parent_id = "TUSSOCK_PT_picture"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = True
+        w = context.scene.tussock_wind  # the shared wind that moves the picture
+        layout.label(text="The scene's wind (shared)", icon="FORCE_WIND")
+        col = layout.column()
+        col.prop(w, "use_fluid", text="Fluid")
+        sub = col.column(align=True)
+        sub.active = w.use_fluid
+        sub.prop(w, "fluid_size")
+        sub.prop(w, "fluid_resolution")
+        col = layout.column()
+        col.active = w.use_fluid
+        col.prop(w, "use_continuum", text="Continuum")
+        sub = col.column(align=True)
+        sub.active = w.use_continuum
+        sub.prop(w, "continuum_c", text="Speed c")
+        sub.prop(w, "continuum_gamma", text="Damping")
+
+
+classes = (TUSSOCK_UL_picture_layers, TUSSOCK_PT_picture, TUSSOCK_PT_picture_separation,
+           TUSSOCK_PT_picture_wind)

@@ -17,8 +17,9 @@ class TUSSOCK_PT_refine(SubPanel, bpy.types.Panel):
             op.knots = str(m)
         obj = context.active_object
         if obj is not None and "tussock_refined_knots" in obj:
-            layout.label(text=f"{obj.name}: {obj['tussock_refined_knots']} knots, "
-                              f"{obj['tussock_refine_movement'].lower()} movement")
+            col = layout.column(align=True)  # two short lines: nothing cut at any width
+            col.label(text=f"{obj.name}: {obj['tussock_refined_knots']} knots")
+            col.label(text=f"{str(obj['tussock_refine_movement']).title()} movement")
 
 
 classes = (TUSSOCK_PT_refine,)
