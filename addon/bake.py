@@ -13,15 +13,15 @@ once all exist. So:
     used.
 Animated pictures are baked by picture/bake.py (PictureJob, the same interface as
 TreeJob): OpenEXR image sequences that the compositor's stock Image nodes read.
-Interactive bakes run off Blender's main thread: everything the worker needs is read from
-Blender first; the worker does native work only and a modal timer shows progress (Esc
-cancels). Scripts and background runs bake in the calling thread."""
+Interactive bakes run in slices on Blender's main thread, with progress in the status bar and
+the cursor; Esc cancels. Scripts and background runs bake in one go."""
 
 import hashlib
 import json
 import os
 import re
-import threading
+import shutil
+import time
 
 import bpy
 import numpy as np
@@ -47,6 +47,16 @@ def safe_name(name):
     return re.sub(r"[^A-Za-z0-9_.-]", "_", name)
 
 
+def run_steps(steps, cancel):
+    """Runs a job's steps() generator to its end, or until cancel() says so."""
+    try:
+        for _ in steps:
+            if cancel():
+                return
+    finally:
+        steps.close()
+
+
 def frame_path(folder, frame):
     return os.path.join(folder, f"frame_{frame:06d}.tskf")
 
@@ -59,6 +69,8 @@ class TreeJob:
             raise ValueError(f"{obj.name}: {tree_build.NOT_OWNED}")
         s = obj.tussock_tree
         self.name = obj.name
+        self.pointer = obj.as_pointer()  # the object, should it be renamed meanwhile
+        self.points = len(obj.data.vertices)
         self.definition = tree_build.definition(s)
         self.smooth = s.smooth_levels
         self.matrix = np.array(obj.matrix_world, np.float64)
@@ -78,8 +90,19 @@ class TreeJob:
         lo, hi = part
         return list(range(max(lo, self.range[0]), min(hi, self.range[1]) + 1))
 
-    def bake_frames(self, frames, progress, cancel):
-        """Worker part: native only. Skips frames whose files verify (resume)."""
+    def outputs(self):
+        """Every path this job may write (Free Bake removes them)."""
+        return [self.folder, self.pc2]
+
+    def bytes_needed(self, frames):
+        """Disk bytes the frames and the assembled cache take at most."""
+        return (len(frames) + len(range(self.range[0], self.range[1] + 1))) * \
+            (self.points * 12 + 64)
+
+    def steps(self, frames, progress):
+        """Bakes `frames` (native and file work only), skipping frames whose files verify
+        (resume); progress() once per frame; yields between frames so an interactive bake
+        can run in slices on Blender's main thread (closing the generator cancels)."""
         lib = native.require()
         os.makedirs(self.folder, exist_ok=True)
         # temporary files of a killed bake, of this part's frames only: another worker of a
@@ -102,17 +125,20 @@ class TreeJob:
             todo.append(f)
         if not todo:
             return
+        yield
         data = tree_build.compute_from(self.definition, self.smooth, rest=False)
         wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
                                     lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)))
         for f in todo:
-            if cancel():
-                return
+            yield
             verts = tree_build.posed_vertices(data, self.matrix, self.strength,
                                               lambda xyz, f=f: wind.sample(f, xyz))
             lib.bake_write_frame(frame_path(self.folder, f), f,
                                  np.ascontiguousarray(verts, np.float32).ravel())
             progress()
+
+    def bake_frames(self, frames, progress, cancel):
+        run_steps(self.steps(frames, progress), cancel)
 
     def folder_key(self):
         """The inputs key of the frame files: the tree's inputs_key and the wind sources at
@@ -175,19 +201,38 @@ def inputs_key(obj, scene):
     return hashlib.sha256(repr(parts).encode()).hexdigest()
 
 
-def jobs_for(scene):
+def jobs_for(scene, prepare=True):
+    """The scene's bake jobs. A job may have a prepare() generator of main-thread work per
+    frame (a meadow plays the range to read its colliders); with prepare=False the caller
+    runs it (in slices, with progress), else it is run here."""
     root = cache_root()
     from .meadow import baking
-    return [TreeJob(o, scene, root) for o in scene.objects
+    jobs = [TreeJob(o, scene, root) for o in scene.objects
             if compat.settings_of(o, "tussock_tree") is not None and o.tussock_tree.is_tree] \
         + picture_bake.jobs_for(scene, root) + baking.jobs(scene, root)
+    if prepare:
+        for job in jobs:
+            for _ in getattr(job, "prepare", tuple)():
+                pass
+    return jobs
+
+
+def find_object(scene, pointer, name):
+    """The scene's object that a job was read from: by its address, which a rename keeps,
+    else by name (an undo step may have reallocated it); None once it was deleted."""
+    for obj in scene.objects:
+        if obj.as_pointer() == pointer:
+            return obj
+    return scene.objects.get(name)
 
 
 def wire(scene, job):
     """Points the object's Mesh Cache modifier at the job's .pc2 (stock Blender)."""
     if hasattr(job, "wire"):  # jobs that wire themselves (pictures; meadows: layout, hiding)
         return job.wire(scene)
-    obj = scene.objects[job.name]
+    obj = find_object(scene, job.pointer, job.name)
+    if obj is None:
+        raise Gone(job.name)
     mod = obj.modifiers.get(MODIFIER)
     if mod is None:
         mod = obj.modifiers.new(MODIFIER, "MESH_CACHE")
@@ -200,6 +245,103 @@ def wire(scene, job):
     mod.frame_scale = 1.0
     obj["tussock_baked_range"] = job.range
     obj["tussock_bake_key"] = job.key
+
+
+class Gone(Exception):
+    """The object a bake job was read from was deleted while it baked."""
+
+
+# ---- what a bake wrote: Free Bake removes all of it, even after a failed bake ------------
+RECORD = "tussock_written.json"  # in the cache folder: {scene name: [paths relative to it]}
+
+
+def _read_record(root):
+    try:
+        with open(os.path.join(root, RECORD)) as f:
+            data = json.load(f)
+        return data if isinstance(data, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def record_outputs(scene, root, paths):
+    """Adds `paths` (under root) to the scene's record before anything is written there."""
+    data = _read_record(root)
+    have = set(data.get(scene.name, []))
+    rel = {os.path.relpath(p, root) for p in paths}
+    if rel <= have:
+        return
+    data[scene.name] = sorted(have | rel)
+    tmp = os.path.join(root, f"{RECORD}.{os.getpid()}.tmp")
+    with open(tmp, "w") as f:
+        json.dump(data, f, sort_keys=True, indent=0)
+    os.replace(tmp, os.path.join(root, RECORD))
+
+
+def forget_outputs(scene, root):
+    data = _read_record(root)
+    if data.pop(scene.name, None) is None:
+        return
+    path = os.path.join(root, RECORD)
+    if not data:
+        os.remove(path)
+        return
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "w") as f:
+        json.dump(data, f, sort_keys=True, indent=0)
+    os.replace(tmp, path)
+
+
+def prune_record(scene, root):
+    """After a failed bake: the record keeps only the paths that were written."""
+    data = _read_record(root)
+    kept = [p for p in data.get(scene.name, []) if os.path.exists(os.path.join(root, p))]
+    if kept == data.get(scene.name, kept):
+        return
+    forget_outputs(scene, root)
+    if kept:
+        record_outputs(scene, root, [os.path.join(root, p) for p in kept])
+
+
+def recorded_outputs(scene, root):
+    return [os.path.join(root, p) for p in _read_record(root).get(scene.name, [])
+            if p and not os.path.isabs(p) and ".." not in p.split(os.sep)]
+
+
+# Files Tussock writes into a job's folder; anything else there is the artist's, kept.
+_OURS = (".tskf", ".exr", ".tski", "inputs.key")
+
+
+def remove_outputs(paths):
+    """Deletes Tussock's files among `paths` (files, or folders of frames); checks that
+    every folder involved is writable first, so that nothing is half-deleted."""
+    paths = sorted(set(paths))
+    for p in paths:
+        if not os.path.exists(p):
+            continue
+        for folder in ([p] if os.path.isdir(p) else []) + [os.path.dirname(p)]:
+            if not os.access(folder, os.W_OK):
+                raise OSError(f"cannot delete the cache in {folder}: the folder is read-only")
+    for p in paths:
+        if os.path.isdir(p):
+            for name in os.listdir(p):
+                if name.endswith(_OURS) or ".tmp" in name:
+                    os.remove(os.path.join(p, name))
+            if not os.listdir(p):
+                os.rmdir(p)
+        elif os.path.exists(p):
+            os.remove(p)
+
+
+def check_free_space(root, jobs, part):
+    """Refuses a bake whose files would not fit on the cache's disk (most jobs can say how
+    much they write; a picture's compressed frames cannot, so it is left out)."""
+    need = sum(j.bytes_needed(j.frames(part)) for j in jobs if hasattr(j, "bytes_needed"))
+    free = shutil.disk_usage(root).free
+    if need > free:
+        raise OSError(f"No space left for the bake: it needs about {need / 2**20:,.0f} MiB in "
+                      f"{root}, where {free / 2**20:,.0f} MiB are free; free some space or "
+                      "bake fewer frames")
 
 
 def cached_range(obj, scene):
@@ -254,37 +396,49 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
     save: bpy.props.BoolProperty(name="Save", default=False,
                                  description="Save the .blend after baking (farm workers)")
 
-    _thread = None
-
     def _part(self, scene):
         return (self.frame_start or scene.frame_start, self.frame_end or scene.frame_end)
 
-    def _prepare(self, context):
+    def _prepare(self, context, prepare=True):
         scene = context.scene
         native.require()
-        jobs = jobs_for(scene)
-        if not jobs:
-            raise ValueError("nothing to bake: add a Tussock tree or a simulated meadow, or "
-                             "animate a picture first")
         part = self._part(scene)
         if part[0] > part[1]:
             raise ValueError(f"frame_start: {part[0]} is after frame_end {part[1]}")
         if part[1] < scene.frame_start or part[0] > scene.frame_end:
             raise ValueError(f"frames {part[0]}-{part[1]} hold no frame of the scene's range "
                              f"{scene.frame_start}-{scene.frame_end}")
+        jobs = jobs_for(scene, prepare)
+        if not jobs:
+            raise ValueError("nothing to bake: add a Tussock tree or a simulated meadow, or "
+                             "animate a picture first")
         os.makedirs(cache_root(), exist_ok=True)
         return jobs, part
 
+    def _before_writing(self, scene, jobs, part):
+        root = cache_root()
+        check_free_space(root, jobs, part)
+        record_outputs(scene, root, [p for j in jobs for p in j.outputs()])
+
     def _finish(self, context, jobs):
-        done = 0
+        done, gone = 0, []
         for job in jobs:
-            wire(context.scene, job)
+            try:
+                wire(context.scene, job)
+            except Gone:  # deleted while it baked: its frames serve nothing
+                gone.append(job.name)
+                remove_outputs(job.outputs())
+                continue
             done += job.assemble_if_complete()
         if self.save:
             bpy.ops.wm.save_mainfile()
         frames = sum(len(j.frames(self._part(context.scene))) for j in jobs)
-        self.report({"INFO"}, f"Baked {frames} frames of {len(jobs)} objects; "
-                              f"{done} caches complete")
+        if gone:
+            self.report({"WARNING"}, f"Baked {frames} frames; {', '.join(gone)} deleted "
+                                     "during the bake: its frames were removed")
+        else:
+            self.report({"INFO"}, f"Baked {frames} frames of {len(jobs)} objects; "
+                                  f"{done} caches complete")
         return {"FINISHED"}
 
     def execute(self, context):  # scripts, background, farm workers: in this thread
@@ -292,57 +446,114 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
 
     def _execute(self, context):
         jobs, part = self._prepare(context)
-        for job in jobs:
-            job.bake_frames(job.frames(part), lambda: None, lambda: False)
+        self._before_writing(context.scene, jobs, part)
+        try:
+            for job in jobs:
+                job.bake_frames(job.frames(part), lambda: None, lambda: False)
+        except BaseException:
+            prune_record(context.scene, cache_root())
+            raise
         return self._finish(context, jobs)
 
-    def invoke(self, context, event):  # interactive: a worker thread and a modal timer
+    # ---- interactive: in slices on Blender's main thread, with progress; Esc cancels ----
+    # Each timer tick runs the bake's steps for about SLICE seconds, then Blender draws and
+    # handles events. The steps stay on the main thread: Blender 3.4 crashed (about one run
+    # in three, in a window) while a Python worker thread wrote frames, and reading a
+    # meadow's colliders plays frames, which only the main thread may do.
+    SLICE = 0.05
+
+    def invoke(self, context, event):
         return errors.run(self, self._start, context)
 
     def _start(self, context):
-        jobs, part = self._prepare(context)
+        scene = context.scene
+        jobs, part = self._prepare(context, prepare=False)
         self._jobs = jobs
-        self._total = sum(len(j.frames(part)) for j in jobs)
-        self._state = {"done": 0, "error": None, "cancel": False, "finished": False}
-        state = self._state
-
-        def work():
-            try:
-                for job in jobs:
-                    job.bake_frames(job.frames(part),
-                                    lambda: state.__setitem__("done", state["done"] + 1),
-                                    lambda: state["cancel"])
-            except Exception as exc:  # reported by the modal timer on the main thread
-                state["error"] = str(exc)
-            state["finished"] = True
-
-        self._thread = threading.Thread(target=work, name="tussock-bake", daemon=True)
-        self._thread.start()
+        self._steps = self._work(scene, jobs, part)
+        self._window = context.window
         wm = context.window_manager
-        self._timer = wm.event_timer_add(0.1, window=context.window)
-        wm.progress_begin(0, max(1, self._total))
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
+        self._show(context)
         return {"RUNNING_MODAL"}
 
+    def _work(self, scene, jobs, part):
+        """All of an interactive bake, as steps; progress in PROGRESS as it goes."""
+        preparing = [j for j in jobs if hasattr(j, "prepare")]
+        length = scene.frame_end - scene.frame_start + 1
+        PROGRESS.update(phase="Reading frames", done=0, total=len(preparing) * length,
+                        reading=True, frames=0)
+        for job in preparing:
+            for _ in job.prepare():
+                PROGRESS["done"] += 1
+                yield
+        self._before_writing(scene, jobs, part)
+        total = sum(len(j.frames(part)) for j in jobs)
+        PROGRESS.update(phase="Baking frames", done=0, total=total, reading=False)
+
+        def progress():
+            PROGRESS["done"] += 1
+            PROGRESS["frames"] += 1
+        try:
+            for job in jobs:
+                yield from job.steps(job.frames(part), progress)
+        except Exception:
+            prune_record(scene, cache_root())
+            raise
+
+    def _show(self, context):
+        p = PROGRESS
+        # the first half of the bar for reading the frames, the second for baking them
+        share = p["done"] / max(1, p["total"])
+        context.window_manager.progress_update(int(500 * share + (0 if p["reading"] else 500)))
+        if context.workspace is not None:
+            context.workspace.status_text_set(
+                f"Tussock bake: {p['phase']} {p['done']}/{p['total']} (Esc to cancel)")
+
     def modal(self, context, event):
-        if event.type == "ESC":
-            self._state["cancel"] = True
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        context.window_manager.progress_update(self._state["done"])
-        if not self._state["finished"]:
-            return {"RUNNING_MODAL"}
-        self._thread.join()
-        context.window_manager.event_timer_remove(self._timer)
-        context.window_manager.progress_end()
-        if self._state["error"]:
-            self.report({"ERROR"}, f"Tussock: {self._state['error']}")
-            return {"CANCELLED"}
-        if self._state["cancel"]:
-            self.report({"INFO"}, f"Bake cancelled after {self._state['done']} frames "
+        if event.type == "ESC" and event.value == "PRESS":
+            self._end(context)
+            self.report({"INFO"}, f"Bake cancelled after {PROGRESS['frames']} frames "
                                   "(they are kept; bake again to resume)")
             return {"CANCELLED"}
-        return errors.run(self, self._finish, context, self._jobs)
+        if event.type != "TIMER":
+            # while the meadows' frames are played, the timeline and the scene are the
+            # bake's: no edits or frame changes in between
+            return {"RUNNING_MODAL"} if PROGRESS.get("reading") else {"PASS_THROUGH"}
+        t0 = time.perf_counter()
+        try:
+            while time.perf_counter() - t0 < self.SLICE:
+                next(self._steps)
+        except StopIteration:
+            self._end(context)
+            return errors.run(self, self._finish, context, self._jobs)
+        except Exception as exc:  # noqa: BLE001 - reported like any operator's failure
+            self._end(context)
+            return errors.run(self, _raise, exc)
+        self._show(context)
+        return {"RUNNING_MODAL"}
+
+    def cancel(self, context):  # Blender ends the operator (a file is loaded, Blender quits)
+        self._end(context)
+
+    def _end(self, context):
+        self._steps.close()  # a cancelled reading of frames puts the current frame back
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+        PROGRESS.update(phase="", done=0, total=0, reading=False)
+
+
+def _raise(exc):
+    raise exc
+
+
+# What an interactive bake is doing, for the status bar and for tests: phase, done, total
+# (units of the phase), reading (frames are being played), frames (frames baked so far).
+PROGRESS = {"phase": "", "done": 0, "total": 0, "reading": False, "frames": 0}
 
 
 class TUSSOCK_OT_free_bake(bpy.types.Operator):
@@ -355,34 +566,33 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
         return errors.run(self, self._free, context)
 
     def _free(self, context):
+        scene = context.scene
         root = cache_root()
-        objs = [o for o in context.scene.objects if o.modifiers.get(MODIFIER) is not None]
-        # Files first, the scene after: a cache that cannot be deleted (read-only folder)
-        # cancels before any object changes. Folders are checked before anything is deleted.
-        paths = [(os.path.join(root, safe_name(o.name)),
-                  os.path.join(root, safe_name(o.name) + ".pc2")) for o in objs]
-        for folder, pc2 in paths:
-            for d in ([folder] if os.path.isdir(folder) else []) + \
-                     ([root] if os.path.exists(pc2) or os.path.isdir(folder) else []):
-                if not os.access(d, os.W_OK):
-                    raise OSError(f"cannot delete the cache in {d}: the folder is read-only")
-        for folder, pc2 in paths:
-            if os.path.isdir(folder):
-                for f in os.listdir(folder):
-                    if f.endswith(".tskf") or ".tmp" in f or f == "inputs.key":
-                        os.remove(os.path.join(folder, f))
-                if not os.listdir(folder):
-                    os.rmdir(folder)
-            if os.path.exists(pc2):
-                os.remove(pc2)
+        objs = [o for o in scene.objects if o.modifiers.get(MODIFIER) is not None]
+        # every path a bake of this scene recorded (a failed bake's frames too), and each
+        # cache's own path (a .blend baked before the record existed, or renamed since)
+        paths = recorded_outputs(scene, root)
+        for o in objs:
+            pc2 = bpy.path.abspath(o.modifiers[MODIFIER].filepath)
+            paths += [pc2, pc2[:-len(".pc2")] if pc2.endswith(".pc2") else pc2]
+            if o.get("tussock_simulated_blades"):
+                paths.append(pc2[:-len(".pc2")] + ".layout.json")
+            paths += [os.path.join(root, safe_name(o.name)),
+                      os.path.join(root, safe_name(o.name) + ".pc2")]
+        found = any(os.path.exists(p) for p in paths)
+        # files first, the scene after: a cache that cannot be deleted (read-only folder)
+        # cancels before any object changes
+        remove_outputs(paths)
+        forget_outputs(scene, root)
         for obj in objs:
             obj.modifiers.remove(obj.modifiers.get(MODIFIER))
             obj.pop("tussock_baked_range", None)
             if obj.get("tussock_simulated_blades"):
                 from .meadow import baking
-                baking.free(context.scene, obj, root)
-        removed = len(objs) + picture_bake.free(context.scene, root)
-        self.report({"INFO"}, f"Freed the caches of {removed} objects")
+                baking.free(scene, obj, root)
+        removed = len(objs) + picture_bake.free(scene, root)
+        self.report({"INFO"}, f"Freed the caches of {removed} objects" if removed or not found
+                    else "Freed the files of an unfinished bake")
         return {"FINISHED"}
 
 

@@ -4,6 +4,7 @@ test_*.py in this folder; run.py starts one Blender per file."""
 
 import os
 import sys
+import time
 import traceback
 
 _tests = []
@@ -218,3 +219,58 @@ def window_main(steps, first_interval=0.5):
         os._exit(0 if counts["failed"] == 0 else 1)
 
     bpy.app.timers.register(tick, first_interval=first_interval, persistent=True)
+
+# ---- real-window tests: where things are, and waiting for the event loop ------------------
+# (bpy is imported inside: the harness is also imported where Blender is not)
+
+def window():
+    return _bpy().context.window_manager.windows[0]
+
+
+def area_of(space_type="VIEW_3D"):
+    """The largest area of this editor in the window (the factory layout has one 3D view)."""
+    areas = [a for a in window().screen.areas if a.type == space_type]
+    return max(areas, key=lambda a: a.width * a.height) if areas else None
+
+
+def region_of(area, region_type):
+    return next((r for r in area.regions if r.type == region_type), None) if area else None
+
+
+def override(space_type="VIEW_3D", region_type="WINDOW"):
+    """The context of one region of the window: operators and draws run as if there."""
+    area = area_of(space_type)
+    return _bpy().context.temp_override(window=window(), area=area,
+                                     region=region_of(area, region_type))
+
+
+def wait_until(done, timeout, step=0.2):
+    """Lets the event loop run until done() or timeout seconds; returns done()."""
+    end = time.monotonic() + timeout
+    while not done() and time.monotonic() < end:
+        yield step
+    return done()
+
+
+def running(idname):
+    """Whether a modal operator runs in the window: True/False where Blender lists them
+    (Window.modal_operators, 4.x and 5.x), None where it cannot say (3.4)."""
+    win = window()
+    if not hasattr(win, "modal_operators"):
+        return None
+    short = idname.split(".")[-1]
+    return any(short in op.bl_idname.lower() for op in win.modal_operators)
+
+
+def select_only(obj):
+    for o in _bpy().context.view_layer.objects:
+        o.select_set(False)
+    if obj is not None:
+        obj.select_set(True)
+    _bpy().context.view_layer.objects.active = obj
+
+
+def _bpy():
+    import bpy
+    return bpy
+

@@ -7,6 +7,7 @@ meadow's bake brings its live simulation back."""
 
 import os
 import shutil
+import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -417,6 +418,47 @@ def test_full_disk_and_read_only_folder_are_reported():
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "scene_ro.blend"))
         os.chmod(ro, 0o555)
         bake_refused_in(ro, "Permission denied")
+
+
+@test
+def test_free_bake_removes_a_failed_bake_and_a_renamed_cache():
+    """A disk too small for the bake is refused before any file is written; a disk that
+    fills while the bake runs (another program writing: the check passes) fails the bake
+    part-way, and Free Bake then removes every file it wrote; a tree renamed after its bake
+    leaves no old folder behind Free Bake either."""
+    blend = make_scene(os.path.join(TMP, "free"))
+    tree = bpy.context.active_object  # make_scene's tree
+    assert tree.tussock_tree.is_tree
+    frame_bytes = len(tree.data.vertices) * 12 + 64
+    small = os.path.join(TMP, "small")
+    if os.geteuid() == 0 and mount_tmpfs(small, f"size={3 * frame_bytes + 8192}"):
+        cache = os.path.join(small, "tussock_cache")
+        try:
+            bake_refused_in(small, "No space left for the bake: it needs about")
+            assert cache_files(small) == [], cache_files(small)
+            check = bake.check_free_space
+            bake.check_free_space = lambda *args: None
+            try:
+                bake_refused_in(small, "No space left")
+            finally:
+                bake.check_free_space = check
+            written = cache_files(small)
+            assert any(f.endswith(".tskf") for f in written), written
+            bake.CACHE_DIR_OVERRIDE = cache
+            try:
+                assert bpy.ops.tussock.free_bake() == {"FINISHED"}
+            finally:
+                bake.CACHE_DIR_OVERRIDE = None
+            assert cache_files(small) == [], cache_files(small)
+        finally:
+            subprocess.run(["umount", small])
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    folder = os.path.dirname(blend)
+    assert any(f.endswith(".pc2") for f in cache_files(folder)), cache_files(folder)
+    tree.name = "Renamed tree"
+    assert bpy.ops.tussock.free_bake() == {"FINISHED"}
+    assert cache_files(folder) == [], cache_files(folder)
+    assert tree.modifiers.get(bake.MODIFIER) is None
 
 
 harness.main()

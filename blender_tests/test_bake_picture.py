@@ -415,6 +415,10 @@ def test_read_only_folder_and_full_disk_are_reported_with_the_scene_unchanged():
         for sub in (picture_bake.base_name(scene), picture_bake.uv_name(scene, 1),
                     picture_bake.uv_name(scene, 2)):
             os.makedirs(os.path.join(ro, "tussock_cache", sub))
+        # as an earlier bake of this scene left them, with the record of its files
+        bake.record_outputs(scene, os.path.join(ro, "tussock_cache"),
+                            picture_bake.PictureJob(scene, os.path.join(ro, "tussock_cache"))
+                            .outputs())
         subprocess.run(["mount", "-o", "remount,ro", ro], check=True)
         bake_refused_in(ro, "background.exr': Read-only file system", unmount=True)
         # a disk that fills during the bake: one 320x240 float frame is ~1 MB

@@ -56,17 +56,25 @@ def blades_inputs_key(child, scene):
 def read_colliders(scene, coll, frames):
     """Collider rows of every frame in `frames`, read by playing them in order (rigid bodies
     move only so) with the live simulation paused; the current frame is restored."""
-    current = scene.frame_current
     rows = {}
+    for _ in read_colliders_steps(scene, coll, frames, rows):
+        pass
+    return rows
+
+
+def read_colliders_steps(scene, coll, frames, rows):
+    """read_colliders in steps: fills `rows`, yields after each frame. Closing the
+    generator early (Esc) restores the current frame all the same."""
+    current = scene.frame_current
     simulate.suspended = True
     try:
         for f in frames:  # one frame_set per frame of the range
             scene.frame_set(f)
             rows[f] = simulate.colliders(scene, coll)
+            yield
     finally:
         simulate.suspended = False
         scene.frame_set(current)
-    return rows
 
 
 def touched_tiles(definition, rows_per_frame):
@@ -168,6 +176,7 @@ class MeadowJob:
         lib = native.require()
         s = obj.tussock_meadow
         self.meadow_name = obj.name
+        self.meadow_pointer = obj.as_pointer()  # the meadow, should it be renamed meanwhile
         self.name = f"{obj.name} blades"
         safe = bake.safe_name(self.name)
         self.folder = os.path.join(root, safe)
@@ -193,9 +202,20 @@ class MeadowJob:
         self.runner_args = (patch, meadow, definition, blade_rand)
         self.digest = None
         self._check_manifest()  # the range at once, before the frames are played
-        self.colliders = read_colliders(scene, s.colliders, frames)
+        self._scene, self._coll = scene, s.colliders
+        self._prepared = False
+
+    def prepare(self):
+        """Main thread, in steps (one per frame of the range, each a frame_set): reads the
+        colliders of every frame, the tiles they touch and the baked layout."""
+        if self._prepared:
+            return
+        frames = range(self.range[0], self.range[1] + 1)
+        self.colliders = {}
+        yield from read_colliders_steps(self._scene, self._coll, frames, self.colliders)
         # the state at the first frame is the rest pose: its colliders are never used
-        self.tiles = touched_tiles(definition, [self.colliders[f] for f in frames[1:]])
+        self.tiles = touched_tiles(self.runner_args[2],
+                                   [self.colliders[f] for f in frames[1:]])
         self.layout = rest_layout(simulate.Runner(*self.runner_args), self.tiles)
         counts = self.layout["counts"]
         self.blades = int(counts.sum())
@@ -208,6 +228,7 @@ class MeadowJob:
         h.update(counts.tobytes())
         self.digest = h.hexdigest()[:32]
         self._check_manifest()
+        self._prepared = True
 
     def _check_manifest(self):
         """Refuses (with what to do) to mix frames into a cache of another layout."""
@@ -230,6 +251,12 @@ class MeadowJob:
         if self.digest is not None and old[2] != self.digest:
             raise ValueError(f"'{self.name}' was baked with other settings or collider "
                              "paths: Free Bake, then bake again")
+
+    def outputs(self):
+        return [self.folder, self.pc2, self.manifest]
+
+    def bytes_needed(self, frames):
+        return (len(frames) + self.range[1] - self.range[0] + 1) * (self.points * 12 + 64)
 
     def frames(self, part):
         if self.blades == 0:
@@ -264,10 +291,10 @@ class MeadowJob:
             pos.reshape(-1, 2 * k * 3)[index] = ribbon.reshape(-1, 2 * k * 3)
         return pos
 
-    def bake_frames(self, frames, progress, cancel):
-        """Worker part: native and file work only. Frames whose files verify are kept
-        (resume); the simulation still runs from the first frame, since a frame depends on
-        every frame before it."""
+    def steps(self, frames, progress):
+        """Native and file work only, in steps (see bake.TreeJob.steps). Frames whose files
+        verify are kept (resume); the simulation still runs from the first frame, since a
+        frame depends on every frame before it."""
         lib = native.require()
         if not frames:
             return
@@ -291,13 +318,15 @@ class MeadowJob:
         wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
                                     lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)))
         for f in range(self.range[0], max(todo) + 1):
-            if cancel():
-                return
+            yield
             if f > self.range[0]:
                 runner.step(f, self.colliders[f], self.fps, wind.sample)
             if f in todo:
                 lib.bake_write_frame(bake.frame_path(self.folder, f), f, self.frame_positions(runner))
                 progress()
+
+    def bake_frames(self, frames, progress, cancel):
+        bake.run_steps(self.steps(frames, progress), cancel)
 
     def assemble_if_complete(self):
         """Assembles the .pc2 when every frame of the range exists; True if it did."""
@@ -315,7 +344,9 @@ class MeadowJob:
         meadow's hidden instances, and a Mesh Cache modifier reading the .pc2."""
         if self.blades == 0:
             return
-        meadow = scene.objects[self.meadow_name]
+        meadow = bake.find_object(scene, self.meadow_pointer, self.meadow_name)
+        if meadow is None:
+            raise bake.Gone(self.meadow_name)
         child = simulate.blades_object(meadow)
         apply_layout(meadow, child, self.tiles, self.layout, self.K, self.instance_tile,
                      self.digest)

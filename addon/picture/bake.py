@@ -140,6 +140,9 @@ class PictureJob:
         lo, hi = part
         return list(range(max(lo, self.range[0]), min(hi, self.range[1]) + 1))
 
+    def outputs(self):
+        return [self.folder] + self.uv_folders
+
     def uv_path(self, i, frame):
         return os.path.join(self.uv_folders[i], uv_file(self.uv_stems[i], frame))
 
@@ -161,8 +164,12 @@ class PictureJob:
         return self.built
 
     def bake_frames(self, frame_list, progress, cancel):
+        _farm().run_steps(self.steps(frame_list, progress), cancel)
+
+    def steps(self, frame_list, progress):
         """Writes the frames of frame_list whose files do not verify (resume), and the
-        background plate and layers at rest if needed."""
+        background plate and layers at rest if needed; yields between frames (see
+        bake.TreeJob.steps)."""
         lib = native.require()
         for folder in [self.folder] + self.uv_folders:
             os.makedirs(folder, exist_ok=True)
@@ -191,7 +198,7 @@ class PictureJob:
                 lib.picture_read_layer(b.handle, statics.index(path) - 1, buf)
             lib.bake_write_image(path, 0, self.frames_key, buf, w, h)
         if todo:
-            self._bake_uv(lib, b, todo, progress, cancel)
+            yield from self._bake_uv(lib, b, todo, progress)
 
     def _needs(self, frame):
         """[(wind frame, weight)] whose fields make `frame`."""
@@ -199,7 +206,7 @@ class PictureJob:
             return [(frame, 1.0)]
         return list(frames.loop_frames_of(frame, self.range[0], self.loop))
 
-    def _bake_uv(self, lib, b, todo, progress, cancel):
+    def _bake_uv(self, lib, b, todo, progress):
         w, h = b.width, b.height
         xs, ys, fw, fh = frames.sample_points(self.placement, w, h)
         kwargs = []
@@ -223,8 +230,7 @@ class PictureJob:
         fields, k = {}, 0
         with _Writers(progress) as writers:
             for g in sorted(last_use):
-                if cancel():
-                    return
+                yield
                 if g <= self.range[0]:  # the continuum is at rest until the first step
                     fields[g] = (zero, zero)
                 else:
@@ -234,8 +240,7 @@ class PictureJob:
                     fields[g] = (sx, sy)
                 while k < len(order) and max(x for x, _ in needs[order[k]]) == g:
                     f = order[k]
-                    if cancel():
-                        return
+                    yield
                     if self.loop <= 0:
                         fx, fy = fields[f]
                     else:
