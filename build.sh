@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Tussock's only entry point:  ./build.sh deps | build | test [--blender 3|4|5,...] | demo [--blender N]
 #                              | bench [--blender N] [NAME...] | package | fuzz [SECONDS [NAME...]]
+#                              | roots [4] [5] | shots [--blender N]
 # Each step is idempotent and quiet when there is nothing to do.
 set -euo pipefail
 
@@ -447,6 +448,19 @@ cmd_package() {
   "$PY" "$ROOT/tools/package.py" "$ROOT" "$ROOT/dist"
 }
 
+# Screenshots of every Tussock panel, for the docs (docs/images/ui/ui_<state>.png): the
+# real-window panel test, run in the Blender named (default 5, what most artists run), keeps
+# the sidebar of each state it draws.
+cmd_shots() {
+  parse_blenders 5 "$@"
+  [ ${#ARGS[@]} -eq 0 ] && [ ${#MAJORS[@]} -eq 1 ] || die "shots: takes one --blender N"
+  cmd_deps
+  cmd_build
+  root_build "${MAJORS[0]}"
+  TSK_UI_SHOTS="$ROOT/docs/images/ui" with_blender "${MAJORS[0]}" \
+    "$ROOT/blender_tests/run.py" test_window_panels
+}
+
 # Makes the Debian roots of the Blenders named (default: all but this machine's own) and
 # builds the add-on in each.
 cmd_roots() {
@@ -467,9 +481,10 @@ main() {
     package) cmd_deps; cmd_package ;;
     fuzz) cmd_deps; cmd_fuzz "$@" ;;
     roots) cmd_deps; cmd_roots "$@" ;;
+    shots) cmd_shots "$@" ;;
     *) say "usage: ./build.sh deps | build | test [--blender 3|4|5[,...]] | demo [--blender N]"
        say "                  | bench [--blender N] [NAME...] | package | fuzz [SECONDS [NAME...]]"
-       say "                  | roots [4] [5]"
+       say "                  | roots [4] [5] | shots [--blender N]"
        exit 2 ;;
   esac
 }

@@ -23,13 +23,13 @@ import re
 import shutil
 import sys
 import tempfile
-import time
 import traceback
 import types
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import harness  # noqa: E402
 from harness import REPO, report  # noqa: E402
+from harness import area_of, override, region_of, running, select_only, wait_until, window  # noqa: E402,E501
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
@@ -87,27 +87,6 @@ def problems(text):
 
 
 # ---- where things are drawn ----------------------------------------------------------------
-
-def window():
-    return bpy.context.window_manager.windows[0]
-
-
-def area_of(space_type="VIEW_3D"):
-    """The largest area of this editor in the window (the factory layout has one 3D view)."""
-    areas = [a for a in window().screen.areas if a.type == space_type]
-    return max(areas, key=lambda a: a.width * a.height) if areas else None
-
-
-def region_of(area, region_type):
-    return next((r for r in area.regions if r.type == region_type), None) if area else None
-
-
-def override(space_type="VIEW_3D", region_type="WINDOW"):
-    """The context of one region of the window: operators and draws run as if there."""
-    area = area_of(space_type)
-    return bpy.context.temp_override(window=window(), area=area,
-                                     region=region_of(area, region_type))
-
 
 # ---- what the add-on draws -----------------------------------------------------------------
 
@@ -402,6 +381,25 @@ def screenshot(path):
     return "X server" if rgb.max() > 0 else "nowhere: black in Blender and on the X server"
 
 
+def sidebar_shot(shot, path):
+    """The sidebar's columns of a 3D-view screenshot, as a PNG at `path` (the docs' images
+    of the panels)."""
+    area = area_of("VIEW_3D")
+    region = region_of(area, "UI")
+    img = bpy.data.images.load(shot)
+    w, h, c = img.size[0], img.size[1], img.channels
+    px = np.empty(w * h * c, np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    left = max(0, min(w - 1, region.x - area.x))
+    crop = px.reshape(h, w, c)[:, left:left + region.width]
+    rgba = np.ones(crop.shape[:2] + (4,), np.float32)
+    rgba[..., :min(c, 4)] = crop[..., :4]
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    out = save_png("sidebar_" + os.path.basename(path)[:-4], rgba[::-1])
+    shutil.move(out, path)
+
+
 class States:
     """Counts and screenshots of the states drawn so far."""
 
@@ -431,8 +429,7 @@ class States:
             for _ in range(pages):
                 bpy.ops.view2d.scroll_up(page=True)
         if SHOTS:
-            os.makedirs(SHOTS, exist_ok=True)
-            shutil.copy(shot, SHOTS)
+            sidebar_shot(shot, os.path.join(SHOTS, f"ui_{state}.png"))
         if "TUSSOCK_PT_main" not in names:
             trouble = (trouble + "\n" if trouble else "") + \
                 f"the Tussock tab is not open: Blender drew {names}"
@@ -450,35 +447,9 @@ class States:
 
 # ---- the scenes ----------------------------------------------------------------------------
 
-def wait_until(done, timeout, step=0.2):
-    """Lets the event loop run until done() or timeout seconds; returns done()."""
-    end = time.monotonic() + timeout
-    while not done() and time.monotonic() < end:
-        yield step
-    return done()
-
-
-def running(idname):
-    """Whether a modal operator runs in the window: True/False where Blender lists them
-    (Window.modal_operators, 4.x and 5.x), None where it cannot say (3.4)."""
-    win = window()
-    if not hasattr(win, "modal_operators"):
-        return None
-    short = idname.split(".")[-1]
-    return any(short in op.bl_idname.lower() for op in win.modal_operators)
-
-
 def blade_count():
     coll = bpy.data.collections.get("Tussock Blades")
     return len(coll.all_objects) if coll else 0
-
-
-def select_only(obj):
-    for o in bpy.context.view_layer.objects:
-        o.select_set(False)
-    if obj is not None:
-        obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
 
 
 def save_png(name, rgba):
@@ -589,32 +560,21 @@ def scenario(package):
         scene.frame_set(f)
     yield from states.draw("meadow_colliders")
 
-    # an interactive bake: a worker thread and a modal timer (a bake needs a saved file)
+    # an interactive bake: in slices on the main thread under a modal timer (a bake needs a
+    # saved file); in 3.4 too, where a worker thread once crashed Blender
     os.makedirs(TMP, exist_ok=True)
     from tussock import bake  # noqa: E402 - the add-on is enabled by now
 
     def cached():
         return [o.name for o in scene.objects if o.modifiers.get(bake.MODIFIER)]
-    if bpy.app.version >= (4, 0, 0):
-        with override():
-            bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "panels.blend"))
-            result = bpy.ops.tussock.bake("INVOKE_DEFAULT")
-        expect("bake (interactive) runs modal", result == {"RUNNING_MODAL"}, str(result))
-        yield from states.draw("bake_running",
-                               during=lambda: not cached() and running("bake") in (True, None))
-        finished = yield from wait_until(lambda: cached() and not running("bake"), 120)
-        expect("the interactive bake finished with a cache", finished, f"cached: {cached()}")
-    else:
-        # KNOWN CRASH, not yet fixed: in Blender 3.4 in a window, the interactive meadow bake
-        # (its worker thread) ends Blender with a segmentation fault in about one run of
-        # three, in the worker (addon/meadow/baking.py bake_frames), whether or not panels
-        # are drawn meanwhile; 4.3 and 5.2 passed every run. Until it is found, 3.4 bakes
-        # here in the operator's own thread, so the baked states are still drawn.
-        with override():
-            bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "panels.blend"))
-            result = bpy.ops.tussock.bake()
-        expect("bake (3.4: in the operator's thread) finished with a cache",
-               result == {"FINISHED"} and bool(cached()), f"{result}, cached: {cached()}")
+    with override():
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "panels.blend"))
+        result = bpy.ops.tussock.bake("INVOKE_DEFAULT")
+    expect("bake (interactive) runs modal", result == {"RUNNING_MODAL"}, str(result))
+    yield from states.draw("bake_running",
+                           during=lambda: not cached() and running("bake") in (True, None))
+    finished = yield from wait_until(lambda: cached() and not running("bake"), 120)
+    expect("the interactive bake finished with a cache", finished, f"cached: {cached()}")
     select_only(meadow)
     yield from states.draw("meadow_baked", pages=END)
 
