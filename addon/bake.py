@@ -26,7 +26,7 @@ import time
 import bpy
 import numpy as np
 
-from . import compat, errors, native
+from . import compat, errors, native, progress
 from .picture import bake as picture_bake
 from .trees import build as tree_build
 from .wind import runtime as wind_runtime
@@ -469,58 +469,50 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
         scene = context.scene
         jobs, part = self._prepare(context, prepare=False)
         self._jobs = jobs
-        self._steps = self._work(scene, jobs, part)
-        self._window = context.window
+        self._frames = 0
+        self._steps = self._work(context, scene, jobs, part)
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.01, window=context.window)
-        wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
-        self._show(context)
         return {"RUNNING_MODAL"}
 
-    def _work(self, scene, jobs, part):
-        """All of an interactive bake, as steps; progress in PROGRESS as it goes."""
+    def _work(self, context, scene, jobs, part):
+        """All of an interactive bake, as steps. The progress bar's first half is reading
+        the meadows' frames, the second baking."""
         preparing = [j for j in jobs if hasattr(j, "prepare")]
-        length = scene.frame_end - scene.frame_start + 1
-        PROGRESS.update(phase="Reading frames", done=0, total=len(preparing) * length,
-                        reading=True, frames=0)
+        total = len(preparing) * (scene.frame_end - scene.frame_start + 1)
+        progress.begin(context, "Tussock bake", READING, total)
+        done = 0
         for job in preparing:
             for _ in job.prepare():
-                PROGRESS["done"] += 1
+                done += 1
+                progress.STATE["done"] = done
                 yield
         self._before_writing(scene, jobs, part)
         total = sum(len(j.frames(part)) for j in jobs)
-        PROGRESS.update(phase="Baking frames", done=0, total=total, reading=False)
+        progress.STATE.update(phase=BAKING, done=0, total=total)
 
-        def progress():
-            PROGRESS["done"] += 1
-            PROGRESS["frames"] += 1
+        def one():
+            progress.STATE["done"] += 1
+            self._frames += 1
         try:
             for job in jobs:
-                yield from job.steps(job.frames(part), progress)
+                yield from job.steps(job.frames(part), one)
         except Exception:
             prune_record(scene, cache_root())
             raise
 
-    def _show(self, context):
-        p = PROGRESS
-        # the first half of the bar for reading the frames, the second for baking them
-        share = p["done"] / max(1, p["total"])
-        context.window_manager.progress_update(int(500 * share + (0 if p["reading"] else 500)))
-        if context.workspace is not None:
-            context.workspace.status_text_set(
-                f"Tussock bake: {p['phase']} {p['done']}/{p['total']} (Esc to cancel)")
-
     def modal(self, context, event):
         if event.type == "ESC" and event.value == "PRESS":
             self._end(context)
-            self.report({"INFO"}, f"Bake cancelled after {PROGRESS['frames']} frames "
+            self.report({"INFO"}, f"Bake cancelled after {self._frames} frames "
                                   "(they are kept; bake again to resume)")
             return {"CANCELLED"}
         if event.type != "TIMER":
             # while the meadows' frames are played, the timeline and the scene are the
             # bake's: no edits or frame changes in between
-            return {"RUNNING_MODAL"} if PROGRESS.get("reading") else {"PASS_THROUGH"}
+            return {"RUNNING_MODAL"} if progress.STATE["phase"] == READING else \
+                {"PASS_THROUGH"}
         t0 = time.perf_counter()
         try:
             while time.perf_counter() - t0 < self.SLICE:
@@ -530,8 +522,10 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
             return errors.run(self, self._finish, context, self._jobs)
         except Exception as exc:  # noqa: BLE001 - reported like any operator's failure
             self._end(context)
-            return errors.run(self, _raise, exc)
-        self._show(context)
+            return errors.run(self, errors.reraise, exc)
+        s = progress.STATE
+        share = s["done"] / max(1, s["total"])
+        progress.update(context, s["done"], fraction=0.5 * share + (s["phase"] == BAKING) * 0.5)
         return {"RUNNING_MODAL"}
 
     def cancel(self, context):  # Blender ends the operator (a file is loaded, Blender quits)
@@ -539,21 +533,12 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
 
     def _end(self, context):
         self._steps.close()  # a cancelled reading of frames puts the current frame back
-        wm = context.window_manager
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        if context.workspace is not None:
-            context.workspace.status_text_set(None)
-        PROGRESS.update(phase="", done=0, total=0, reading=False)
+        context.window_manager.event_timer_remove(self._timer)
+        if progress.STATE["operator"]:
+            progress.end(context)
 
 
-def _raise(exc):
-    raise exc
-
-
-# What an interactive bake is doing, for the status bar and for tests: phase, done, total
-# (units of the phase), reading (frames are being played), frames (frames baked so far).
-PROGRESS = {"phase": "", "done": 0, "total": 0, "reading": False, "frames": 0}
+READING, BAKING = "reading frames", "baking frames"  # the phases, in progress.STATE
 
 
 class TUSSOCK_OT_free_bake(bpy.types.Operator):
@@ -607,9 +592,11 @@ class TUSSOCK_PT_bake(SubPanel, bpy.types.Panel):
         for obj in context.scene.objects:
             if obj.modifiers.get(MODIFIER) is not None:
                 rng = cached_range(obj, context.scene)
-                self.layout.label(text=f"{obj.name}: " + (f"frames {rng[0]}–{rng[1]}" if rng
-                                                         else "cache missing or out of date"),
-                                  icon="CHECKMARK" if rng else "ERROR")
+                # the object's name and its state side by side: one line of "name: frames
+                # a–b" is cut at the sidebar's default width
+                split = self.layout.split(factor=0.5)
+                split.label(text=obj.name, icon="CHECKMARK" if rng else "ERROR")
+                split.label(text=f"frames {rng[0]}–{rng[1]}" if rng else "out of date")
         picture = picture_bake.status(context.scene)
         if picture is not None:
             self.layout.label(text=picture[0], icon="CHECKMARK" if picture[1] else "ERROR")

@@ -33,6 +33,11 @@ def _remove_created(before):
     return len(new)
 
 
+def reraise(exc):
+    """For run(): reports an exception caught elsewhere (a modal step) the same way."""
+    raise exc
+
+
 def run(operator, work, *args, **kwargs):
     """Calls work(*args, **kwargs) and returns its result set, or reports and cancels."""
     before = _snapshot()

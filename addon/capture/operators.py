@@ -7,7 +7,7 @@ import time
 import bpy
 import numpy as np
 
-from .. import compat, errors, native
+from .. import compat, errors, native, progress
 from . import blades, pipeline, preview
 from .props import SOURCE_ITEMS, TIPS
 
@@ -76,12 +76,12 @@ class TUSSOCK_OT_capture_blades(bpy.types.Operator):
         self._reader = self._open()
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.02, window=context.window)
-        wm.progress_begin(0, self._reader.count)
+        progress.begin(context, "Tussock capture", "reading frames", self._reader.count)
         wm.modal_handler_add(self)
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
-        if event.type == "ESC":
+        if event.type == "ESC" and event.value == "PRESS":
             self._end_modal(context)
             self.report({"INFO"}, "Capture cancelled")
             return {"CANCELLED"}
@@ -89,23 +89,25 @@ class TUSSOCK_OT_capture_blades(bpy.types.Operator):
             return {"PASS_THROUGH"}
         try:
             done = self._reader.step(0.02)
-            context.window_manager.progress_update(self._reader.done)
-            if not done:
-                return {"RUNNING_MODAL"}
-            reader = self._reader
+            progress.update(context, self._reader.done)
+        except Exception as exc:  # noqa: BLE001 - reported like any operator's failure
             self._end_modal(context)
-            return errors.run(self, self._finish, context, reader)
-        except (native.Error, ValueError) as exc:
-            self._end_modal(context)
-            self.report({"ERROR"}, f"Tussock: {exc}")
-            return {"CANCELLED"}
+            return errors.run(self, errors.reraise, exc)
+        if not done:
+            return {"RUNNING_MODAL"}
+        reader = self._reader
+        self._end_modal(context)
+        return errors.run(self, self._finish, context, reader)
+
+    def cancel(self, context):  # Blender ends the operator (a file is loaded, it quits)
+        self._end_modal(context)
 
     def _end_modal(self, context):
         wm = context.window_manager
         if self._timer is not None:
             wm.event_timer_remove(self._timer)
             self._timer = None
-        wm.progress_end()
+            progress.end(context)
         self._close()
 
     # ---- shared ------------------------------------------------------------------------

@@ -1,8 +1,14 @@
-"""An interactive bake in a real Blender window (Xvfb), as an artist runs it from the Bake
-panel: a tree and a simulated meadow that a keyframed ball crosses.
+"""Long operations in a real Blender window (Xvfb), as an artist runs them from the sidebar:
+their progress is shown while they run and Esc (a real key event) cancels them with the scene
+as it was.
+
+Capture of a sequence of 60 depth images: progress advances; Esc creates no blade; run to its
+end, it creates the blades.
+
+An interactive bake of a tree and a simulated meadow that a keyframed ball crosses:
 
 - While it runs, its progress advances (the status bar and cursor show it; the numbers are
-  read from tussock.bake.PROGRESS) and Blender keeps handling events between slices.
+  read from tussock.progress.STATE) and Blender keeps handling events between slices.
 - Esc (a real key event) cancels it, first while the meadow's frames are played and then
   while frames are baked; either way the scene is as it was: same frame, same objects, no
   cache modifier.
@@ -11,6 +17,7 @@ panel: a tree and a simulated meadow that a keyframed ball crosses.
 - Free Bake then leaves no file in the cache folder."""
 
 import os
+import shutil
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -74,6 +81,48 @@ def cache_files():
     return sorted(out)
 
 
+def capture_scenario():
+    """Capture of a 60-frame sequence (the sample tuft's nine images over and over)."""
+    from tussock.progress import STATE
+    folder = os.path.join(TMP, "sequence")
+    os.makedirs(folder, exist_ok=True)
+    samples = os.path.join(harness.REPO, "samples", "blades")
+    for i in range(60):
+        shutil.copy(os.path.join(samples, f"depth_{i % 9 + 1:04d}.png"),
+                    os.path.join(folder, f"depth_{i + 1:04d}.png"))
+    s = bpy.context.scene.tussock_capture
+    s.source, s.filepath, s.frames, s.frame = "FILES", os.path.join(folder, "depth_####.png"), 60, 0
+
+    def blades():
+        coll = bpy.data.collections.get("Tussock Blades")
+        return len(coll.all_objects) if coll else 0
+    before = (scene_state(), blades())
+    with override():
+        result = bpy.ops.tussock.capture_blades("INVOKE_DEFAULT")
+    expect("capture runs modal", result == {"RUNNING_MODAL"}, str(result))
+    seen = set()
+    for _ in range(400):
+        seen.add(STATE["done"])
+        if len(seen - {0}) >= 2 or STATE["operator"] == "":
+            break
+        yield 0.005
+    expect("capture progress advances", len(seen - {0}) >= 2 and STATE["total"] == 60,
+           f"{sorted(seen)} {STATE}")
+    window().event_simulate(type="ESC", value="PRESS")
+    window().event_simulate(type="ESC", value="RELEASE")
+    ended = yield from wait_until(lambda: STATE["operator"] == "", 10, 0.05)
+    expect("Esc cancels the capture", ended, str(STATE))
+    expect("the cancelled capture left the scene as it was", (scene_state(), blades()) == before,
+           f"{(scene_state(), blades())} != {before}")
+    with override():
+        result = bpy.ops.tussock.capture_blades("INVOKE_DEFAULT")
+    done = yield from wait_until(lambda: STATE["operator"] == "" and blades() > before[1], 60)
+    expect("a capture left to run creates the tuft's blades", done and blades() >= 5,
+           f"{blades()} blades")
+    for o in list(bpy.context.scene.objects):
+        bpy.data.objects.remove(o)
+
+
 def start_bake():
     with override():
         return bpy.ops.tussock.bake("INVOKE_DEFAULT")
@@ -81,6 +130,10 @@ def start_bake():
 
 def scenario():
     from tussock import bake
+    from tussock.progress import STATE
+    reading = lambda: STATE["phase"] == bake.READING  # noqa: E731
+    baking = lambda: STATE["phase"] == bake.BAKING  # noqa: E731
+    idle = lambda: STATE["operator"] == ""  # noqa: E731
     tree, meadow = make_scene()
     before = scene_state()
 
@@ -88,31 +141,31 @@ def scenario():
     expect("bake runs modal", start_bake() == {"RUNNING_MODAL"})
     seen, shown = [], set()
     for _ in range(400):
-        seen.append((bake.PROGRESS["phase"], bake.PROGRESS["done"]))
+        seen.append((STATE["phase"], STATE["done"]))
         shown.add(bpy.context.scene.frame_current)
-        steps = sorted({d for p, d in seen if p == "Reading frames"})
-        if bake.PROGRESS["reading"] and len(steps) >= 2 or not bake.PROGRESS["reading"] and steps:
+        steps = sorted({d for p, d in seen if p == bake.READING})
+        if len(steps) >= 2 or baking():
             break
         yield 0.005
-    expect("progress advances while the frames are played", len(steps) >= 2, str(seen[-5:]))
+    expect("progress advances while the frames are played", len(steps) >= 2 and reading(),
+           str(seen[-5:]))
     expect("Blender runs meanwhile (the frame shown follows the bake)",
            shown - {before[0]}, str(shown))
     window().event_simulate(type="ESC", value="PRESS")
     window().event_simulate(type="ESC", value="RELEASE")
-    ended = yield from wait_until(lambda: bake.PROGRESS["phase"] == "", 10, 0.05)
-    expect("Esc cancels while frames are played", ended, str(bake.PROGRESS))
+    ended = yield from wait_until(idle, 10, 0.05)
+    expect("Esc cancels while frames are played", ended, str(STATE))
     expect("the cancelled bake left the scene as it was", scene_state() == before,
            f"{scene_state()} != {before}")
 
     # 2. Esc while frames are baked: the frames written are kept on disk, the scene unchanged
     expect("bake runs modal again", start_bake() == {"RUNNING_MODAL"})
-    baking = yield from wait_until(lambda: not bake.PROGRESS["reading"]
-                                   and bake.PROGRESS["frames"] >= 2, 60, 0.02)
-    expect("progress advances while frames are baked", baking, str(bake.PROGRESS))
+    ok = yield from wait_until(lambda: baking() and STATE["done"] >= 2, 60, 0.02)
+    expect("progress advances while frames are baked", ok, str(STATE))
     window().event_simulate(type="ESC", value="PRESS")
     window().event_simulate(type="ESC", value="RELEASE")
-    ended = yield from wait_until(lambda: bake.PROGRESS["phase"] == "", 10, 0.05)
-    expect("Esc cancels while frames are baked", ended, str(bake.PROGRESS))
+    ended = yield from wait_until(idle, 10, 0.05)
+    expect("Esc cancels while frames are baked", ended, str(STATE))
     expect("that cancelled bake left the scene as it was too", scene_state() == before,
            f"{scene_state()} != {before}")
     expect("its frames are kept for the next bake",
@@ -120,14 +173,13 @@ def scenario():
 
     # 3. rename the tree and delete the meadow while it bakes
     expect("bake runs modal a third time", start_bake() == {"RUNNING_MODAL"})
-    baking = yield from wait_until(lambda: not bake.PROGRESS["reading"]
-                                   and bake.PROGRESS["total"] > 0, 60, 0.02)
-    expect("the third bake reached its baking phase", baking, str(bake.PROGRESS))
+    ok = yield from wait_until(baking, 60, 0.02)
+    expect("the third bake reached its baking phase", ok, str(STATE))
     meadow_name = meadow.name
     tree.name = "Renamed tree"
     bpy.data.objects.remove(meadow)
-    ended = yield from wait_until(lambda: bake.PROGRESS["phase"] == "", 120, 0.1)
-    expect("the bake ended", ended, str(bake.PROGRESS))
+    ended = yield from wait_until(idle, 120, 0.1)
+    expect("the bake ended", ended, str(STATE))
     tree = bpy.context.scene.objects.get("Renamed tree")
     expect("the renamed tree plays its cache",
            tree is not None and bake.cached_range(tree, bpy.context.scene) == (1, FRAMES),
@@ -148,6 +200,7 @@ def main():
         expect("Blender runs with a window", not bpy.app.background and window() is not None)
         harness.enable_addon()
         yield 0.2
+        yield from capture_scenario()
         yield from scenario()
     harness.window_main(steps())
 
