@@ -167,6 +167,7 @@ class MeadowJob:
     def __init__(self, obj, scene, root):
         lib = native.require()
         s = obj.tussock_meadow
+        simulate.check_animation(obj)
         self.meadow_name = obj.name
         self.name = f"{obj.name} blades"
         safe = bake.safe_name(self.name)
@@ -180,6 +181,7 @@ class MeadowJob:
         self.fps = wind_runtime.fps_of(scene)
         frames = range(self.range[0], self.range[1] + 1)
         self.sources = {f: wind_runtime.sources(scene, f) for f in frames}
+        self.wind_settings = wind_runtime.frame_settings(scene, frames)
         origin, size = build.area_of(obj, s)
         patch = build.make_patch(s)
         meadow = build.make_meadow(s, origin, size)
@@ -289,7 +291,8 @@ class MeadowJob:
         runner = simulate.Runner(*self.runner_args)
         runner.restart(self.range[0])
         wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
-                                    lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)))
+                                    lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)),
+                                    settings_at=self.wind_settings.__getitem__)
         for f in range(self.range[0], max(todo) + 1):
             if cancel():
                 return
