@@ -102,7 +102,7 @@ def test_one_frame_back_at_frame_1000_of_a_256_grid_is_bounded():
     st = runtime.stepper(scene, 1000)
     before = getattr(st, "frames_stepped", 0)
     back, took = timed(runtime.sample, scene, 999, probe)
-    assert took < 1.0, took  # was 3.3 s: stepped again from the first frame
+    assert took < 1.5, took  # was 3.3 s: stepped again from the first frame
     assert back.tobytes() == at999.tobytes()
     assert st.every <= 16  # a 256x256 grid keeps a state at least every 16 frames
     assert st.frames_stepped - before < st.every, st.frames_stepped - before

@@ -246,9 +246,10 @@ class Stepper:
         """Steps the fluid to `frame` (restoring a kept state first when that is shorter or
         when going back) and sets the frame's sines; returns the time in seconds."""
         if self.fluid:
-            known = [f for f in self.snapshots if f <= frame]
+            target = max(frame, self.frame_start)  # still air before the first frame
+            known = [f for f in self.snapshots if f <= target]
             snap = max(known) if known else None
-            if frame < self.frame or (snap is not None and snap > self.frame):
+            if target < self.frame or (snap is not None and snap > self.frame):
                 if snap is not None:
                     self.lib.wind_load_state(self.handle, self.snapshots[snap])
                     self.frame = snap
@@ -256,8 +257,8 @@ class Stepper:
                 else:
                     self._restart()
                 self.restored_from = self.frame
-            total, began, told = frame - self.frame, time.monotonic(), None
-            while self.frame < frame:  # one frame of fluid at a time, sources as keyed then
+            total, began, told = target - self.frame, time.monotonic(), None
+            while self.frame < target:  # one frame of fluid at a time, sources as keyed then
                 self.lib.wind_set_sources(self.handle, self.sources_at(self.frame).ravel())
                 self.lib.wind_step(self.handle, STEPS_PER_FRAME)
                 self.frame += 1
@@ -268,9 +269,9 @@ class Stepper:
                     now = time.monotonic()
                     if now - (told or began) >= PROGRESS_SECONDS:
                         told = now
-                        self.progress(total - (frame - self.frame), total, frame)
+                        self.progress(total - (target - self.frame), total, target)
             if told is not None:
-                self.progress(total, total, frame)  # done: ends what was reported
+                self.progress(total, total, target)  # done: ends what was reported
         else:
             self.frame = frame
         if self.settings_at is not None:
@@ -408,11 +409,16 @@ def stepper(scene, frame):
         entry.key = key
         entry.sources_key = sources_key(scene) if entry.fluid else None
         _cache[scene.name] = entry
-    elif entry.fluid and frame != entry.frame:  # (checked when the fluid is to move)
-        skey = sources_key(scene)
-        if entry.sources_key != skey:
-            entry.invalidate()
-            entry.sources_key = skey
+    else:
+        # read this scene object (another file's scene of the same name, after a load or
+        # a factory reset, gives the same wind if its key and sources are the same)
+        entry.sources_at = lambda f, scene=scene: sources(scene, f)
+        entry.settings_at = lambda f, scene=scene: sines_kwargs(scene, f)
+        if entry.fluid and frame != entry.frame:  # (checked when the fluid is to move)
+            skey = sources_key(scene)
+            if entry.sources_key != skey:
+                entry.invalidate()
+                entry.sources_key = skey
     return entry
 
 
