@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 from farm import blender  # noqa: E402
 
 harness.enable_addon()
-from tussock import compat  # noqa: E402
+from tussock import compat, native  # noqa: E402
 from tussock.meadow import baking as meadow_baking  # noqa: E402
 from tussock.meadow import simulate  # noqa: E402
 from tussock.trees import build as tree_build  # noqa: E402
@@ -132,6 +132,62 @@ def test_a_first_far_jump_reports_its_progress():
         runtime.PROGRESS_SECONDS = old
     assert calls and calls[-1] == (300, 300, 301), calls[-3:]
     assert all(c[0] <= c[1] for c in calls)
+
+
+@test
+def test_a_keyframed_source_interval_is_read_per_frame():
+    scene, a, b, probe = fluid_scene(32)
+    s = b.tussock_wind_source
+    s.interval = 0.0
+    s.keyframe_insert("interval", frame=1)
+    s.interval = 2.0
+    s.keyframe_insert("interval", frame=41)
+    scene.frame_set(1)
+    rows = {f: runtime.sources(scene, f)[1, 6] for f in (1, 21, 41)}
+    assert rows[1] == 0.0 and 0.5 < rows[21] < 1.5 and rows[41] == 2.0, rows
+
+
+@test
+def test_saved_states_through_the_binding_are_checked():
+    lib = native.require()
+    kw = dict(nx=24, ny=20, cell_size=0.5, origin_x=-6.0, origin_y=-5.0, dt=1 / 48,
+              continuum=True, c=2.0, gamma=0.96)
+    w = lib.wind_create(**kw)
+    lib.wind_set_sources(w, np.array([-2, 0, 1, 0.2, 1, 2, 0, 0], np.float32))
+    lib.wind_step(w, 30)
+    state = lib.wind_save_state(w)
+    assert isinstance(state, bytes) and len(state) > 28 * 24 * 20
+    xyz = np.random.default_rng(2).uniform(-5, 5, (50, 3)).astype(np.float32)
+
+    def sample():
+        out = np.empty_like(xyz)
+        lib.wind_sample_xyz(w, lib.wind_time(w), xyz.ravel(), out.reshape(-1))
+        return out.tobytes()
+
+    lib.wind_step(w, 12)
+    after = sample()
+    other = lib.wind_create(**dict(kw, nx=20))
+    bad = bytearray(state)
+    bad[0] ^= 0xFF
+    for arg, needle in ((lib.wind_save_state(other), "size"), (bytes(bad), "not a saved wind"),
+                        (np.frombuffer(state, np.float32), "state"), (None, "state")):
+        try:
+            lib.wind_load_state(w, arg)
+        except lib.Error as exc:
+            assert needle in str(exc), (needle, str(exc))
+        else:
+            raise AssertionError(f"loaded {needle}")
+    assert sample() == after  # refused states changed nothing
+    lib.wind_load_state(w, state)
+    lib.wind_step(w, 12)
+    assert sample() == after
+    lib.wind_destroy(w)
+    try:
+        lib.wind_save_state(w)
+    except lib.Error as exc:
+        assert "destroyed" in str(exc)
+    else:
+        raise AssertionError("saved a destroyed wind")
 
 
 def key_breeze(scene, first, last, low=0.5, high=20.0):

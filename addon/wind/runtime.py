@@ -52,6 +52,7 @@ def sources(scene, frame):
         loc = [_animated(obj, "location", i, frame, obj.location[i]) for i in range(3)]
         strength = _animated(obj, "tussock_wind_source.strength", 0, frame, s.strength)
         radius = _animated(obj, "tussock_wind_source.radius", 0, frame, s.radius)
+        interval = _animated(obj, "tussock_wind_source.interval", 0, frame, s.interval)
         # the arrow of a Single Arrow empty is its local +Z; its ground projection pushes
         if len(obj.rotation_mode) == 3:  # an Euler order: read the keyed rotation
             rot = Euler([_animated(obj, "rotation_euler", i, frame, obj.rotation_euler[i])
@@ -62,7 +63,7 @@ def sources(scene, frame):
         if math.hypot(d.x, d.y) < 1e-6:
             d = Vector((1.0, 0.0, 0.0))
         rows.append((loc[0], loc[1], d.x, d.y, max(0.0, min(1.0, strength)), max(radius, 1e-3),
-                     s.interval, 0.0))
+                     max(interval, 0.0), 0.0))
     return np.array(rows, np.float32).reshape(-1, 8)
 
 
@@ -356,8 +357,8 @@ def sources_key(scene):
         ad = obj.animation_data
         ch = [_channel(ad, "location", i, obj.location[i]) for i in range(3)]
         ch += [_channel(ad, "tussock_wind_source.strength", 0, s.strength),
-               _channel(ad, "tussock_wind_source.radius", 0, s.radius), s.interval,
-               obj.rotation_mode]
+               _channel(ad, "tussock_wind_source.radius", 0, s.radius),
+               _channel(ad, "tussock_wind_source.interval", 0, s.interval), obj.rotation_mode]
         if len(obj.rotation_mode) == 3:
             ch += [_channel(ad, "rotation_euler", i, obj.rotation_euler[i]) for i in range(3)]
         else:

@@ -994,6 +994,13 @@ TEST(test_bad_states_are_refused_and_change_nothing) {
     memcpy(bad, state, n);
     memcpy(bad + n - sizeof nan, &nan, sizeof nan); /* the continuum's last value */
     CHECK_STATUS(tsk_wind_load_state(a, bad, n), TSK_ERR_ARGUMENT, "continuum");
+    const float huge = 2e4f;
+    memcpy(bad + n - sizeof huge, &huge, sizeof huge);
+    CHECK_STATUS(tsk_wind_load_state(a, bad, n), TSK_ERR_ARGUMENT, "continuum value");
+    memcpy(bad, state, n);
+    const float far = 2e9f; /* a pressure, after u and v */
+    memcpy(bad + grids + (49 * 40 + 48 * 41 + 60) * sizeof(float), &far, sizeof far);
+    CHECK_STATUS(tsk_wind_load_state(a, bad, n), TSK_ERR_ARGUMENT, "pressure");
     CHECK(wind_hash(a) == before);
     /* same grid, other decay: another definition */
     d.fluid.decay *= 2.0f;

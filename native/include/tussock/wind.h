@@ -180,7 +180,8 @@ tsk_status tsk_wind_save_state(const tsk_wind* wind, void* buf, size_t size);
 /// Replaces the wind's state with a saved one. Refused with TSK_ERR_ARGUMENT, the wind left
 /// unchanged, when the size is not the wind's state size, the bytes are not a state of
 /// this format, were saved by a wind of another fluid or continuum definition, or hold
-/// values a wind cannot reach (non-finite, a fluid speed beyond 1, bad sources or sines).
+/// values a wind cannot reach (non-finite; a fluid speed beyond 1, a pressure beyond 1e9, a
+/// continuum value beyond 1e4; bad sources or sines).
 tsk_status tsk_wind_load_state(tsk_wind* wind, const void* buf, size_t size);
 
 /// Samples the wind at `count` ground points (x[i], y[i]) at time t (s): the breeze,

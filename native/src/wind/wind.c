@@ -317,8 +317,13 @@ tsk_status tsk_wind_load_state(tsk_wind* w, const void* buf, size_t size) {
     const unsigned char* grids = p;
     if (!floats_ok(grids, l.nu + l.nv, 1.0f))
         return bad_state("has fluid velocities that are not finite or beyond 1");
-    if (!floats_ok(grids + (l.nu + l.nv) * sizeof(float), l.np + 4 * l.nc, 3.4e38f))
-        return bad_state("has a non-finite pressure or continuum value");
+    /* bounds far above what a wind reaches (|v| <= 1 drives everything: the pressure of a
+     * 1024^2 grid stays below ~1e6, the continuum near 1), low enough that no sum of them
+     * overflows in a step */
+    if (!floats_ok(grids + (l.nu + l.nv) * sizeof(float), l.np, 1e9f))
+        return bad_state("has a pressure that is not finite or beyond 1e9");
+    if (!floats_ok(grids + (l.nu + l.nv + l.np) * sizeof(float), 4 * l.nc, 1e4f))
+        return bad_state("has a continuum value that is not finite or beyond 1e4");
     if (hd.has_fluid && !(isfinite(hd.last_divergence)))
         return bad_state("has a non-finite divergence");
 
