@@ -24,7 +24,7 @@ _cache = {}  # scene name -> Stepper
 
 # Fluid snapshots. A snapshot is about 28 bytes per grid cell (tsk_wind_state_size) and a
 # frame of stepping costs time in proportion to the cells too, so one constant bounds the
-# re-step after a restore on every grid: SNAPSHOT_CELL_FRAMES cell-frames (about 30 to 90
+# re-step after a restore on every grid: SNAPSHOT_CELL_FRAMES cell-frames (about 15 to 90
 # ms on one busy core: 64 frames of the default 64x64 grid, 16 frames of 256x256).
 # SNAPSHOT_BUDGET is the memory a scene's snapshots may take: 256 MB keep about 130,000
 # frames of the default grid and 2,000 of a 256x256 one at that spacing; beyond, every
@@ -107,8 +107,8 @@ def check_animation(scene, baking=False):
             raise ValueError(
                 f"the scene wind's '{_setting_label(scene, fc.data_path)}' is {how}, but the "
                 "fluid wind is simulated from the first frame with one grid and the same "
-                "settings for the whole shot: remove its keyframes or driver (Alt+I, or "
-                "Clear Keyframes in its menu); to vary the fluid wind over time, keyframe "
+                "settings for the whole shot: remove its keyframes or driver (right-click it: "
+                "Clear Keyframes, or Delete Driver); to vary the fluid wind over time, keyframe "
                 "the wind sources' strength, place or direction instead")
     if baking and driven:
         raise ValueError(
