@@ -74,7 +74,11 @@ class TreeJob:
         self.definition = tree_build.definition(s)
         self.smooth = s.smooth_levels
         self.matrix = np.array(obj.matrix_world, np.float64)
-        self.strength = s.wind_strength
+        # the wind response of every frame (it may be keyframed), as the live pose reads it
+        self.strength = {f: wind_runtime.keyed_value(obj.animation_data,
+                                                     "tussock_tree.wind_strength", f, s,
+                                                     "wind_strength")
+                         for f in range(scene.frame_start, scene.frame_end + 1)}
         self.folder = os.path.join(root, safe_name(obj.name))
         self.pc2 = os.path.join(root, safe_name(obj.name) + ".pc2")
         self.rel_pc2 = CACHE_DIR + "/" + safe_name(obj.name) + ".pc2"
@@ -82,9 +86,11 @@ class TreeJob:
         self.key = inputs_key(obj, scene)
         self.wind_kwargs = wind_runtime.wind_kwargs(scene)
         self.fps = wind_runtime.fps_of(scene)
-        # wind sources at every frame of the range, read now (F-curves need bpy)
+        # wind sources and keyframed wind settings at every frame of the range, read now
+        # (F-curves need bpy)
         self.sources = {f: wind_runtime.sources(scene, f)
                         for f in range(scene.frame_start, scene.frame_end + 1)}
+        self.wind_settings = wind_runtime.frame_settings(scene, list(self.sources))
 
     def frames(self, part):
         lo, hi = part
@@ -128,10 +134,11 @@ class TreeJob:
         yield
         data = tree_build.compute_from(self.definition, self.smooth, rest=False)
         wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
-                                    lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)))
+                                    lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)),
+                                    settings_at=self.wind_settings.__getitem__)
         for f in todo:
             yield
-            verts = tree_build.posed_vertices(data, self.matrix, self.strength,
+            verts = tree_build.posed_vertices(data, self.matrix, self.strength[f],
                                               lambda xyz, f=f: wind.sample(f, xyz))
             lib.bake_write_frame(frame_path(self.folder, f), f,
                                  np.ascontiguousarray(verts, np.float32).ravel())
@@ -185,19 +192,20 @@ class TreeJob:
 
 def inputs_key(obj, scene):
     """A digest of everything a tree's baked poses depend on: its definition, smoothing,
-    placement and wind response, the scene's wind settings, first frame and frame rate
-    (wind time counts from the first frame). A cache whose key differs is out of date.
-    Keyframed wind sources are not part of it: bake again after changing them."""
+    placement and wind response, the scene's wind settings (keyed ones by their
+    keyframes), first frame and frame rate (wind time counts from the first frame). A
+    cache whose key differs is out of date. Keyframed wind sources are not part of it:
+    bake again after changing them."""
     if obj.get("tussock_simulated_blades"):  # a meadow's simulated blades
         from .meadow import baking
         return baking.blades_inputs_key(obj, scene)
     s = obj.tussock_tree
-    kw = wind_runtime.wind_kwargs(scene)
     parts = [json.dumps(tree_build.definition(s), sort_keys=True), s.smooth_levels,
              np.round(np.array(obj.matrix_world, np.float64), 9).tobytes().hex(),
-             round(s.wind_strength, 9), scene.frame_start, wind_runtime.fps_of(scene),
-             sorted((k, v.tobytes().hex() if isinstance(v, np.ndarray) else v)
-                    for k, v in kw.items())]
+             wind_runtime.keyed_print(obj.animation_data, "tussock_tree.wind_strength",
+                                      round(s.wind_strength, 9)),
+             scene.frame_start, wind_runtime.fps_of(scene),
+             wind_runtime.settings_key(scene)]
     return hashlib.sha256(repr(parts).encode()).hexdigest()
 
 

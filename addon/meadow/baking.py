@@ -175,6 +175,7 @@ class MeadowJob:
     def __init__(self, obj, scene, root):
         lib = native.require()
         s = obj.tussock_meadow
+        simulate.check_animation(obj)
         self.meadow_name = obj.name
         self.meadow_pointer = obj.as_pointer()  # the meadow, should it be renamed meanwhile
         self.name = f"{obj.name} blades"
@@ -189,6 +190,7 @@ class MeadowJob:
         self.fps = wind_runtime.fps_of(scene)
         frames = range(self.range[0], self.range[1] + 1)
         self.sources = {f: wind_runtime.sources(scene, f) for f in frames}
+        self.wind_settings = wind_runtime.frame_settings(scene, frames)
         origin, size = build.area_of(obj, s)
         patch = build.make_patch(s)
         meadow = build.make_meadow(s, origin, size)
@@ -316,7 +318,8 @@ class MeadowJob:
         runner = simulate.Runner(*self.runner_args)
         runner.restart(self.range[0])
         wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
-                                    lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)))
+                                    lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)),
+                                    settings_at=self.wind_settings.__getitem__)
         for f in range(self.range[0], max(todo) + 1):
             yield
             if f > self.range[0]:

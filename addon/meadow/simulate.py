@@ -60,6 +60,33 @@ def sim_settings(s):
                 global_stiffness_root=s.sim_stiffness, local_stiffness=s.sim_local_stiffness)
 
 
+# Meadow settings that may be keyframed on a simulated meadow: they do not change motion.
+UNSIMULATED_SETTINGS = ("display",)
+
+
+def check_animation(obj):
+    """Refuses (ValueError) keyframes or drivers on a simulated meadow's settings: the
+    blade simulation runs from rest at the first frame with one set of settings, so a
+    value that changed along the timeline would make every frame simulate again from rest
+    and could not be baked as the artist saw it."""
+    ad = obj.animation_data
+    if ad is None:
+        return
+    for fc in list(compat.fcurves(ad)) + list(ad.drivers):
+        if not fc.data_path.startswith("tussock_meadow."):
+            continue
+        name = fc.data_path[len("tussock_meadow."):].split("[")[0]
+        if name in UNSIMULATED_SETTINGS:
+            continue
+        prop = obj.tussock_meadow.bl_rna.properties.get(name)
+        label = prop.name if prop is not None else name
+        raise ValueError(
+            f"{obj.name}: the meadow's '{label}' is keyframed or driven, but the blade "
+            "simulation runs from the first frame with the same settings for the whole "
+            "shot: remove its keyframes or driver (to change how blades move over time, "
+            "keyframe the scene wind or move the colliders)")
+
+
 def settle_steps(s, fps):
     """Solver steps of the meadow's Settle after time at `fps` (tsk_blade_sim_def's
     settle_frames)."""
@@ -369,6 +396,7 @@ def _playback(obj, scene):
 
 def simulate_to(obj, scene, frame, depsgraph=None):
     """Advances (or takes back) the meadow's simulation to `frame`; returns its Playback."""
+    check_animation(obj)
     pb = _playback(obj, scene)
     pb.record(frame, colliders(scene, obj.tussock_meadow.colliders, depsgraph))
     wind_key = wind_runtime.settings_key(scene)

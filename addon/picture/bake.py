@@ -72,12 +72,9 @@ def inputs_key(scene):
     part of it (a new bake checks them: see PictureJob.frames_key)."""
     s = scene.tussock_picture
     motion = [sorted(vars(_layer_values(x)).items()) for x in s.layers]
-    kw = wind_runtime.wind_kwargs(scene)
     parts = [s.applied, repr(motion), s.loop_frames, frames.wind_placement(scene),
              scene.frame_start, wind_runtime.fps_of(scene),
-             scene.render.fps_base / scene.render.fps,
-             sorted((k, v.tobytes().hex() if isinstance(v, np.ndarray) else v)
-                    for k, v in kw.items()),
+             scene.render.fps_base / scene.render.fps, wind_runtime.settings_key(scene),
              wind_runtime.sources(scene, scene.frame_start).tobytes().hex()]
     return hashlib.sha256(repr(parts).encode()).hexdigest()
 

@@ -1,8 +1,9 @@
-/* Fuzz target: wind definitions and sources. The bytes give a tsk_wind_def (breeze, up to
- * 8 waves, gusts, fluid grid, continuum) and sources, validated at full range; for
- * creation the harness shrinks a valid grid above 32 cells per side and iteration counts
- * above 20 (cost only), then steps, samples at fuzzed points and times (both sample calls),
- * cross-fades to fuzzed sines and reads the grids. Every sampled value must be finite. */
+/* Fuzz target: wind definitions, sources and saved states. The bytes give a tsk_wind_def
+ * (breeze, up to 8 waves, gusts, fluid grid, continuum) and sources, validated at full
+ * range; for creation the harness shrinks a valid grid above 32 cells per side and
+ * iteration counts above 20 (cost only), then steps, samples at fuzzed points and times
+ * (both sample calls), cross-fades to fuzzed sines, reads the grids and loads its own saved
+ * state with fuzzed bytes flipped. Every sampled value must be finite. */
 #include "fuzz.h"
 #include "tussock/wind.h"
 
@@ -128,6 +129,29 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         free(a);
         free(b);
     }
+    /* a saved state with fuzzed bytes: refused, or loaded and then stepping and sampling
+     * stay finite */
+    const size_t state_size = tsk_wind_state_size(w);
+    unsigned char* state = malloc(state_size);
+    if (tsk_wind_save_state(w, state, state_size) != TSK_OK) abort();
+    const int flips = fz_u8(&r) % 6;
+    for (int i = 0; i < flips; ++i) {
+        const size_t at = (size_t)fz_u64(&r) % state_size;
+        state[at] ^= fz_u8(&r);
+    }
+    const size_t load_size = (fz_u8(&r) % 32) ? state_size : state_size - 1;
+    if (tsk_wind_load_state(w, state, load_size) == TSK_OK) {
+        (void)tsk_wind_step(w, 1);
+        if (tsk_wind_sample(w, tsk_wind_time(w), N, x, y, vx, vy, sx, sy) == TSK_OK) {
+            for (int i = 0; i < N; ++i)
+                if (!isfinite(vx[i]) || !isfinite(vy[i]) || !isfinite(sx[i]) ||
+                    !isfinite(sy[i])) {
+                    fprintf(stderr, "non-finite wind after loading a fuzzed state\n");
+                    abort();
+                }
+        }
+    }
+    free(state);
     if (!isfinite(tsk_wind_time(w))) {
         fprintf(stderr, "wind time %g (dt %g)\n", tsk_wind_time(w), (double)f->dt);
         abort();

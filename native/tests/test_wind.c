@@ -865,7 +865,164 @@ TEST(test_wind_without_grid_still_checks_dt) {
     tsk_wind_destroy(w);
 }
 
+/* A state saved at step 30 and loaded into another wind of the same definition (whose own
+ * state was elsewhere, its continuum on another time level), or back into the saving wind
+ * after it went on, gives the same bytes as the saving wind's straight run: fluid,
+ * continuum, samples and clock. Timed source pushes and a sines cross-fade that spans the
+ * save point are part of the state. */
+static tsk_wind_def state_def(void) {
+    tsk_wind_def d = tsk_default_wind_def();
+    d.fluid.nx = 48;
+    d.fluid.ny = 40;
+    d.fluid.cell_size = 0.25f;
+    d.fluid.viscosity = 0.01f;
+    d.fluid.pressure_tolerance = 1e-4f;
+    d.continuum.c = 1.0f;
+    return d;
+}
+
+static uint64_t wind_hash(tsk_wind* w) {
+    static float gx[48 * 40], gy[48 * 40];
+    enum { N = 500 };
+    static float xyz[3 * N], vel[3 * N], sway[3 * N];
+    for (int i = 0; i < N; ++i) {
+        xyz[3 * i] = (float)(14.0 * tsk_rand01(5, 0, (uint64_t)i, 0) - 7.0);
+        xyz[3 * i + 1] = (float)(12.0 * tsk_rand01(5, 0, (uint64_t)i, 1) - 6.0);
+        xyz[3 * i + 2] = 0.0f;
+    }
+    uint64_t h = hash_floats(gx, 0, 1469598103934665603ull);
+    CHECK(tsk_wind_read_fluid(w, gx, gy, 48 * 40) == TSK_OK);
+    h = hash_floats(gx, 48 * 40, hash_floats(gy, 48 * 40, h));
+    CHECK(tsk_wind_read_continuum(w, gx, gy, 48 * 40) == TSK_OK);
+    h = hash_floats(gx, 48 * 40, hash_floats(gy, 48 * 40, h));
+    CHECK(tsk_wind_sample_xyz(w, tsk_wind_time(w), N, xyz, vel, sway) == TSK_OK);
+    h = hash_floats(vel, 3 * N, hash_floats(sway, 3 * N, h));
+    const double t = tsk_wind_time(w);
+    return hash_floats((const float*)&t, 2, h);
+}
+
+static void state_sources(tsk_wind* w, int variant) {
+    tsk_wind_source s[2] = {tsk_default_wind_source(), tsk_default_wind_source()};
+    s[0].x = -3.0f;
+    s[0].interval = 0.1f; /* timed pushes: the clock decides which steps push */
+    s[1].x = 2.0f + (float)variant;
+    s[1].y = 1.0f;
+    s[1].dir_x = -1.0f;
+    s[1].dir_y = 0.5f;
+    CHECK(tsk_wind_set_sources(w, s, 2) == TSK_OK);
+}
+
+TEST(test_saved_state_restores_bit_for_bit) {
+    const tsk_wind_def d = state_def();
+    tsk_wind *a = NULL, *b = NULL;
+    CHECK(tsk_wind_create(&d, &a) == TSK_OK);
+    CHECK(tsk_wind_create(&d, &b) == TSK_OK);
+    if (a == NULL || b == NULL) return;
+    state_sources(a, 0);
+    tsk_wind_step(a, 20);
+    tsk_wind_sines_def other = four_waves();
+    CHECK(tsk_wind_set_sines(a, &other, tsk_wind_time(a), 0.5) == TSK_OK);
+    tsk_wind_step(a, 10);
+    const size_t n = tsk_wind_state_size(a);
+    CHECK(n > 28u * 48u * 40u && n < 40u * 49u * 42u + 20000u);
+    unsigned char* state = tsk_calloc(n, 1, "test state");
+    CHECK(tsk_wind_save_state(a, state, n) == TSK_OK);
+    const uint64_t at30 = wind_hash(a);
+    tsk_wind_step(a, 41);
+    const uint64_t straight = wind_hash(a);
+    CHECK(straight != at30);
+
+    state_sources(b, 1); /* b elsewhere: other sources, 7 steps (continuum level 1) */
+    tsk_wind_step(b, 7);
+    CHECK(tsk_wind_load_state(b, state, n) == TSK_OK);
+    CHECK(wind_hash(b) == at30);
+    tsk_wind_step(b, 41);
+    CHECK(wind_hash(b) == straight);
+
+    CHECK(tsk_wind_load_state(a, state, n) == TSK_OK); /* back in time */
+    CHECK(wind_hash(a) == at30);
+    tsk_wind_step(a, 41);
+    CHECK(wind_hash(a) == straight);
+    tsk_free(state);
+    tsk_wind_destroy(a);
+    tsk_wind_destroy(b);
+
+    /* without a grid: the clock and the sines */
+    tsk_wind_def g = sines_only_def();
+    CHECK(tsk_wind_create(&g, &a) == TSK_OK);
+    tsk_wind_step(a, 12);
+    const size_t m = tsk_wind_state_size(a);
+    state = tsk_calloc(m, 1, "test state");
+    CHECK(tsk_wind_save_state(a, state, m) == TSK_OK);
+    tsk_wind_step(a, 5);
+    CHECK(tsk_wind_load_state(a, state, m) == TSK_OK);
+    CHECK_NEAR(tsk_wind_time(a), 12.0 * g.fluid.dt, 1e-12);
+    tsk_free(state);
+    tsk_wind_destroy(a);
+}
+
+/* A state of another grid or definition, a damaged one, a wrong size or NULL is refused
+ * and the wind is left as it was. */
+TEST(test_bad_states_are_refused_and_change_nothing) {
+    tsk_wind_def d = state_def();
+    tsk_wind *a = NULL, *b = NULL;
+    CHECK(tsk_wind_create(&d, &a) == TSK_OK);
+    if (a == NULL) return;
+    state_sources(a, 0);
+    tsk_wind_step(a, 9);
+    const size_t n = tsk_wind_state_size(a);
+    unsigned char* state = tsk_calloc(n, 1, "test state");
+    unsigned char* bad = tsk_calloc(n, 1, "test state");
+    CHECK(tsk_wind_save_state(a, state, n) == TSK_OK);
+    tsk_wind_step(a, 3);
+    const uint64_t before = wind_hash(a);
+    CHECK_STATUS(tsk_wind_load_state(a, state, n - 1), TSK_ERR_ARGUMENT, "size");
+    CHECK_STATUS(tsk_wind_load_state(a, NULL, n), TSK_ERR_ARGUMENT, "buf");
+    CHECK_STATUS(tsk_wind_load_state(NULL, state, n), TSK_ERR_ARGUMENT, "wind");
+    CHECK_STATUS(tsk_wind_save_state(a, state, n + 1), TSK_ERR_ARGUMENT, "size");
+    memcpy(bad, state, n);
+    bad[0] ^= 1;
+    CHECK_STATUS(tsk_wind_load_state(a, bad, n), TSK_ERR_ARGUMENT, "not a saved wind state");
+    /* a NaN in the fluid velocities (just after the header, sines and sources) */
+    memcpy(bad, state, n);
+    const float nan = NAN, big = 2.0f;
+    const size_t grids = n - sizeof(float) * (49 * 40 + 48 * 41 + 5 * 50 * 42);
+    memcpy(bad + grids + 4 * sizeof(float), &nan, sizeof nan);
+    CHECK_STATUS(tsk_wind_load_state(a, bad, n), TSK_ERR_ARGUMENT, "fluid velocities");
+    memcpy(bad + grids + 4 * sizeof(float), &big, sizeof big);
+    CHECK_STATUS(tsk_wind_load_state(a, bad, n), TSK_ERR_ARGUMENT, "fluid velocities");
+    memcpy(bad, state, n);
+    memcpy(bad + n - sizeof nan, &nan, sizeof nan); /* the continuum's last value */
+    CHECK_STATUS(tsk_wind_load_state(a, bad, n), TSK_ERR_ARGUMENT, "continuum");
+    const float huge = 2e4f;
+    memcpy(bad + n - sizeof huge, &huge, sizeof huge);
+    CHECK_STATUS(tsk_wind_load_state(a, bad, n), TSK_ERR_ARGUMENT, "continuum value");
+    memcpy(bad, state, n);
+    const float far = 2e9f; /* a pressure, after u and v */
+    memcpy(bad + grids + (49 * 40 + 48 * 41 + 60) * sizeof(float), &far, sizeof far);
+    CHECK_STATUS(tsk_wind_load_state(a, bad, n), TSK_ERR_ARGUMENT, "pressure");
+    CHECK(wind_hash(a) == before);
+    /* same grid, other decay: another definition */
+    d.fluid.decay *= 2.0f;
+    CHECK(tsk_wind_create(&d, &b) == TSK_OK);
+    CHECK(tsk_wind_state_size(b) == n);
+    CHECK_STATUS(tsk_wind_load_state(b, state, n), TSK_ERR_ARGUMENT, "another fluid");
+    tsk_wind_destroy(b);
+    /* another grid: another size */
+    d = state_def();
+    d.fluid.nx = 40;
+    CHECK(tsk_wind_create(&d, &b) == TSK_OK);
+    CHECK_STATUS(tsk_wind_load_state(b, state, n), TSK_ERR_ARGUMENT, "size");
+    tsk_wind_destroy(b);
+    CHECK(wind_hash(a) == before);
+    tsk_free(state);
+    tsk_free(bad);
+    tsk_wind_destroy(a);
+}
+
 TEST_MAIN(TEST_ENTRY(test_wind_without_grid_still_checks_dt),
+          TEST_ENTRY(test_saved_state_restores_bit_for_bit),
+          TEST_ENTRY(test_bad_states_are_refused_and_change_nothing),
           TEST_ENTRY(test_wind_grid_over_memory_budget_is_refused),
           TEST_ENTRY(test_fast_sin_and_pow_match_libm), TEST_ENTRY(test_wind_sines_match_closed_form),
           TEST_ENTRY(test_wind_sines_crests_travel_downwind_at_speed),

@@ -168,6 +168,22 @@ tsk_status tsk_wind_step(tsk_wind* wind, int steps);
 /// Current simulation time, s (steps * dt).
 double tsk_wind_time(const tsk_wind* wind);
 
+/// Saved states, so that a timeline can go back without stepping again from time 0: a state
+/// holds everything later steps and samples read (the clock, the sines history, the
+/// sources, the fluid velocities and the pressure warm start, the continuum's two time
+/// levels). Loading a state into a wind made from the same fluid and continuum definition
+/// makes it step and sample bit for bit as the saving wind did from then on.
+/// Size of a state of this wind, bytes (0 for NULL); about 28 bytes per grid cell.
+size_t tsk_wind_state_size(const tsk_wind* wind);
+/// Writes the state into buf of exactly tsk_wind_state_size(wind) bytes.
+tsk_status tsk_wind_save_state(const tsk_wind* wind, void* buf, size_t size);
+/// Replaces the wind's state with a saved one. Refused with TSK_ERR_ARGUMENT, the wind left
+/// unchanged, when the size is not the wind's state size, the bytes are not a state of
+/// this format, were saved by a wind of another fluid or continuum definition, or hold
+/// values a wind cannot reach (non-finite; a fluid speed beyond 1, a pressure beyond 1e9, a
+/// continuum value beyond 1e4; bad sources or sines).
+tsk_status tsk_wind_load_state(tsk_wind* wind, const void* buf, size_t size);
+
 /// Samples the wind at `count` ground points (x[i], y[i]) at time t (s): the breeze,
 /// waves and gusts are evaluated at t exactly; the fluid and continuum give their current
 /// state (the caller steps them to t). vx, vy receive m/s. sway_x, sway_y (both NULL or

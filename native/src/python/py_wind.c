@@ -421,6 +421,55 @@ static PyObject* py_wind_read_continuum(PyObject* self, PyObject* args) {
     return read_grid(args, "OOO:wind_read_continuum", 1);
 }
 
+static PyObject* py_wind_save_state(PyObject* self, PyObject* capsule) {
+    (void)self;
+    wind_box* box = acquire(capsule);
+    if (box == NULL) return NULL;
+    const size_t n = tsk_wind_state_size(box->wind);
+    PyObject* out = PyBytes_FromStringAndSize(NULL, (Py_ssize_t)n);
+    if (out == NULL) {
+        release(box);
+        return NULL;
+    }
+    char* buf = PyBytes_AsString(out);
+    if (buf == NULL) {
+        release(box);
+        Py_DECREF(out);
+        return NULL;
+    }
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_wind_save_state(box->wind, buf, n);
+    Py_END_ALLOW_THREADS
+    release(box);
+    if (s != TSK_OK) {
+        Py_DECREF(out);
+        return tsk_py_raise(s);
+    }
+    return out;
+}
+
+static PyObject* py_wind_load_state(PyObject* self, PyObject* args) {
+    (void)self;
+    PyObject *capsule, *obj;
+    if (!PyArg_ParseTuple(args, "OO:wind_load_state", &capsule, &obj)) return NULL;
+    Py_buffer view;
+    if (!tsk_py_buffer(obj, "state", TSK_PY_U8, -1, 0, &view)) return NULL;
+    wind_box* box = acquire(capsule);
+    if (box == NULL) {
+        PyBuffer_Release(&view);
+        return NULL;
+    }
+    tsk_status s;
+    Py_BEGIN_ALLOW_THREADS
+    s = tsk_wind_load_state(box->wind, view.buf, (size_t)view.len);
+    Py_END_ALLOW_THREADS
+    release(box);
+    PyBuffer_Release(&view);
+    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_RETURN_NONE;
+}
+
 PyMethodDef tsk_py_wind_methods[] = {
     {"wind_create", (PyCFunction)(void (*)(void))py_wind_create, METH_VARARGS | METH_KEYWORDS,
      "wind_create(**params) -> handle. Keywords (defaults from tsk_default_wind_def): base_x, "
@@ -439,6 +488,12 @@ PyMethodDef tsk_py_wind_methods[] = {
      "radius, interval, start."},
     {"wind_step", py_wind_step, METH_VARARGS, "wind_step(handle, steps): advances fluid+continuum."},
     {"wind_time", py_wind_time, METH_O, "wind_time(handle) -> float: simulation time, s."},
+    {"wind_save_state", py_wind_save_state, METH_O,
+     "wind_save_state(handle) -> bytes: the wind's state (clock, sines, sources, fluid, "
+     "continuum), about 28 bytes per grid cell."},
+    {"wind_load_state", py_wind_load_state, METH_VARARGS,
+     "wind_load_state(handle, state): restores a state saved from a wind of the same fluid and "
+     "continuum settings; it then steps and samples bit for bit as the saving wind did."},
     {"wind_grid_size", py_wind_grid_size, METH_O, "wind_grid_size(handle) -> (nx, ny)."},
     {"wind_sample", py_wind_sample, METH_VARARGS,
      "wind_sample(handle, t, x, y, vx, vy[, sway_x, sway_y]): float32 arrays of one length; "

@@ -154,3 +154,205 @@ tsk_status tsk_wind_read_continuum(const tsk_wind* w, float* px, float* py, size
     }
     return TSK_OK;
 }
+
+/* ---- saved states ----------------------------------------------------------------------- */
+
+/* A state is this header, then the sines history and the sources as their structs, then
+ * the float arrays: fluid u, v, phi (warm start), continuum current x, y and previous x, y.
+ * The centre velocities are not stored: they are a function of u and v, remade on load.
+ * The continuum's third level is not stored either: the next step overwrites it, all but
+ * its four corners, which no step writes or reads (they stay 0 from creation). */
+enum { STATE_MAGIC = 0x574B5354u /* "TSKW" */, STATE_VERSION = 1u };
+
+typedef struct state_header {
+    uint32_t magic, version;
+    int32_t nx, ny, has_fluid, has_continuum;
+    uint64_t def_hash; /* of the fluid and continuum definitions */
+    uint64_t steps;
+    int32_t source_count, cur;
+    int32_t last_iterations;
+    float last_divergence;
+} state_header;
+
+static uint64_t fnv(const void* p, size_t n, uint64_t h) {
+    const unsigned char* b = p;
+    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+    return h;
+}
+
+/* both definitions are plain 4-byte fields: no padding bytes enter the hash */
+static uint64_t def_hash(const tsk_wind* w) {
+    uint64_t h = fnv(&w->def.fluid, sizeof w->def.fluid, 1469598103934665603ull);
+    const tsk_wind_continuum_def c = w->has_continuum ? w->def.continuum
+                                                      : (tsk_wind_continuum_def){0, 0, 0, 0};
+    return fnv(&c, sizeof c, h);
+}
+
+typedef struct state_layout {
+    size_t nu, nv, np, nc; /* floats of u, v, phi, one continuum level component */
+} state_layout;
+
+static state_layout layout_of(const tsk_wind* w) {
+    state_layout l = {0, 0, 0, 0};
+    if (w->has_fluid) {
+        const size_t nx = (size_t)w->fluid.nx, ny = (size_t)w->fluid.ny;
+        l.nu = (nx + 1) * ny;
+        l.nv = nx * (ny + 1);
+        l.np = (nx + 2) * (ny + 2);
+        if (w->has_continuum) l.nc = (nx + 2) * (ny + 2);
+    }
+    return l;
+}
+
+size_t tsk_wind_state_size(const tsk_wind* w) {
+    if (w == NULL) return 0;
+    const state_layout l = layout_of(w);
+    return sizeof(state_header) + sizeof(tsk_sines_history) +
+           sizeof(tsk_wind_source) * TSK_WIND_MAX_SOURCES +
+           sizeof(float) * (l.nu + l.nv + l.np + 4 * l.nc);
+}
+
+static unsigned char* put(unsigned char* p, const void* src, size_t n) {
+    memcpy(p, src, n);
+    return p + n;
+}
+
+tsk_status tsk_wind_save_state(const tsk_wind* w, void* buf, size_t size) {
+    if (w == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "wind", "must not be NULL");
+    if (buf == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "buf", "must not be NULL");
+    const size_t need = tsk_wind_state_size(w);
+    if (size != need)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "size", "must be the state size %zu, got %zu",
+                             need, size);
+    state_header hd;
+    memset(&hd, 0, sizeof hd);
+    hd.magic = STATE_MAGIC;
+    hd.version = STATE_VERSION;
+    hd.nx = w->has_fluid ? w->fluid.nx : 0;
+    hd.ny = w->has_fluid ? w->fluid.ny : 0;
+    hd.has_fluid = w->has_fluid;
+    hd.has_continuum = w->has_continuum;
+    hd.def_hash = def_hash(w);
+    hd.steps = w->steps;
+    hd.source_count = w->source_count;
+    hd.cur = w->has_continuum ? w->continuum.cur : 0;
+    hd.last_iterations = w->has_fluid ? w->fluid.last_iterations : 0;
+    hd.last_divergence = w->has_fluid ? w->fluid.last_divergence : 0.0f;
+    unsigned char* p = put(buf, &hd, sizeof hd);
+    p = put(p, &w->sines, sizeof w->sines);
+    p = put(p, w->sources, sizeof w->sources);
+    const state_layout l = layout_of(w);
+    if (w->has_fluid) {
+        p = put(p, w->fluid.u, l.nu * sizeof(float));
+        p = put(p, w->fluid.v, l.nv * sizeof(float));
+        p = put(p, w->fluid.phi, l.np * sizeof(float));
+    }
+    if (w->has_continuum) {
+        const tsk_continuum* c = &w->continuum;
+        const int prev = (c->cur + 2) % 3;
+        p = put(p, c->x[c->cur], l.nc * sizeof(float));
+        p = put(p, c->y[c->cur], l.nc * sizeof(float));
+        p = put(p, c->x[prev], l.nc * sizeof(float));
+        p = put(p, c->y[prev], l.nc * sizeof(float));
+    }
+    return TSK_OK;
+}
+
+/* 1 if all n floats at p (unaligned) are finite and |v| <= bound */
+static int floats_ok(const unsigned char* p, size_t n, float bound) {
+    for (size_t i = 0; i < n; ++i) {
+        float v;
+        memcpy(&v, p + i * sizeof v, sizeof v);
+        if (!(fabsf(v) <= bound)) return 0;
+    }
+    return 1;
+}
+
+static tsk_status bad_state(const char* why) {
+    return tsk_error_arg(TSK_ERR_ARGUMENT, "state", "%s", why);
+}
+
+tsk_status tsk_wind_load_state(tsk_wind* w, const void* buf, size_t size) {
+    if (w == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "wind", "must not be NULL");
+    if (buf == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "buf", "must not be NULL");
+    const size_t need = tsk_wind_state_size(w);
+    if (size != need)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "size",
+                             "must be this wind's state size %zu, got %zu (a state of another "
+                             "grid?)", need, size);
+    /* everything is checked before anything changes */
+    const unsigned char* p = buf;
+    state_header hd;
+    memcpy(&hd, p, sizeof hd);
+    p += sizeof hd;
+    if (hd.magic != STATE_MAGIC || hd.version != STATE_VERSION)
+        return bad_state("is not a saved wind state of this version");
+    const int nx = w->has_fluid ? w->fluid.nx : 0, ny = w->has_fluid ? w->fluid.ny : 0;
+    if (hd.nx != nx || hd.ny != ny || hd.has_fluid != w->has_fluid ||
+        hd.has_continuum != w->has_continuum || hd.def_hash != def_hash(w))
+        return bad_state("was saved by a wind of another fluid or continuum definition");
+    if (hd.source_count < 0 || hd.source_count > TSK_WIND_MAX_SOURCES)
+        return bad_state("has a source count outside 0..64");
+    if (hd.cur < 0 || hd.cur > 2) return bad_state("has a continuum level outside 0..2");
+    if (hd.steps > (uint64_t)1 << 53) return bad_state("has a step count beyond 2^53");
+    tsk_sines_history h;
+    memcpy(&h, p, sizeof h);
+    p += sizeof h;
+    if (h.count < 1 || h.count > TSK_WIND_BLEND_HISTORY)
+        return bad_state("has a sines history count outside 1..4");
+    for (int i = 0; i < h.count; ++i) {
+        tsk_status s = tsk_wind_sines_def_validate(&h.sets[i]);
+        if (s != TSK_OK) return s;
+        if (i > 0 && !(isfinite(h.start[i]) && isfinite(h.blend[i]) && h.blend[i] >= 0.0))
+            return bad_state("has a sines history with a non-finite start or blend time");
+    }
+    tsk_wind_source src[TSK_WIND_MAX_SOURCES];
+    memcpy(src, p, sizeof src);
+    p += sizeof src;
+    for (int i = 0; i < hd.source_count; ++i) {
+        tsk_status s = tsk_wind_source_validate(&src[i], (size_t)i);
+        if (s != TSK_OK) return s;
+    }
+    const state_layout l = layout_of(w);
+    const unsigned char* grids = p;
+    if (!floats_ok(grids, l.nu + l.nv, 1.0f))
+        return bad_state("has fluid velocities that are not finite or beyond 1");
+    /* bounds far above what a wind reaches (|v| <= 1 drives everything: the pressure of a
+     * 1024^2 grid stays below ~1e6, the continuum near 1), low enough that no sum of them
+     * overflows in a step */
+    if (!floats_ok(grids + (l.nu + l.nv) * sizeof(float), l.np, 1e9f))
+        return bad_state("has a pressure that is not finite or beyond 1e9");
+    if (!floats_ok(grids + (l.nu + l.nv + l.np) * sizeof(float), 4 * l.nc, 1e4f))
+        return bad_state("has a continuum value that is not finite or beyond 1e4");
+    if (hd.has_fluid && !(isfinite(hd.last_divergence)))
+        return bad_state("has a non-finite divergence");
+
+    w->steps = hd.steps;
+    w->sines = h;
+    w->def.sines = h.sets[h.count - 1];
+    memcpy(w->sources, src, sizeof src);
+    w->source_count = hd.source_count;
+    if (w->has_fluid) {
+        tsk_fluid* f = &w->fluid;
+        memcpy(f->u, p, l.nu * sizeof(float));
+        p += l.nu * sizeof(float);
+        memcpy(f->v, p, l.nv * sizeof(float));
+        p += l.nv * sizeof(float);
+        memcpy(f->phi, p, l.np * sizeof(float));
+        p += l.np * sizeof(float);
+        f->last_iterations = hd.last_iterations;
+        f->last_divergence = hd.last_divergence;
+        tsk_fluid_update_centres(f);
+    }
+    if (w->has_continuum) {
+        tsk_continuum* c = &w->continuum;
+        c->cur = hd.cur;
+        const int prev = (c->cur + 2) % 3;
+        float* dst[4] = {c->x[c->cur], c->y[c->cur], c->x[prev], c->y[prev]};
+        for (int k = 0; k < 4; ++k) {
+            memcpy(dst[k], p, l.nc * sizeof(float));
+            p += l.nc * sizeof(float);
+        }
+    }
+    return TSK_OK;
+}
