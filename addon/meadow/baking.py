@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import bake, compat, native
 from ..wind import runtime as wind_runtime
-from . import build, simulate
+from . import build, identity, simulate
 
 MANIFEST_VERSION = 1
 
@@ -43,9 +43,7 @@ def inputs_key(meadow, scene):
 
 def meadow_of(child, scene):
     """The meadow object whose simulated blades `child` holds, or None."""
-    meadow = scene.objects.get(child.get("tussock_meadow_name", ""))
-    s = compat.settings_of(meadow, "tussock_meadow")
-    return meadow if s is not None and s.is_meadow else None
+    return identity.meadow_of(child, scene)
 
 
 def blades_inputs_key(child, scene):
@@ -122,7 +120,7 @@ def apply_layout(meadow, child, tiles, layout, k, instance_tile, digest):
 def show_baked(meadow, scene, frame):
     """True when the meadow's bake shows `frame`. Then the baked layout is put back if live
     frames (outside the baked range, or while the cache was out of date) replaced it."""
-    child = bpy.data.objects.get(f"{meadow.name} blades")
+    child = simulate.find_blades_object(meadow)
     if child is None or child.modifiers.get(bake.MODIFIER) is None:
         return False
     if not bake.baked_frame(child, scene, frame):
@@ -167,8 +165,8 @@ class MeadowJob:
     def __init__(self, obj, scene, root):
         lib = native.require()
         s = obj.tussock_meadow
-        self.meadow_name = obj.name
-        self.name = f"{obj.name} blades"
+        self.meadow_key = identity.key(obj)  # (the meadow may be renamed while it bakes)
+        self.name = simulate.chunk_name(obj, 0)
         safe = bake.safe_name(self.name)
         self.folder = os.path.join(root, safe)
         self.pc2 = os.path.join(root, safe + ".pc2")
@@ -315,7 +313,9 @@ class MeadowJob:
         meadow's hidden instances, and a Mesh Cache modifier reading the .pc2."""
         if self.blades == 0:
             return
-        meadow = scene.objects[self.meadow_name]
+        meadow = identity.find(self.meadow_key, scene)
+        if meadow is None:
+            raise ValueError("the baked meadow is gone from the scene: bake again")
         child = simulate.blades_object(meadow)
         apply_layout(meadow, child, self.tiles, self.layout, self.K, self.instance_tile,
                      self.digest)
