@@ -241,6 +241,30 @@ def test_linked_meadow_of_the_same_name_simulates_on_its_own():
     assert drawn == pk.stats["tussock_active_blades"] * 2 * pk.runner.K, drawn
 
 
+@test
+def test_a_meadow_made_before_ids_keeps_its_blades_and_patch():
+    fresh()
+    meadow = meadow_with_ball()
+    play()
+    blades = sorted(o.name for o in blade_objects())
+    patch = bpy.data.collections["Meadow patch"]
+    for thing in blade_objects() + [patch]:  # as an older Tussock left them: names only
+        del thing[identity.OWNER]
+    del meadow[identity.ID]
+    simulate.forget()  # as after opening the file
+    play()
+    assert meadow.tussock_meadow.last_error == ""
+    assert sorted(o.name for o in blade_objects()) == blades
+    k = identity.key(meadow)
+    assert all(o[identity.OWNER] == k for o in blade_objects())
+    meadow.tussock_meadow.display = 0.5  # a rebuild keeps its patch collection
+    assert patch[identity.OWNER] == k
+    assert [c.name for c in bpy.data.collections if c.name.endswith(" patch")] == ["Meadow patch"]
+    meadow.name = "Lawn"
+    play(range(1, 3))
+    assert sorted(o.name for o in blade_objects()) == [n.replace("Meadow", "Lawn") for n in blades]
+
+
 def _patch_positions(coll):
     chunks = sorted(coll.objects, key=lambda o: o.name)
     parts = []

@@ -91,7 +91,7 @@ def meadow_of(thing, scene=None):
     obj = (scene.objects if scene is not None else bpy.data.objects).get(
         thing.get("tussock_meadow_name", ""))
     s = compat.settings_of(obj, "tussock_meadow")
-    return obj if s is not None and s.is_meadow and obj.get(ID) is None else None
+    return obj if s is not None and s.is_meadow else None
 
 
 def find(k, scene=None):
