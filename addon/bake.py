@@ -47,6 +47,15 @@ def safe_name(name):
     return re.sub(r"[^A-Za-z0-9_.-]", "_", name)
 
 
+def cache_stem(obj):
+    """The name an object's cache files were written under: its Mesh Cache file's (the
+    object may have been renamed since, e.g. a meadow's blades with their meadow), else its
+    name made safe."""
+    mod = obj.modifiers.get(MODIFIER)
+    base = os.path.basename(mod.filepath) if mod is not None else ""
+    return base[:-len(".pc2")] if base.endswith(".pc2") else safe_name(obj.name)
+
+
 def frame_path(folder, frame):
     return os.path.join(folder, f"frame_{frame:06d}.tskf")
 
@@ -359,8 +368,8 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
         objs = [o for o in context.scene.objects if o.modifiers.get(MODIFIER) is not None]
         # Files first, the scene after: a cache that cannot be deleted (read-only folder)
         # cancels before any object changes. Folders are checked before anything is deleted.
-        paths = [(os.path.join(root, safe_name(o.name)),
-                  os.path.join(root, safe_name(o.name) + ".pc2")) for o in objs]
+        stems = [cache_stem(o) for o in objs]
+        paths = [(os.path.join(root, stem), os.path.join(root, stem + ".pc2")) for stem in stems]
         for folder, pc2 in paths:
             for d in ([folder] if os.path.isdir(folder) else []) + \
                      ([root] if os.path.exists(pc2) or os.path.isdir(folder) else []):
@@ -375,12 +384,12 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
                     os.rmdir(folder)
             if os.path.exists(pc2):
                 os.remove(pc2)
-        for obj in objs:
+        for obj, stem in zip(objs, stems):
             obj.modifiers.remove(obj.modifiers.get(MODIFIER))
             obj.pop("tussock_baked_range", None)
             if obj.get("tussock_simulated_blades"):
                 from .meadow import baking
-                baking.free(context.scene, obj, root)
+                baking.free(context.scene, obj, root, stem)
         removed = len(objs) + picture_bake.free(context.scene, root)
         self.report({"INFO"}, f"Freed the caches of {removed} objects")
         return {"FINISHED"}

@@ -265,6 +265,36 @@ def test_a_meadow_made_before_ids_keeps_its_blades_and_patch():
     assert sorted(o.name for o in blade_objects()) == [n.replace("Meadow", "Lawn") for n in blades]
 
 
+@test
+def test_a_baked_meadow_renamed_plays_its_bake_and_frees_its_files():
+    fresh()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, FRAMES
+    meadow = meadow_with_ball()
+    folder = os.path.join(TMP, "baked")
+    os.makedirs(folder, exist_ok=True)
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(folder, "scene.blend"))
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    cache = os.path.join(folder, "tussock_cache")
+    written = sorted(os.listdir(cache))
+    assert written == ["Meadow_blades", "Meadow_blades.layout.json", "Meadow_blades.pc2"], written
+    meadow.name = "Lawn"
+    scene.frame_set(FRAMES // 2)
+    child = bpy.data.objects["Lawn blades"]  # the baked blades, renamed
+    pc2 = os.path.join(cache, "Meadow_blades.pc2")
+    out = np.empty(native.require().pc2_info(pc2)["points"] * 3, np.float32)
+    native.require().pc2_read_sample(pc2, FRAMES // 2 - 1, out)
+    ev = child.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+    co = np.empty(len(ev.vertices) * 3, np.float32)
+    ev.vertices.foreach_get("co", co)
+    assert np.allclose(co, out, atol=1e-6)  # its Mesh Cache still plays the bake
+    child.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh_clear()
+    assert bpy.ops.tussock.free_bake() == {"FINISHED"}
+    assert os.listdir(cache) == [], os.listdir(cache)  # the files it was baked under
+    play()
+    assert meadow["tussock_active_blades"] > 0 and not child.modifiers
+
+
 def _patch_positions(coll):
     chunks = sorted(coll.objects, key=lambda o: o.name)
     parts = []

@@ -344,10 +344,11 @@ def jobs(scene, root):
             and o.tussock_meadow.use_simulation]
 
 
-def free(scene, child, root):
+def free(scene, child, root, stem=None):
     """After tussock.free_bake removed the Mesh Cache of a meadow's blades: removes the
-    manifest, forgets the baked layout and shows the live simulation again."""
-    path = os.path.join(root, bake.safe_name(child.name) + ".layout.json")
+    manifest, forgets the baked layout and shows the live simulation again. `stem`: the
+    name its files were written under (bake.cache_stem)."""
+    path = os.path.join(root, (stem or bake.safe_name(child.name)) + ".layout.json")
     if os.path.exists(path):
         os.remove(path)
     for key in ("tussock_bake_key", "tussock_bake_layout", "tussock_baked_points",
