@@ -44,11 +44,6 @@ def meadows():
             if (s := compat.settings_of(o, "tussock_meadow")) is not None and s.is_meadow]
 
 
-def owns(obj, thing):
-    """Is `thing` (an object or collection) one that meadow `obj` owns."""
-    return thing.get(OWNER) == key(obj)
-
-
 def scan(force=False):
     """Gives each duplicated meadow a fresh id and returns the keys of every meadow object
     (a set), or None when the number of objects has not changed since the last scan (no
