@@ -57,6 +57,15 @@ def run_steps(steps, cancel):
         steps.close()
 
 
+def cache_stem(obj):
+    """The name an object's cache files were written under: its Mesh Cache file's (the
+    object may have been renamed since, e.g. a meadow's blades with their meadow), else its
+    name made safe."""
+    mod = obj.modifiers.get(MODIFIER)
+    base = os.path.basename(mod.filepath) if mod is not None else ""
+    return base[:-len(".pc2")] if base.endswith(".pc2") else safe_name(obj.name)
+
+
 def frame_path(folder, frame):
     return os.path.join(folder, f"frame_{frame:06d}.tskf")
 
@@ -565,24 +574,21 @@ class TUSSOCK_OT_free_bake(bpy.types.Operator):
         # every path a bake of this scene recorded (a failed bake's frames too), and each
         # cache's own path (a .blend baked before the record existed, or renamed since)
         paths = recorded_outputs(scene, root)
-        for o in objs:
-            pc2 = bpy.path.abspath(o.modifiers[MODIFIER].filepath)
-            paths += [pc2, pc2[:-len(".pc2")] if pc2.endswith(".pc2") else pc2]
-            if o.get("tussock_simulated_blades"):
-                paths.append(pc2[:-len(".pc2")] + ".layout.json")
-            paths += [os.path.join(root, safe_name(o.name)),
-                      os.path.join(root, safe_name(o.name) + ".pc2")]
+        stems = [cache_stem(o) for o in objs]
+        for o, stem in zip(objs, stems):
+            paths += [os.path.join(root, stem + ext) for ext in ("", ".pc2", ".layout.json")]
+            paths += [os.path.join(root, safe_name(o.name) + ext) for ext in ("", ".pc2")]
         found = any(os.path.exists(p) for p in paths)
         # files first, the scene after: a cache that cannot be deleted (read-only folder)
         # cancels before any object changes
         remove_outputs(paths)
         forget_outputs(scene, root)
-        for obj in objs:
+        for obj, stem in zip(objs, stems):
             obj.modifiers.remove(obj.modifiers.get(MODIFIER))
             obj.pop("tussock_baked_range", None)
             if obj.get("tussock_simulated_blades"):
                 from .meadow import baking
-                baking.free(scene, obj, root)
+                baking.free(scene, obj, root, stem)
         removed = len(objs) + picture_bake.free(scene, root)
         self.report({"INFO"}, f"Freed the caches of {removed} objects" if removed or not found
                     else "Freed the files of an unfinished bake")

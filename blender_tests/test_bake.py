@@ -253,7 +253,7 @@ def test_meadow_pc2_holds_the_live_ribbons_and_rest_elsewhere():
     live = {}
     for f in range(1, FRAMES + 1):  # the live simulation, frame by frame
         scene.frame_set(f)
-        pb = simulate._cache[meadow.name]
+        pb = simulate.playback_of(meadow)
         tiles, counts = pb.runner.active()
         live[f] = (tiles.copy(), counts.copy(), simulate.active_ribbons(meadow))
     assert any(len(v[0]) for v in live.values())
@@ -266,7 +266,7 @@ def test_meadow_pc2_holds_the_live_ribbons_and_rest_elsewhere():
     info = lib.pc2_info(pc2)
     assert info["samples"] == FRAMES and info["points"] == len(child.data.vertices)
     # per tile: its slot in the baked mesh, and its blades at rest
-    runner = simulate._cache[meadow.name].runner
+    runner = simulate.playback_of(meadow).runner
     rest = meadow_baking.rest_layout(runner, baked_tiles)
     offset = np.concatenate([[0], np.cumsum(rest["counts"])]) * 2 * k * 3
     out = np.empty(info["points"] * 3, np.float32)
@@ -285,7 +285,7 @@ def test_meadow_pc2_holds_the_live_ribbons_and_rest_elsewhere():
     # the instances of every baked tile stay hidden, the others are shown
     hidden = np.empty(len(meadow.data.vertices), bool)
     meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
-    instance_tile = simulate._cache[meadow.name].instance_tile
+    instance_tile = simulate.playback_of(meadow).instance_tile
     assert np.array_equal(hidden, np.isin(instance_tile, baked_tiles))
     # Blender's own Mesh Cache plays the frames
     for f in (2, FRAMES):
@@ -368,7 +368,7 @@ def test_meadow_range_change_is_reported_and_free_bake_restores_the_live_simulat
     assert child.data["tussock_layout"].startswith("baked:")
     hidden = np.empty(len(meadow.data.vertices), bool)
     meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
-    baked_hidden = np.isin(simulate._cache[meadow.name].instance_tile, child["tussock_baked_tiles"])
+    baked_hidden = np.isin(simulate.playback_of(meadow).instance_tile, child["tussock_baked_tiles"])
     assert hidden.sum() > 0 and np.array_equal(hidden, baked_hidden)
     meadow.tussock_meadow.display = 0.5  # rebuilds the instances: tsk_hidden cleared ...
     scene.frame_set(6)

@@ -46,7 +46,7 @@ def rolling_ball_scene():
 
 
 def blade_knots(meadow):
-    r = simulate._cache[meadow.name].runner
+    r = simulate.playback_of(meadow).runner
     return r.knots().reshape(-1, r.K, 3)
 
 
@@ -91,13 +91,13 @@ def test_rolling_ball_bends_blades_on_its_path():
     assert hidden.sum() == 0
     scene.frame_set(13)
     meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
-    pb = simulate._cache[meadow.name]
+    pb = simulate.playback_of(meadow)
     assert hidden.sum() > 0 and np.array_equal(hidden, np.isin(pb.instance_tile, pb.runner.active()[0]))
 
 
 def rest_knots(meadow):
     """Rest knots of the active blades, in the simulation's order, from the meadow."""
-    r = simulate._cache[meadow.name].runner
+    r = simulate.playback_of(meadow).runner
     lib = simulate.native.lib
     tiles, _ = r.active()
     out = []
@@ -176,7 +176,7 @@ def knots_and_co(scene, meadow, frame):
 def test_jumps_resume_from_snapshots_with_the_bytes_of_a_straight_run():
     scene, meadow, ball = rolling_ball_scene()
     knots, co = play(scene, meadow, list(range(1, 31)))
-    pb = simulate._cache[meadow.name]
+    pb = simulate.playback_of(meadow)
     assert sorted(pb.snapshots) == [11, 21], sorted(pb.snapshots)  # every 10 from frame 1
     assert len(knots[12]) > 0 and knots[12] != knots[11]
     # back to 12: resumes from the snapshot of frame 11, not from rest
@@ -268,7 +268,7 @@ def test_viewport_shows_the_simulated_blades_of_the_instances_it_shows():
     try:
         for f in range(1, 21):
             scene.frame_set(f)
-        pb = simulate._cache[meadow.name]
+        pb = simulate.playback_of(meadow)
         r = pb.runner
         tiles, counts = r.active()
         nb = int(counts.sum())
@@ -399,7 +399,7 @@ def test_a_meadow_made_before_viewport_flags_gets_them():
 def test_snapshots_stay_within_their_budget_and_cover_the_timeline():
     scene, meadow, ball = rolling_ball_scene()
     knots, _ = play(scene, meadow, list(range(1, 61)))
-    pb = simulate._cache[meadow.name]
+    pb = simulate.playback_of(meadow)
     assert sorted(pb.snapshots) == [11, 21, 31, 41, 51]  # the default budget holds them all
     largest = max(b for _, b in pb.snapshots.values())
     budget = simulate.SNAPSHOT_BUDGET
@@ -407,7 +407,7 @@ def test_snapshots_stay_within_their_budget_and_cover_the_timeline():
     try:
         simulate.forget()
         again, _ = play(scene, meadow, list(range(1, 61)))
-        pb = simulate._cache[meadow.name]
+        pb = simulate.playback_of(meadow)
         assert again == knots
         assert 0 < pb.snapshot_bytes() <= simulate.SNAPSHOT_BUDGET, pb.snapshot_bytes()
         assert pb.every > simulate.SNAPSHOT_EVERY  # thinned out ...
@@ -429,7 +429,7 @@ def test_changed_collider_path_gives_a_fresh_run_not_a_stale_snapshot():
     ball.location = (0.8, 0.0, RADIUS)
     ball.keyframe_insert("location", frame=25)
     play(scene, meadow, list(range(1, 26)))
-    pb = simulate._cache[meadow.name]
+    pb = simulate.playback_of(meadow)
     assert 11 in pb.snapshots and 21 in pb.snapshots
     # the ball now runs another way from frame 1 on; played again in order ...
     fc = [c for c in compat.fcurves(ball.animation_data) if c.data_path == "location"]
@@ -533,7 +533,7 @@ def test_chunk_meshes_fit_their_blades_once_the_tiles_hold_still():
                 assert meadow.tussock_meadow.last_error == "", meadow.tussock_meadow.last_error
                 shown[fit_after].append(ribbons(meadow))
                 rooms[fit_after].append([len(o.data.vertices) for o in chunks])
-            k = simulate._cache[meadow.name].runner.K
+            k = simulate.playback_of(meadow).runner.K
             ranges = simulate.chunk_ranges(meadow["tussock_active_blades"])
             used = [-(-len(r) // 8) * 8 * 2 * k for r in ranges]
             simulate.forget()
@@ -574,7 +574,7 @@ def test_dynamic_meshes_keep_the_meadows_texture_space():
     # a new Playback (as after the meadow's ground moved) sets it again, topology kept
     first = bpy.data.objects[f"{meadow.name} blades"].data
     first.texspace_location = (9.0, 9.0, 9.0)
-    simulate.forget(meadow.name)
+    simulate.forget(meadow)
     scene.frame_set(13)
     assert np.allclose(tuple(first.texspace_location), want_loc, atol=1e-5)
     simulate.forget()

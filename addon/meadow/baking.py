@@ -20,12 +20,11 @@ import hashlib
 import json
 import os
 
-import bpy
 import numpy as np
 
 from .. import bake, compat, native
 from ..wind import runtime as wind_runtime
-from . import build, simulate
+from . import build, identity, simulate
 
 MANIFEST_VERSION = 1
 
@@ -43,9 +42,7 @@ def inputs_key(meadow, scene):
 
 def meadow_of(child, scene):
     """The meadow object whose simulated blades `child` holds, or None."""
-    meadow = scene.objects.get(child.get("tussock_meadow_name", ""))
-    s = compat.settings_of(meadow, "tussock_meadow")
-    return meadow if s is not None and s.is_meadow else None
+    return identity.meadow_of(child, scene)
 
 
 def blades_inputs_key(child, scene):
@@ -130,7 +127,7 @@ def apply_layout(meadow, child, tiles, layout, k, instance_tile, digest):
 def show_baked(meadow, scene, frame):
     """True when the meadow's bake shows `frame`. Then the baked layout is put back if live
     frames (outside the baked range, or while the cache was out of date) replaced it."""
-    child = bpy.data.objects.get(f"{meadow.name} blades")
+    child = simulate.find_blades_object(meadow)
     if child is None or child.modifiers.get(bake.MODIFIER) is None:
         return False
     if not bake.baked_frame(child, scene, frame):
@@ -176,9 +173,9 @@ class MeadowJob:
         lib = native.require()
         s = obj.tussock_meadow
         simulate.check_animation(obj)
+        self.meadow_key = identity.key(obj)  # (the meadow may be renamed while it bakes)
         self.meadow_name = obj.name
-        self.meadow_pointer = obj.as_pointer()  # the meadow, should it be renamed meanwhile
-        self.name = f"{obj.name} blades"
+        self.name = simulate.chunk_name(obj, 0)
         safe = bake.safe_name(self.name)
         self.folder = os.path.join(root, safe)
         self.pc2 = os.path.join(root, safe + ".pc2")
@@ -347,7 +344,7 @@ class MeadowJob:
         meadow's hidden instances, and a Mesh Cache modifier reading the .pc2."""
         if self.blades == 0:
             return
-        meadow = bake.find_object(scene, self.meadow_pointer, self.meadow_name)
+        meadow = identity.find(self.meadow_key, scene)
         if meadow is None:
             raise bake.Gone(self.meadow_name)
         child = simulate.blades_object(meadow)
@@ -378,10 +375,11 @@ def jobs(scene, root):
             and o.tussock_meadow.use_simulation]
 
 
-def free(scene, child, root):
+def free(scene, child, root, stem=None):
     """After tussock.free_bake removed the Mesh Cache of a meadow's blades: removes the
-    manifest, forgets the baked layout and shows the live simulation again."""
-    path = os.path.join(root, bake.safe_name(child.name) + ".layout.json")
+    manifest, forgets the baked layout and shows the live simulation again. `stem`: the
+    name its files were written under (bake.cache_stem)."""
+    path = os.path.join(root, (stem or bake.safe_name(child.name)) + ".layout.json")
     if os.path.exists(path):
         os.remove(path)
     for key in ("tussock_bake_key", "tussock_bake_layout", "tussock_baked_points",

@@ -3,6 +3,8 @@ lays out the tiles with the density map and lists the chunk instances; this modu
 them into the chunk collection and the instance point cloud. All native work happens
 before any Blender data is touched, so an error leaves the scene as it was."""
 
+import hashlib
+
 import bpy
 import numpy as np
 from mathutils import Vector
@@ -11,7 +13,7 @@ from .. import compat, native
 from ..capture.blades import COLLECTION as BLADES_COLLECTION
 from ..nodes import meadow_nodes
 from . import chunks as chunk_data
-from . import material
+from . import identity, material
 
 MODIFIER = "Tussock Meadow"
 BLADE_RAND_STREAM = 0x636F6C6F72  # "color": per-blade colour variation
@@ -64,12 +66,59 @@ def blade_models(collection):
     return (np.concatenate(knots), np.concatenate(widths), np.array(counts, np.int32))
 
 
+_digests = {}  # which objects and meshes the models are, in order -> models_digest
+_model_meshes = set()  # session ids of the meshes digested
+
+
+def _uid(idblock):
+    # session_uid is never reused within a session, where a pointer may be
+    return getattr(idblock, "session_uid", None) or idblock.as_pointer()
+
+
+def models_digest(collection):
+    """A digest of the blade models of `collection` (see blade_models): their knots, widths
+    and order, so that a re-refined or edited blade counts as another model whatever its
+    name. Reading 256 models costs about 3 ms, and the simulation asks every frame: the
+    digest is kept for the same objects and meshes (about 1 ms to tell for 256 in Blender
+    3.4) until one of those meshes is edited (models_edited)."""
+    coll = collection or bpy.data.collections.get(BLADES_COLLECTION)
+    if coll is None:
+        return None
+    which = tuple((_uid(o), _uid(o.data) if o.data is not None else 0) for o in coll.objects)
+    digest = _digests.get(which)
+    if digest is None:
+        models = blade_models(coll)
+        if models is None:
+            return None
+        h = hashlib.sha256()
+        for a in models:
+            h.update(np.ascontiguousarray(a).tobytes())
+        digest = h.hexdigest()[:32]
+        if len(_digests) > 64:  # (one entry per set of models seen: they seldom change)
+            _digests.clear()
+        _digests[which] = digest
+        _model_meshes.update(m for _, m in which)
+    return digest
+
+
+def models_edited(depsgraph):
+    """Forgets the digests of blade models whose meshes this depsgraph update changed."""
+    if not _model_meshes:
+        return
+    for update in depsgraph.updates:  # the data-blocks changed: a handful
+        idblock = update.id
+        if isinstance(idblock, bpy.types.Mesh) and update.is_updated_geometry \
+                and _uid(idblock.original) in _model_meshes:
+            _digests.clear()
+            _model_meshes.clear()
+            return
+
+
 def patch_key(settings):
     """What the patch depends on; the chunk meshes are rebuilt only when it changes."""
-    models = settings.models or bpy.data.collections.get(BLADES_COLLECTION)
-    model_names = sorted(o.name for o in models.objects) if models is not None else []
     return repr((settings.patch_blades, round(settings.scale_min, 6), round(settings.scale_max, 6),
-                 settings.seed, round(settings.tile_size, 6), settings.chunk_blades, model_names))
+                 settings.seed, round(settings.tile_size, 6), settings.chunk_blades,
+                 models_digest(settings.models)))
 
 
 def make_patch(settings):
@@ -142,18 +191,57 @@ def compute_layout(settings, origin, size):
     return dict(info=info, origins=origins.reshape(-1, 3), chunk=chunk)
 
 
-def patch_collection(obj):
-    name = f"{obj.name} patch"
-    coll = bpy.data.collections.get(name)
+PATCH_SUFFIX = " patch"
+
+
+def _owned_patch(obj):
+    """The meadow's patch collection if it has one (owned by its key: a duplicated meadow's
+    modifier still instances its original's), else None."""
+    mod = obj.modifiers.get(MODIFIER)
+    coll = None
+    if mod is not None and mod.node_group is not None:
+        try:
+            coll = compat.get_modifier_input(mod, "Chunks")
+        except KeyError:  # not Tussock's node group
+            coll = None
     if coll is None:
-        coll = bpy.data.collections.new(name)
+        coll = bpy.data.collections.get(obj.name + PATCH_SUFFIX)
+    if coll is None:
+        return None
+    old = coll.name[:-len(PATCH_SUFFIX)] if coll.name.endswith(PATCH_SUFFIX) else None
+    return coll if identity.adopt(obj, coll, old) else None
+
+
+def follow_name(obj):
+    """Renames the meadow's patch collection and its chunk objects after the meadow if it
+    was renamed; returns the collection, or None if the meadow has none."""
+    coll = _owned_patch(obj)
+    name = obj.name + PATCH_SUFFIX
+    if coll is None or coll.name == name or bpy.data.collections.get(name) is not None:
+        return coll  # (a name someone else's collection has: kept as it is)
+    coll.name = name
+    for o in coll.objects:  # one rename per chunk object (the patch's blades / chunk_blades)
+        index = o.name.rpartition(" chunk ")[2][:5]
+        if index.isdigit():
+            o.name = chunk_data.chunk_object_name(obj.name, int(index))
+            if o.data is not None and o.data.users == 1:
+                o.data.name = o.name
+    return coll
+
+
+def patch_collection(obj):
+    """The meadow's patch collection (see follow_name), made if it has none."""
+    coll = follow_name(obj)
+    if coll is None:
+        coll = bpy.data.collections.new(obj.name + PATCH_SUFFIX)
+        coll[identity.OWNER] = identity.key(obj)
     return coll
 
 
 def compute(settings, origin, size, obj=None):
     """Native work of a meadow (patch only when `obj` has none for these settings)."""
     key = patch_key(settings)
-    coll = bpy.data.collections.get(f"{obj.name} patch") if obj is not None else None
+    coll = _owned_patch(obj) if obj is not None else None
     patch = None
     if coll is None or obj.get("tussock_patch_key") != key or len(coll.objects) == 0:
         patch = compute_patch(settings)
@@ -209,6 +297,26 @@ def write(obj, settings, key, patch, layout):
     obj["tussock_instances"] = int(info["chunk_instances"])
     obj.update_tag()
     return info
+
+
+def rebuild_growing(blades):
+    """Rebuilds the local meadows that grow any of the blade objects `blades` (after Refine
+    changed their models), so that their instances and simulation use the new models; a
+    meadow that cannot be rebuilt keeps its last good state and shows why."""
+    changed = {o.as_pointer() for o in blades}
+    for obj in identity.meadows():  # one check per meadow
+        if obj.library is not None:
+            continue
+        s = obj.tussock_meadow
+        coll = s.models or bpy.data.collections.get(BLADES_COLLECTION)
+        if coll is None or not any(o.as_pointer() in changed for o in coll.objects):
+            continue
+        try:
+            rebuild(obj)
+        except (native.Error, ValueError) as exc:
+            s.last_error = str(exc)
+        else:
+            s.last_error = ""
 
 
 def area_of(obj, settings):

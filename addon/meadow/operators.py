@@ -6,7 +6,7 @@ import types
 import bpy
 
 from .. import errors
-from . import build
+from . import build, identity
 from .props import DENSITY_ITEMS, TIPS
 
 # settings copied from the operator to the meadow object, in this order
@@ -85,6 +85,7 @@ class TUSSOCK_OT_add_meadow(bpy.types.Operator):
             context.scene.collection.objects.link(ground)
         obj = bpy.data.objects.new("Meadow", bpy.data.meshes.new("Meadow"))
         obj["tussock_meadow_object"] = True
+        identity.give_id(obj)
         obj["tussock_origin"] = origin
         obj["tussock_size"] = size
         context.scene.collection.objects.link(obj)

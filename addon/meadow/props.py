@@ -22,7 +22,7 @@ def _rebuild(self, context):
 
 def _reset_simulation(self, context):
     from . import simulate
-    simulate.forget(self.id_data.name)
+    simulate.forget(self.id_data)
     if self.is_meadow and self.use_simulation and native.available():
         try:
             simulate.ensure_chunks(self.id_data)  # now, not in the middle of playback

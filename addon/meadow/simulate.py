@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import compat, handlers, meshes, native
 from ..wind import runtime as wind_runtime
-from . import build, material
+from . import build, identity, material
 
 STEPS_PER_FRAME = 2  # solver steps per frame, more at low frame rates (steps_per_frame)
 MAX_STEP_SECONDS = 1.0 / 20.0  # a step is never longer
@@ -51,7 +51,7 @@ CHUNKS = 4  # dynamic-mesh objects the simulated blades are shared among, evenly
             # adding an object mid-playback resets Blender's rigid-body cache, which changes
             # the path of a ball that Bullet rolls.
 NO_COLLIDERS = np.zeros((0, 8), np.float32)
-_cache = {}  # meadow object name -> Playback
+_cache = {}  # meadow key (identity.key: survives renames, tells linked meadows apart) -> Playback
 suspended = False  # True while the bake plays frames only to read collider positions
 
 
@@ -307,6 +307,7 @@ class Playback:
         self.viewport_key = None  # (seed, display, instances) the plan was made for
         self.plan = None  # per chunk object key: the part of the active blades it shows
         self.baked_hidden = None  # (bake layout digest, per instance: is its tile baked)
+        self.stats = {}  # active tiles and blades last written (the meadow's properties)
 
     # -- snapshots ------------------------------------------------------------------------
     def snapshot_bytes(self):
@@ -387,11 +388,26 @@ def layout_key(obj, scene):
 
 def _playback(obj, scene):
     key = layout_key(obj, scene)
-    pb = _cache.get(obj.name)
+    which = identity.key(obj)
+    pb = _cache.get(which)
     if pb is None or pb.key != key:
+        s = obj.tussock_meadow
+        if obj.library is None and obj.get("tussock_patch_key") != build.patch_key(s):
+            build.rebuild(obj)  # models changed: the instances grow what the solver does
+        _cache.pop(which, None)  # the old solver, patch and snapshots go before the new come
         pb = Playback(obj, scene, key)
-        _cache[obj.name] = pb
+        _cache[which] = pb
     return pb
+
+
+def playback_of(obj):
+    """The live simulation (Playback) of meadow object `obj`, or None."""
+    return _cache.get(identity.key(obj))
+
+
+def live_count():
+    """Meadows with a live simulation (a native solver, patch and snapshots each)."""
+    return len(_cache)
 
 
 def simulate_to(obj, scene, frame, depsgraph=None):
@@ -445,7 +461,7 @@ def set_blade_rand(mesh, rand, k):
     mesh.attributes["tsk_blade_rand"].data.foreach_set("value", vrand)
 
 
-_hidden_written = {}  # meadow mesh name -> (points serial, the hidden array written)
+_hidden_written = {}  # meadow key -> (points serial, the hidden array written)
 
 
 def set_hidden(obj, hidden):
@@ -453,8 +469,11 @@ def set_hidden(obj, hidden):
     The same array already written into the same points (chunks.write_points counts them
     in tussock_points_serial) is not read back: that was a copy of every point per frame."""
     mesh = obj.data
+    if mesh.library is not None:
+        return  # a linked meadow's points are its library's: Blender ignores writes to them
+    which = identity.key(obj)
     serial = mesh.get("tussock_points_serial")
-    last = _hidden_written.get(mesh.name)
+    last = _hidden_written.get(which)
     if serial is not None and last is not None and last[0] == serial and last[1] is hidden:
         return
     attr = mesh.attributes.get("tsk_hidden")
@@ -465,41 +484,102 @@ def set_hidden(obj, hidden):
     if not np.array_equal(current, hidden):
         attr.data.foreach_set("value", np.ascontiguousarray(hidden, bool))
         mesh.update()
-    _hidden_written[mesh.name] = (serial, hidden)
+    _hidden_written[which] = (serial, hidden)
+
+
+def _in_the_way(name):
+    return ValueError(f"an object named '{name}' that is not this meadow's simulated blades "
+                      f"is in the way: rename it")
 
 
 def _mesh_object(name, meadow, beside):
-    """The mesh object `name`, made if missing in the collections of object `beside`;
-    marked as the meadow's. (users_collection walks every collection: only when made.)"""
+    """The mesh object `name`, made if missing in the local collections of object `beside`
+    (else in the scene's); owned by the meadow (identity.OWNER). (users_collection walks
+    every collection: only when made.)"""
     child = bpy.data.objects.get(name)
     made = child is None
     if made:
         child = bpy.data.objects.new(name, bpy.data.meshes.new(name))
-        for coll in beside.users_collection:
+        colls = [c for c in beside.users_collection if getattr(c, "library", None) is None]
+        for coll in colls or [bpy.context.scene.collection]:
             coll.objects.link(child)
+        child[identity.OWNER] = identity.key(meadow)
         child["tussock_meadow_name"] = meadow.name
-    elif child.type != "MESH" or child.get("tussock_meadow_name") != meadow.name:
-        # someone else's object: never overwrite it
-        raise ValueError(f"an object named '{name}' that is not this meadow's simulated "
-                         f"blades is in the way: rename it")
+    elif child.type != "MESH" or not identity.adopt(meadow, child,
+                                                    child.get("tussock_meadow_name")):
+        raise _in_the_way(name)  # someone else's object: never overwrite it
     return child, made
+
+
+def base_name(obj):
+    """What the names of a meadow's own objects start with: its name, and for a linked
+    meadow its library's too (a local meadow may have the same name)."""
+    return obj.name if obj.library is None else f"{obj.name} [{obj.library.name}]"
 
 
 def chunk_name(obj, key):
     """Name of the meadow's chunk object `key`: i (0 the first, which a bake writes) for the
     chunks shown in the viewport, ("render", i) for the render chunks."""
     if isinstance(key, tuple):
-        return f"{obj.name} blades render {key[1] + 1}"
-    return f"{obj.name} blades" + (f" {key + 1}" if key else "")
+        return f"{base_name(obj)} blades render {key[1] + 1}"
+    return f"{base_name(obj)} blades" + (f" {key + 1}" if key else "")
+
+
+def _role(child):
+    """The chunk key (see chunk_name) of one of a meadow's simulated-blade objects."""
+    if child.get("tussock_simulated_blades"):
+        return 0
+    if "tussock_blades_render_chunk" in child:
+        return ("render", int(child["tussock_blades_render_chunk"]))
+    return int(child.get("tussock_blades_chunk", -1))
+
+
+def follow_name(obj):
+    """Renames the meadow's simulated-blade objects (and their meshes) after the meadow, if
+    it was renamed since they were named; returns the first chunk, or None if there is none.
+    The blades objects are found by their owner (one walk over the file's objects, only
+    when the first chunk is not found under the meadow's name)."""
+    first = bpy.data.objects.get(chunk_name(obj, 0))
+    if first is not None and identity.adopt(obj, first, first.get("tussock_meadow_name")):
+        return first
+    k = identity.key(obj)
+    own = [o for o in bpy.data.objects if o.get(identity.OWNER) == k and _role(o) != -1]
+    if not own:
+        if first is not None:
+            raise _in_the_way(first.name)
+        return None
+    wanted = {o: chunk_name(obj, _role(o)) for o in own}
+    for o, name in wanted.items():
+        other = bpy.data.objects.get(name)
+        if other is not None and other not in wanted:
+            raise _in_the_way(name)
+    for o in own:  # first out of the way (names may swap among them), then the new names
+        o.name = o.name + " (renamed)"
+    for o, name in wanted.items():
+        o.name = name
+        o["tussock_meadow_name"] = obj.name
+        if o.data is not None and o.data.users == 1:
+            o.data.name = name
+    if obj.library is None:
+        build.follow_name(obj)  # and the patch collection with its chunk objects
+    return next((o for o in own if _role(o) == 0), None)
 
 
 def blades_object(obj):
     """The meadow's dynamic mesh of simulated blades (created once): its first chunk, the
     one a bake writes."""
+    child = follow_name(obj)
+    if child is not None:
+        return child
     child, made = _mesh_object(chunk_name(obj, 0), obj, obj)
     if made:
         child["tussock_simulated_blades"] = True
     return child
+
+
+def find_blades_object(obj):
+    """The meadow's first chunk if it exists (after a rename too), else None; makes nothing."""
+    return follow_name(obj)
 
 
 def chunk_object(obj, i):
@@ -583,7 +663,7 @@ def _collapse(child, pb=None, i=None):
 
 def empty_extra_chunks(obj):
     """Leaves only the first chunk with blades (a bake's layout lives there alone)."""
-    pb = _cache.get(obj.name)
+    pb = playback_of(obj)
     for i, child in enumerate(extra_chunks(obj), start=1):
         _collapse(child, pb, i)
     for i, child in enumerate(render_chunks(obj)):
@@ -602,8 +682,8 @@ def active_ribbons(obj):
     """Ribbon vertex positions of the active simulated blades, in the solver's order, read
     back from the chunks that show them in the viewport and the render chunks (float32,
     2 * K * 3 per blade); each chunk's spare room must be zero."""
-    pb = _cache.get(obj.name)
-    nb = int(obj.get("tussock_active_blades", 0))
+    pb = playback_of(obj)
+    nb = int(pb.stats.get("tussock_active_blades", 0)) if pb is not None else 0
     if pb is None or nb == 0 or not pb.plan:
         return np.zeros(0, np.float32)
     per = 2 * pb.runner.K * 3
@@ -764,15 +844,18 @@ def write(obj, pb):
             _write_chunk(child, pb, ("render", i), part, k, layout_changed, fit)
     for i, child in enumerate(extra_chunks(obj)[CHUNKS - 1:], start=CHUNKS):
         _collapse(child, pb, i)  # chunks of a larger CHUNKS: unused
-    obj["tussock_active_tiles"] = len(tiles)
-    obj["tussock_active_blades"] = nb
-    obj["tussock_viewport_blades"] = int(sum(len(p.index) for key, p in pb.plan.items()
-                                             if not isinstance(key, tuple)))
+    pb.stats = dict(tussock_active_tiles=len(tiles), tussock_active_blades=nb,
+                    tussock_viewport_blades=int(sum(len(p.index) for key, p in pb.plan.items()
+                                                    if not isinstance(key, tuple))))
+    if obj.library is None:  # (a linked meadow's properties are its library's)
+        for name, value in pb.stats.items():
+            obj[name] = value
 
 
 def on_frame(scene, depsgraph=None):
     if suspended:
         return
+    sync()
     from . import baking
     for obj in scene.objects:  # one simulation per meadow object
         s = compat.settings_of(obj, "tussock_meadow")
@@ -792,12 +875,54 @@ def on_frame(scene, depsgraph=None):
             s.last_error = str(exc)
 
 
-def forget(name=None):
-    _hidden_written.clear()
-    if name is None:
+def forget(obj=None):
+    """Frees the live simulation of meadow object `obj`, or of every meadow."""
+    if obj is None:
         _cache.clear()
+        _hidden_written.clear()
+        _followed.clear()
+        identity.forget()
     else:
-        _cache.pop(name, None)
+        _cache.pop(identity.key(obj), None)
+        _hidden_written.pop(identity.key(obj), None)
+
+
+def sync(force=False):
+    """After objects were made or removed: gives duplicated meadows their own ids (and so
+    their own simulation and blades objects), and frees the simulations of meadows that are
+    gone (deleted, or their file closed)."""
+    live = identity.scan(force)
+    if live is None:
+        return
+    for which in [k for k in _cache if k not in live]:
+        del _cache[which]  # the native solver, patch and snapshots go with it
+    for which in [k for k in _hidden_written if k not in live]:
+        del _hidden_written[which]
+
+
+_followed = {}  # meadow key -> the name its objects were last renamed after
+
+
+def _follow_renames(depsgraph):
+    """The simulated-blade objects and patch collections of renamed meadows take the new
+    names (a rename updates the depsgraph, so this runs right after it)."""
+    for update in depsgraph.updates:  # the data-blocks changed: a handful
+        obj = update.id.original if hasattr(update.id, "original") else update.id
+        if not isinstance(obj, bpy.types.Object) or obj.library is not None:
+            continue
+        s = compat.settings_of(obj, "tussock_meadow")
+        if s is None or not s.is_meadow or obj.get(identity.ID) is None:
+            continue
+        which = identity.key(obj)
+        if _followed.get(which) == obj.name:
+            continue  # not renamed (a move, a setting): nothing to look for
+        _followed[which] = obj.name
+        try:
+            follow_name(obj)
+            build.follow_name(obj)
+        except ValueError as exc:  # a name in the way: the panel says which
+            if s.last_error != str(exc):  # (each write is one more depsgraph update)
+                s.last_error = str(exc)
 
 
 @bpy.app.handlers.persistent
@@ -811,6 +936,16 @@ def _on_load(*_args):
     forget()
 
 
+@bpy.app.handlers.persistent
+def _on_depsgraph_update(scene, depsgraph=None):
+    if suspended:
+        return
+    sync()
+    if depsgraph is not None:
+        build.models_edited(depsgraph)
+        _follow_renames(depsgraph)
+
+
 classes = ()
 
 
@@ -822,5 +957,6 @@ def _on_undo(*_args):
 def register_extra():
     handlers.add("frame_change_post", _on_frame_change)
     handlers.add("load_post", _on_load)
+    handlers.add("depsgraph_update_post", _on_depsgraph_update)
     handlers.add("undo_post", _on_undo)
     handlers.add("redo_post", _on_undo)

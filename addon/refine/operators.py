@@ -143,6 +143,8 @@ class TUSSOCK_OT_refine_blades(bpy.types.Operator):
             if old is not mesh and old.users == 0:
                 bpy.data.meshes.remove(old)
             blade_nodes.show_ribbon(obj)
+        from ..meadow import build as meadow_build
+        meadow_build.rebuild_growing([r[0] for r in results])
         self.report({"INFO"}, f"Refined {len(results)} blades to {m} knots")
         return {"FINISHED"}
 
