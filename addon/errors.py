@@ -33,24 +33,49 @@ def _remove_created(before):
     return len(new)
 
 
+def message(exc):
+    """The artist's message for any exception (run() prefixes it with 'Tussock: ' where it
+    is not already the whole message). Prints the traceback of an unexpected one."""
+    if isinstance(exc, native.NativeMissing):
+        return str(exc)
+    if isinstance(exc, (native.Error, ValueError, OSError)):
+        return str(exc)
+    traceback.print_exception(type(exc), exc, exc.__traceback__)
+    return (f"Tussock failed unexpectedly ({exc.__class__.__name__}: {exc}); "
+            "nothing was changed. The system console has the details.")
+
+
 def run(operator, work, *args, **kwargs):
     """Calls work(*args, **kwargs) and returns its result set, or reports and cancels."""
     before = _snapshot()
     try:
         return work(*args, **kwargs)
-    except native.NativeMissing as exc:
-        message = str(exc)
-    except native.Error as exc:
-        message = f"Tussock: {exc}"
-    except (ValueError, OSError) as exc:
-        message = f"Tussock: {exc}"
     except Exception as exc:  # noqa: BLE001 - whatever fails, the artist's scene comes first
-        traceback.print_exc()
-        message = f"Tussock failed unexpectedly ({exc.__class__.__name__}: {exc}); " \
-                  "nothing was changed. The system console has the details."
+        text = message(exc)
+        if isinstance(exc, (native.Error, ValueError, OSError)) \
+                and not isinstance(exc, native.NativeMissing):
+            text = f"Tussock: {text}"
     try:
         _remove_created(before)
     except Exception:  # noqa: BLE001 - report the first failure, not the clean-up's
         traceback.print_exc()
-    operator.report({"ERROR"}, message)
+    operator.report({"ERROR"}, text)
     return {"CANCELLED"}
+
+
+def in_update(settings, work, *args, clear=True):
+    """Runs a property update callback's work. An update callback cannot report, and an
+    exception out of it is only a console traceback: any failure goes to
+    `settings.last_error` instead (the panel shows it), worded as run() words it; success
+    clears it when `clear` (work that redoes what last_error is about). Returns True on
+    success."""
+    try:
+        work(*args)
+    except Exception as exc:  # noqa: BLE001 - never a traceback out of an update callback
+        text = message(exc)
+        if settings.last_error != text:
+            settings.last_error = text
+        return False
+    if clear and settings.last_error:
+        settings.last_error = ""
+    return True

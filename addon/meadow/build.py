@@ -7,7 +7,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from .. import compat, native
+from .. import compat, meshes, native
 from ..capture.blades import COLLECTION as BLADES_COLLECTION
 from ..nodes import meadow_nodes
 from . import chunks as chunk_data
@@ -185,6 +185,7 @@ def _give_viewport_off(skip):
 
 def write(obj, settings, key, patch, layout):
     """Writes computed meadow data into the object, its patch collection and modifier."""
+    meshes.refuse_edit_mode(obj, "rebuilding the meadow")
     if patch is not None:
         coll = patch_collection(obj)
         chunk_data.build_chunks(coll, obj.name, patch["positions"], patch["tris"],
@@ -221,6 +222,7 @@ def rebuild(obj):
     """Recomputes the meadow of `obj` from its settings and writes it into Blender; the
     native work raises before anything in the scene changes."""
     settings = obj.tussock_meadow
+    meshes.refuse_edit_mode(obj, "rebuilding the meadow")  # before the native work
     origin, size = area_of(obj, settings)
     key, patch, layout = compute(settings, origin, size, obj)
     return write(obj, settings, key, patch, layout)

@@ -134,6 +134,7 @@ def write(obj, data, positions=None, by_operator=False):
     caller is an operator or a property update, not a frame handler (compat.shade_smooth).
     Raises ValueError (NOT_OWNED) and writes nothing when the mesh is not Tussock's to
     write (owns_mesh)."""
+    meshes.refuse_edit_mode(obj, "growing the tree")
     if not owns_mesh(obj):
         raise ValueError(NOT_OWNED)
     quads, uvs, edges = _topology(data)
@@ -228,6 +229,7 @@ def _posed(obj, data, scene, frame, matrix_world):
 
 def pose(obj, scene, frame):
     """Bends the tree by the scene's wind at `frame` and writes the vertex positions."""
+    meshes.refuse_edit_mode(obj, "the tree's swaying")
     if not owns_mesh(obj):
         raise ValueError(NOT_OWNED)
     data = _data(obj)

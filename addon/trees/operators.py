@@ -2,7 +2,7 @@
 
 import bpy
 
-from .. import bounds, compat, errors, native
+from .. import bounds, compat, errors, meshes, native
 from . import build, params, presets, props
 
 
@@ -120,6 +120,7 @@ class TUSSOCK_OT_tree_apply_preset(bpy.types.Operator):
     def _apply(self, context):
         obj = context.active_object
         s = obj.tussock_tree
+        meshes.refuse_edit_mode(obj, "applying a preset")  # before the settings change
         d = presets.load(self.preset)
         native.require().tree_create(d)  # check it before changing anything
         s.is_tree = False
