@@ -7,7 +7,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from .. import compat, meshes, native
+from .. import budget, compat, meshes, native
 from ..capture.blades import COLLECTION as BLADES_COLLECTION
 from ..nodes import meadow_nodes
 from . import chunks as chunk_data
@@ -136,6 +136,7 @@ def compute_layout(settings, origin, size):
     meadow = make_meadow(settings, origin, size)
     info = lib.meadow_info(meadow)
     n = info["chunk_instances"]
+    budget.check_meadow(info["tile_count"], n, info["blade_count"])  # Blender's cost too
     origins = np.empty(n * 3, np.float32)
     chunk = np.empty(n, np.int32)
     lib.meadow_chunk_instances(meadow, origins, chunk)
