@@ -3,7 +3,9 @@ exception (tussock.Error, a missing build, and also a Blender API that behaves o
 this version, or a bug) into self.report({'ERROR'}, ...) and {'CANCELLED'}, and removes every
 datablock the work had created before it failed, so that a cancelled operator leaves no half-
 built objects behind. The work function must not change existing data before it can fail;
-creating new data and failing is safe."""
+creating new data and failing is safe. Property update callbacks and frame handlers, which
+cannot report, run their work through in_update(), which puts any failure in the panel's
+last_error in the same words."""
 
 import traceback
 
@@ -33,12 +35,13 @@ def _remove_created(before):
     return len(new)
 
 
+_KNOWN = (native.Error, ValueError, OSError)  # failures whose own words say what is wrong
+
+
 def message(exc):
-    """The artist's message for any exception (run() prefixes it with 'Tussock: ' where it
-    is not already the whole message). Prints the traceback of an unexpected one."""
-    if isinstance(exc, native.NativeMissing):
-        return str(exc)
-    if isinstance(exc, (native.Error, ValueError, OSError)):
+    """The artist's message for any exception: a known failure's or a missing build's own
+    words, else an unexpected failure named with its type (its traceback printed)."""
+    if isinstance(exc, (native.NativeMissing,) + _KNOWN):
         return str(exc)
     traceback.print_exception(type(exc), exc, exc.__traceback__)
     return (f"Tussock failed unexpectedly ({exc.__class__.__name__}: {exc}); "
@@ -51,10 +54,7 @@ def run(operator, work, *args, **kwargs):
     try:
         return work(*args, **kwargs)
     except Exception as exc:  # noqa: BLE001 - whatever fails, the artist's scene comes first
-        text = message(exc)
-        if isinstance(exc, (native.Error, ValueError, OSError)) \
-                and not isinstance(exc, native.NativeMissing):
-            text = f"Tussock: {text}"
+        text = f"Tussock: {message(exc)}" if isinstance(exc, _KNOWN) else message(exc)
     try:
         _remove_created(before)
     except Exception:  # noqa: BLE001 - report the first failure, not the clean-up's

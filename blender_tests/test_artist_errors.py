@@ -24,7 +24,6 @@ from tussock.trees.props import TussockTreeSettings  # noqa: E402
 from tussock.wind.props import TussockWindSource  # noqa: E402
 
 from tussock import meshes  # noqa: E402
-from tussock.meadow import build as meadow_build_mod  # noqa: E402,F401
 from tussock.picture import frames as picture_frames  # noqa: E402
 from tussock.trees import build as tree_build  # noqa: E402
 

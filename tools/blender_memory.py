@@ -102,7 +102,8 @@ def meadow(side, render):
         reset_peak()
         t = time.time()
         bpy.ops.render.render(write_still=True)
-        line += f" render={render} render_peak={status('VmHWM') - r2} t_render={time.time() - t:.2f}"
+        line += (f" render={render} render_peak={status('VmHWM') - r2} "
+                 f"t_render={time.time() - t:.2f}")
     print(line)
 
 

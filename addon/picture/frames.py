@@ -118,7 +118,7 @@ MISSING = (1.0, 0.0, 1.0, 1.0)  # Blender's colour of a missing image
 def show_missing(scene):
     """Fills the picture's images so that the compositor shows Blender's missing-image
     magenta, not the black of empty images, while the picture cannot be built (its file or
-    a mask went missing): a frame rendered or drawn then says that something is missing.
+    a mask went missing or changed): a frame rendered or drawn then shows it.
     The next successful build writes the images again (built())."""
     settings = scene.tussock_picture
     _written.pop(scene.name, None)
