@@ -3,7 +3,9 @@ exception (tussock.Error, a missing build, and also a Blender API that behaves o
 this version, or a bug) into self.report({'ERROR'}, ...) and {'CANCELLED'}, and removes every
 datablock the work had created before it failed, so that a cancelled operator leaves no half-
 built objects behind. The work function must not change existing data before it can fail;
-creating new data and failing is safe."""
+creating new data and failing is safe. Property update callbacks and frame handlers, which
+cannot report, run their work through in_update(), which puts any failure in the panel's
+last_error in the same words."""
 
 import traceback
 
@@ -38,24 +40,47 @@ def reraise(exc):
     raise exc
 
 
+_KNOWN = (native.Error, ValueError, OSError)  # failures whose own words say what is wrong
+
+
+def message(exc):
+    """The artist's message for any exception: a known failure's or a missing build's own
+    words, else an unexpected failure named with its type (its traceback printed)."""
+    if isinstance(exc, (native.NativeMissing,) + _KNOWN):
+        return str(exc)
+    traceback.print_exception(type(exc), exc, exc.__traceback__)
+    return (f"Tussock failed unexpectedly ({exc.__class__.__name__}: {exc}); "
+            "nothing was changed. The system console has the details.")
+
+
 def run(operator, work, *args, **kwargs):
     """Calls work(*args, **kwargs) and returns its result set, or reports and cancels."""
     before = _snapshot()
     try:
         return work(*args, **kwargs)
-    except native.NativeMissing as exc:
-        message = str(exc)
-    except native.Error as exc:
-        message = f"Tussock: {exc}"
-    except (ValueError, OSError) as exc:
-        message = f"Tussock: {exc}"
     except Exception as exc:  # noqa: BLE001 - whatever fails, the artist's scene comes first
-        traceback.print_exc()
-        message = f"Tussock failed unexpectedly ({exc.__class__.__name__}: {exc}); " \
-                  "nothing was changed. The system console has the details."
+        text = f"Tussock: {message(exc)}" if isinstance(exc, _KNOWN) else message(exc)
     try:
         _remove_created(before)
     except Exception:  # noqa: BLE001 - report the first failure, not the clean-up's
         traceback.print_exc()
-    operator.report({"ERROR"}, message)
+    operator.report({"ERROR"}, text)
     return {"CANCELLED"}
+
+
+def in_update(settings, work, *args, clear=True):
+    """Runs a property update callback's work. An update callback cannot report, and an
+    exception out of it is only a console traceback: any failure goes to
+    `settings.last_error` instead (the panel shows it), worded as run() words it; success
+    clears it when `clear` (work that redoes what last_error is about). Returns True on
+    success."""
+    try:
+        work(*args)
+    except Exception as exc:  # noqa: BLE001 - never a traceback out of an update callback
+        text = message(exc)
+        if settings.last_error != text:
+            settings.last_error = text
+        return False
+    if clear and settings.last_error:
+        settings.last_error = ""
+    return True

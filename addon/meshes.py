@@ -5,9 +5,45 @@ corner: for a 143,000-quad tree, most of the time of building it. The native lib
 the same edges in first-use order (tsk_mesh_edges), and the indices cross as uint32, the type
 of these RNA properties, so foreach_set copies each array in one go (compat.mesh_indices)."""
 
+import bpy
 import numpy as np
 
-from . import compat, native
+from . import compat, handlers, native
+
+
+def refuse_edit_mode(obj, doing):
+    """Raises ValueError when obj's mesh is in Edit Mode: there its geometry is Blender's
+    edit copy (vertices cannot be added, attributes read as empty, and leaving Edit Mode
+    writes the edit copy back over whatever was written meanwhile). `doing`: what waits for
+    Object Mode, for the message."""
+    if in_edit_mode(obj):
+        raise ValueError(f"'{obj.name}' is in Edit Mode: {doing} waits for Object Mode "
+                         "(press Tab); its mesh is left as it is until then")
+
+
+def in_edit_mode(obj):
+    return bool(getattr(getattr(obj, "data", None), "is_editmode", False))
+
+
+_waiting = {}  # object name -> work(obj) to redo once the object is out of Edit Mode
+
+
+def redo_after_edit_mode(obj, work):
+    """Runs work(obj) once obj has left Edit Mode (polled by a timer, as Blender has no
+    event for it), so that a setting changed in Edit Mode takes effect then."""
+    _waiting[obj.name] = work
+    handlers.add_timer(_poll_edit_mode, first_interval=0.5)
+
+
+def _poll_edit_mode():
+    for name, work in list(_waiting.items()):
+        obj = bpy.data.objects.get(name)
+        if obj is not None and in_edit_mode(obj):
+            continue
+        del _waiting[name]
+        if obj is not None:
+            work(obj)
+    return 0.5 if _waiting else None
 
 
 def set_faces(mesh, faces, edges=None):

@@ -262,8 +262,8 @@ def test_meadow_bad_parameters_cancel():
         ("", dict(size=(3e38, 3e38))),                          # huge area
         ("blades_per_tile", dict(blades_per_tile=0)),
         ("blades_per_tile", dict(blades_per_tile=2 ** 31 - 1)),
-        ("blade_count", dict(patch_blades=2 ** 31 - 1)),
-        ("blade_count", dict(patch_blades=0)),
+        ("patch_blades", dict(patch_blades=2 ** 31 - 1)),
+        ("patch_blades", dict(patch_blades=0)),
         ("chunk", dict(chunk_blades=0)),
         ("chunk", dict(chunk_blades=100)),                      # does not divide the patch
         ("scale_min", dict(scale_min=NAN)),

@@ -179,7 +179,7 @@ def test_bad_input_cancels_with_scene_unchanged():
     expect_cancel(op, "tile_size", tile_size=0.0)
     expect_cancel(op, "tile_size", tile_size=5.0)          # tile larger than the 2 m ground
     expect_cancel(op, "blades_per_tile", blades_per_tile=0)
-    expect_cancel(op, "patch (0 blades): blade_count", patch_blades=0)
+    expect_cancel(op, "Patch size (patch_blades) must be from 16", patch_blades=0)
     expect_cancel(op, "blade", tile_size=0.01, blades_per_tile=65536, patch_blades=65536,
                   chunk_blades=65536)                     # 2.6 G blades: over the limit
     ground.select_set(False)

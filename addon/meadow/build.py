@@ -9,7 +9,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from .. import compat, native
+from .. import budget, compat, meshes, native
 from ..capture.blades import COLLECTION as BLADES_COLLECTION
 from ..nodes import meadow_nodes
 from . import chunks as chunk_data
@@ -185,6 +185,7 @@ def compute_layout(settings, origin, size):
     meadow = make_meadow(settings, origin, size)
     info = lib.meadow_info(meadow)
     n = info["chunk_instances"]
+    budget.check_meadow(info["tile_count"], n, info["blade_count"])  # Blender's cost too
     origins = np.empty(n * 3, np.float32)
     chunk = np.empty(n, np.int32)
     lib.meadow_chunk_instances(meadow, origins, chunk)
@@ -273,6 +274,7 @@ def _give_viewport_off(skip):
 
 def write(obj, settings, key, patch, layout):
     """Writes computed meadow data into the object, its patch collection and modifier."""
+    meshes.refuse_edit_mode(obj, "rebuilding the meadow")
     if patch is not None:
         coll = patch_collection(obj)
         chunk_data.build_chunks(coll, obj.name, patch["positions"], patch["tris"],
@@ -329,6 +331,7 @@ def rebuild(obj):
     """Recomputes the meadow of `obj` from its settings and writes it into Blender; the
     native work raises before anything in the scene changes."""
     settings = obj.tussock_meadow
+    meshes.refuse_edit_mode(obj, "rebuilding the meadow")  # before the native work
     origin, size = area_of(obj, settings)
     key, patch, layout = compute(settings, origin, size, obj)
     return write(obj, settings, key, patch, layout)

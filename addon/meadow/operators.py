@@ -5,14 +5,18 @@ import types
 
 import bpy
 
-from .. import errors
+from .. import bounds, errors
 from . import build, identity
-from .props import DENSITY_ITEMS, TIPS
+from .props import TussockMeadowSettings
 
 # settings copied from the operator to the meadow object, in this order
 SETTINGS = ("tile_size", "blades_per_tile", "patch_blades", "chunk_blades", "scale_min",
             "scale_max", "density", "noise_scale", "noise_octaves", "noise_threshold", "seed",
             "display")
+
+
+def _stored(name):
+    return bounds.annotation(TussockMeadowSettings, name)
 
 
 class TUSSOCK_OT_add_meadow(bpy.types.Operator):
@@ -25,31 +29,20 @@ class TUSSOCK_OT_add_meadow(bpy.types.Operator):
                                         unit="LENGTH",
                                         description="Size of the new ground plane when no "
                                         "ground mesh is selected")
-    tile_size: bpy.props.FloatProperty(name="Tile size", default=0.25, min=0.0, unit="LENGTH",
-                                       description=TIPS["tile_size"])
-    blades_per_tile: bpy.props.IntProperty(name="Blades per tile", default=64, min=0,
-                                           description=TIPS["blades_per_tile"])
-    patch_blades: bpy.props.IntProperty(name="Patch size", default=16384, min=0,
-                                        description=TIPS["patch_blades"])
-    chunk_blades: bpy.props.IntProperty(name="Chunk", default=16, min=0,
-                                        description=TIPS["chunk_blades"])
-    scale_min: bpy.props.FloatProperty(name="Scale min", default=0.8,
-                                       description=TIPS["scale_min"])
-    scale_max: bpy.props.FloatProperty(name="Scale max", default=1.2,
-                                       description=TIPS["scale_max"])
-    density: bpy.props.EnumProperty(name="Density", items=DENSITY_ITEMS, default="NOISE",
-                                    description=TIPS["density"])
-    noise_scale: bpy.props.FloatProperty(name="Noise scale", default=8.0, unit="LENGTH",
-                                         description=TIPS["noise_scale"])
-    noise_octaves: bpy.props.IntProperty(name="Octaves", default=3,
-                                         description=TIPS["noise_octaves"])
-    noise_threshold: bpy.props.FloatProperty(name="Threshold", default=0.2,
-                                             description=TIPS["noise_threshold"])
-    seed: bpy.props.IntProperty(name="Seed", default=1, min=0,
-                                description=TIPS["seed"])
-    display: bpy.props.FloatProperty(name="Viewport display", default=0.25, min=0.0, max=1.0,
-                                     subtype="FACTOR",
-                                     description=TIPS["display"])
+    # the stored settings' own definitions (bounds.operator_property): checked against the
+    # stored limits in _add, never clamped into another value than the one built
+    tile_size: bounds.operator_property(_stored("tile_size"))
+    blades_per_tile: bounds.operator_property(_stored("blades_per_tile"))
+    patch_blades: bounds.operator_property(_stored("patch_blades"))
+    chunk_blades: bounds.operator_property(_stored("chunk_blades"))
+    scale_min: bounds.operator_property(_stored("scale_min"))
+    scale_max: bounds.operator_property(_stored("scale_max"))
+    density: bounds.operator_property(_stored("density"))
+    noise_scale: bounds.operator_property(_stored("noise_scale"))
+    noise_octaves: bounds.operator_property(_stored("noise_octaves"))
+    noise_threshold: bounds.operator_property(_stored("noise_threshold"))
+    seed: bounds.operator_property(_stored("seed"))
+    display: bounds.operator_property(_stored("display"))
 
     def execute(self, context):
         return errors.run(self, self._add, context)
@@ -65,6 +58,7 @@ class TUSSOCK_OT_add_meadow(bpy.types.Operator):
             ground = None
         if ground is None and not all(math.isfinite(v) and v > 0 for v in self.size):
             raise ValueError(f"size: must be positive, got {self.size[0]} x {self.size[1]}")
+        bounds.check_operator(self, TussockMeadowSettings, SETTINGS)
         settings = self._settings(ground)
         if ground is not None:
             origin, size = build.ground_area(ground)

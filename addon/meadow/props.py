@@ -3,7 +3,7 @@ travel with the .blend. Changing one rebuilds the meadow's instances interactive
 
 import bpy
 
-from .. import native
+from .. import errors, meshes, native
 
 
 def _rebuild(self, context):
@@ -11,23 +11,25 @@ def _rebuild(self, context):
     if not self.is_meadow or not native.available():
         return
     from . import build
-    try:
-        build.rebuild(obj)
-    except native.Error as exc:
-        # an update callback cannot report; keep the last good meadow and show why
-        self.last_error = str(exc)
-    else:
-        self.last_error = ""
+    # the native work raises before the meadow changes: the last good meadow stays, and
+    # the panel shows why; in Edit Mode, the meadow is rebuilt once out of it
+    if not errors.in_update(self, build.rebuild, obj) and meshes.in_edit_mode(obj):
+        meshes.redo_after_edit_mode(obj, _rebuild_later)
+
+
+def _rebuild_later(obj):
+    settings = getattr(obj, "tussock_meadow", None)
+    if settings is not None and settings.is_meadow:
+        from . import build
+        errors.in_update(settings, build.rebuild, obj)
 
 
 def _reset_simulation(self, context):
     from . import simulate
     simulate.forget(self.id_data)
     if self.is_meadow and self.use_simulation and native.available():
-        try:
-            simulate.ensure_chunks(self.id_data)  # now, not in the middle of playback
-        except ValueError as exc:  # an update callback cannot report: the panel shows it
-            self.last_error = str(exc)
+        # now, not in the middle of playback
+        errors.in_update(self, simulate.ensure_chunks, self.id_data, clear=False)
 
 
 DENSITY_ITEMS = [

@@ -6,9 +6,11 @@ animation render, only render_pre, with the scene already on the frame to render
 A baked picture (picture/bake.py) is read from its files instead, frame by frame as long
 as they verify."""
 
+import sys
+
 import bpy
 
-from .. import compat, handlers, native
+from .. import compat, errors, handlers, native
 from . import bake as picture_bake
 from . import frames
 
@@ -17,17 +19,24 @@ def _update(scene):
     settings = getattr(scene, "tussock_picture", None)
     if settings is None or not settings.applied or not native.available():
         return False
-    try:
-        if picture_bake.serves(scene, scene.frame_current):
-            return True  # the compositor reads this frame from the bake's files
-        frames.update(scene)
-    except (native.Error, ValueError, OSError) as exc:
-        # a handler cannot report; the panel shows why the picture stopped
-        settings.last_error = str(exc)
-        return False
-    if settings.last_error:
-        settings.last_error = ""
-    return True
+    def update():
+        if not picture_bake.serves(scene, scene.frame_current):
+            frames.update(scene)
+        # else the compositor reads this frame from the bake's files
+
+    # a handler cannot report: the panel shows why the picture stopped, the frame shows
+    # magenta where the picture is missing (frames.show_missing), and so does the console
+    if errors.in_update(settings, update):
+        _printed.pop(scene.name, None)
+        return True
+    if _printed.get(scene.name) != settings.last_error:
+        _printed[scene.name] = settings.last_error
+        print(f"Tussock: the animated picture of scene '{scene.name}' cannot be shown: "
+              f"{settings.last_error}", file=sys.stderr)
+    return False
+
+
+_printed = {}  # scene name -> the error last printed for it (once per error, not per frame)
 
 
 @bpy.app.handlers.persistent

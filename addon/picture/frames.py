@@ -89,7 +89,11 @@ def built(scene):
     settings = scene.tussock_picture
     entry = _pictures.get(scene.name)
     if entry is None or entry["key"] != settings.applied:
-        b = layers.build(json.loads(settings.applied), image_pixels, abspath)
+        try:
+            b = layers.build(json.loads(settings.applied), image_pixels, abspath)
+        except Exception:
+            show_missing(scene)
+            raise
         entry = {"key": settings.applied, "built": b}
         _pictures[scene.name] = entry
         _written.pop(scene.name, None)
@@ -106,6 +110,26 @@ def _check_images(scene, b):
         if img is not None and tuple(img.size) != (b.width, b.height):
             raise ValueError(f"image '{img.name}' is {img.size[0]}x{img.size[1]}, the picture "
                              f"is now {b.width}x{b.height}: run Animate Picture again")
+
+
+MISSING = (1.0, 0.0, 1.0, 1.0)  # Blender's colour of a missing image
+
+
+def show_missing(scene):
+    """Fills the picture's images so that the compositor shows Blender's missing-image
+    magenta, not the black of empty images, while the picture cannot be built (its file or
+    a mask went missing or changed): a frame rendered or drawn then shows it.
+    The next successful build writes the images again (built())."""
+    settings = scene.tussock_picture
+    _written.pop(scene.name, None)
+    fills = [(settings.background_image, MISSING)]
+    fills += [(img, (0.0, 0.0, 0.0, 0.0)) for out in settings.images
+              for img in (out.layer_image, out.uv_image)]
+    for img, rgba in fills:
+        if img is not None and img.size[0] * img.size[1] > 0:
+            img.pixels.foreach_set(np.tile(np.asarray(rgba, np.float32),
+                                           img.size[0] * img.size[1]))
+            img.update()
 
 
 def write_rest_images(scene, b):

@@ -13,14 +13,9 @@ def _motion_changed(self, context):
     scene = context.scene if context is not None else None
     if scene is None or not scene.tussock_picture.applied:
         return
-    from .. import native
+    from .. import errors
     from . import frames
-    try:
-        frames.update(scene)
-    except (native.Error, ValueError, OSError) as exc:
-        scene.tussock_picture.last_error = str(exc)
-    else:
-        scene.tussock_picture.last_error = ""
+    errors.in_update(scene.tussock_picture, frames.update, scene)
 
 
 MASK_ITEMS = [

@@ -6,7 +6,7 @@ with another knot count, and is shown expanded as a ribbon as in seed Fig. 6."""
 import bpy
 import numpy as np
 
-from .. import errors, native
+from .. import errors, meshes, native
 from ..capture import blades
 from ..nodes import blade_nodes
 from . import movement
@@ -81,6 +81,8 @@ class TUSSOCK_OT_refine_blades(bpy.types.Operator):
         targets = [o for o in context.selected_objects if is_blade(o)]
         if not targets:
             raise ValueError("select one or more Tussock blades (meshes with a 'width' attribute)")
+        for obj in targets:
+            meshes.refuse_edit_mode(obj, "refining")
         m = self.custom_knots if self.custom_knots else int(self.knots)
         fps = context.scene.render.fps / context.scene.render.fps_base
         results = []

@@ -3,7 +3,7 @@ the scene's wind at that frame."""
 
 import bpy
 
-from .. import compat, handlers, native
+from .. import compat, errors, handlers, meshes, native
 
 
 @bpy.app.handlers.persistent
@@ -18,11 +18,12 @@ def on_frame_change(scene, depsgraph=None):
             continue
         if bake.baked_frame(obj, scene, scene.frame_current):
             continue  # the Mesh Cache modifier shows the baked frame
-        try:
-            build.pose(obj, scene, scene.frame_current)
-        except (native.Error, ValueError) as exc:
-            if s.last_error != str(exc):  # once, not a write on every frame
-                s.last_error = str(exc)
+        # any failure goes to the panel (once, not a write on every frame), never a
+        # traceback out of the handler
+        if not errors.in_update(s, build.pose, obj, scene, scene.frame_current, clear=False) \
+                and meshes.in_edit_mode(obj):
+            from .props import regrow
+            meshes.redo_after_edit_mode(obj, regrow)
 
 
 @bpy.app.handlers.persistent

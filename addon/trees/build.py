@@ -11,7 +11,7 @@ import uuid
 import bpy
 import numpy as np
 
-from .. import compat, meshes, native
+from .. import budget, compat, meshes, native
 from ..wind import runtime as wind_runtime
 from . import materials, params
 
@@ -44,6 +44,8 @@ def compute_from(d, smooth_levels, key="", rest=True):
     tree = lib.tree_create(d)
     counts = lib.tree_counts(tree)
     nv, nq = lib.tree_mesh_count(tree, leaves=True)
+    cage_v, cage_q = lib.tree_mesh_count(tree, leaves=False) if smooth_levels > 0 else (nv, nq)
+    budget.check_tree(nv, nq, cage_v, cage_q, smooth_levels)  # before the mesh and OpenSubdiv
     faces = np.empty(nq * 4, np.int32)
     uvs = np.empty(nq * 8, np.float32)
     lib.tree_mesh_topology(tree, faces, uvs, leaves=True)
@@ -60,7 +62,6 @@ def compute_from(d, smooth_levels, key="", rest=True):
     lib.tree_tips(tree, tips)
     data["rest_tips"] = tips.reshape(-1, 3)
     if smooth_levels > 0:
-        cage_v, cage_q = lib.tree_mesh_count(tree, leaves=False)
         h = lib.subdiv_create(np.ascontiguousarray(faces[:cage_q * 4]), cage_v, smooth_levels)
         sv, sq = lib.subdiv_counts(h)
         sfaces = np.empty(sq * 4, np.int32)
@@ -134,6 +135,7 @@ def write(obj, data, positions=None, by_operator=False):
     caller is an operator or a property update, not a frame handler (compat.shade_smooth).
     Raises ValueError (NOT_OWNED) and writes nothing when the mesh is not Tussock's to
     write (owns_mesh)."""
+    meshes.refuse_edit_mode(obj, "growing the tree")
     if not owns_mesh(obj):
         raise ValueError(NOT_OWNED)
     quads, uvs, edges = _topology(data)
@@ -228,6 +230,7 @@ def _posed(obj, data, scene, frame, matrix_world):
 
 def pose(obj, scene, frame):
     """Bends the tree by the scene's wind at `frame` and writes the vertex positions."""
+    meshes.refuse_edit_mode(obj, "the tree's swaying")
     if not owns_mesh(obj):
         raise ValueError(NOT_OWNED)
     data = _data(obj)

@@ -2,8 +2,8 @@
 
 import bpy
 
-from .. import compat, errors, native
-from . import build, params, presets
+from .. import bounds, compat, errors, meshes, native
+from . import build, params, presets, props
 
 
 class TUSSOCK_OT_add_tree(bpy.types.Operator):
@@ -15,19 +15,17 @@ class TUSSOCK_OT_add_tree(bpy.types.Operator):
     preset: bpy.props.EnumProperty(name="Preset", items=presets.items,
                                    description="Species preset: built-in Weber-Penn parameters or "
                                                "one of your own")
-    seed: bpy.props.IntProperty(name="Seed", default=1, min=0,
-                                description="Random seed of the tree's branching")
-    leaves: bpy.props.BoolProperty(name="Leaves", default=True,
-                                   description="Grow leaves on the last branch level")
-    smooth_levels: bpy.props.IntProperty(name="Smooth", default=0, min=0, max=3,
-                                         description="Subdivision levels of the branch mesh "
-                                                     "(OpenSubdiv)")
+    # the stored settings' definitions, checked against their limits in _add (bounds.py)
+    seed: bounds.operator_property(props.annotations["seed"])
+    leaves: bounds.operator_property(props.annotations["leaves"])
+    smooth_levels: bounds.operator_property(props.annotations["smooth_levels"])
 
     def execute(self, context):
         return errors.run(self, self._add, context)
 
     def _add(self, context):
         native.require()
+        bounds.check_operator(self, props.TussockTreeSettings, ("seed", "smooth_levels"))
         d = presets.load(self.preset)
         obj = bpy.data.objects.new(self.preset.replace("user:", "").replace("_", " ").title(),
                                    bpy.data.meshes.new("Tree"))
@@ -122,6 +120,7 @@ class TUSSOCK_OT_tree_apply_preset(bpy.types.Operator):
     def _apply(self, context):
         obj = context.active_object
         s = obj.tussock_tree
+        meshes.refuse_edit_mode(obj, "applying a preset")  # before the settings change
         d = presets.load(self.preset)
         native.require().tree_create(d)  # check it before changing anything
         s.is_tree = False

@@ -4,7 +4,7 @@ regrows the tree interactively."""
 
 import bpy
 
-from .. import native
+from .. import errors, meshes, native
 from . import params
 
 
@@ -14,12 +14,17 @@ def _rebuild(self, context):
     if settings is None or not settings.is_tree or not native.available():
         return
     from . import build
-    try:
-        build.rebuild(obj)
-    except (native.Error, ValueError) as exc:
-        settings.last_error = str(exc)  # keep the last good tree, show why
-    else:
-        settings.last_error = ""
+    # keep the last good tree and show why; in Edit Mode, regrow it once out of it
+    if not errors.in_update(settings, build.rebuild, obj) and meshes.in_edit_mode(obj):
+        meshes.redo_after_edit_mode(obj, regrow)
+
+
+def regrow(obj):
+    """Regrows the tree after Edit Mode; the panel's error goes when it works."""
+    settings = getattr(obj, "tussock_tree", None)
+    if settings is not None and settings.is_tree:
+        from . import build
+        errors.in_update(settings, build.rebuild, obj)
 
 
 _generated = params.make_classes(_rebuild)

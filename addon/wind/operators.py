@@ -6,9 +6,9 @@ import math
 import bpy
 import numpy as np
 
-from .. import errors, native
+from .. import bounds, errors, native
 from . import runtime
-from .props import MAX_WAVES
+from .props import MAX_WAVES, TussockWindSource
 
 DEBUG_IMAGE = "Tussock Wind"
 
@@ -19,19 +19,19 @@ class TUSSOCK_OT_add_wind_source(bpy.types.Operator):
     bl_label = "Add Wind Source"
     bl_options = {"REGISTER", "UNDO"}
 
-    strength: bpy.props.FloatProperty(name="Strength", default=0.8, min=0.0, max=1.0,
-                                      description="Normalised speed at the centre (0..1)")
-    radius: bpy.props.FloatProperty(name="Radius", default=1.5, min=0.001, unit="LENGTH",
-                                    description="Reach of the source's push")
-    interval: bpy.props.FloatProperty(name="Interval", default=0.0, min=0.0, unit="TIME_ABSOLUTE",
-                                      description="Seconds between pushes (0 = continuous)")
+    # the stored settings' definitions, checked against their limits in _add (bounds.py)
+    strength: bounds.operator_property(TussockWindSource.__annotations__["strength"])
+    radius: bounds.operator_property(TussockWindSource.__annotations__["radius"])
+    interval: bounds.operator_property(TussockWindSource.__annotations__["interval"])
 
     def execute(self, context):
         return errors.run(self, self._add, context)
 
     def _add(self, context):
-        # the native wind's limits (tsk_wind_source_validate), checked before anything is made:
-        # a NaN or huge value would otherwise sit in the scene and fail every wind frame
+        # the stored limits, then the native wind's (tsk_wind_source_validate), checked before
+        # anything is made: a NaN or huge value would otherwise sit in the scene and fail
+        # every wind frame
+        bounds.check_operator(self, TussockWindSource, ("strength", "radius", "interval"))
         for name, lo, hi in (("strength", 0.0, 1.0), ("radius", 1e-4, 1e6),
                              ("interval", 0.0, 1e6)):
             v = getattr(self, name)
