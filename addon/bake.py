@@ -310,14 +310,23 @@ def forget_outputs(scene, root):
 
 
 def prune_record(scene, root):
-    """After a failed bake: the record keeps only the paths that were written."""
-    data = _read_record(root)
-    kept = [p for p in data.get(scene.name, []) if os.path.exists(os.path.join(root, p))]
-    if kept == data.get(scene.name, kept):
-        return
-    forget_outputs(scene, root)
-    if kept:
-        record_outputs(scene, root, [os.path.join(root, p) for p in kept])
+    """After a failed bake: the folders it made but wrote nothing into are removed, and the
+    record keeps only the paths that hold something. Best effort: the bake's own failure is
+    what the artist must read, not a second one from a read-only or full disk."""
+    try:
+        data = _read_record(root)
+        for p in data.get(scene.name, []):
+            path = os.path.join(root, p)
+            if os.path.isdir(path) and not os.listdir(path):
+                os.rmdir(path)
+        kept = [p for p in data.get(scene.name, []) if os.path.exists(os.path.join(root, p))]
+        if kept == data.get(scene.name, kept):
+            return
+        forget_outputs(scene, root)
+        if kept:
+            record_outputs(scene, root, [os.path.join(root, p) for p in kept])
+    except OSError:
+        pass
 
 
 def recorded_outputs(scene, root):
