@@ -19,13 +19,15 @@ _CREATED = ("objects", "collections", "meshes", "curves", "hair_curves", "materi
             "node_groups", "images", "textures", "actions", "cameras", "lights")
 
 
-def _snapshot():
-    """Each datablock kind's members, by pointer (names can be taken over by new data)."""
+def snapshot():
+    """Each datablock kind's members, by pointer (names can be taken over by new data). A
+    modal operator takes one when it starts and, cancelled or failing in a later step,
+    gives it to remove_created(), as run() does within one call."""
     return {attr: {idb.as_pointer() for idb in getattr(bpy.data, attr)}
             for attr in _CREATED if hasattr(bpy.data, attr)}
 
 
-def _remove_created(before):
+def remove_created(before):
     """Removes the datablocks that are not in `before`; returns how many."""
     new = []
     for attr, old in before.items():
@@ -55,13 +57,13 @@ def message(exc):
 
 def run(operator, work, *args, **kwargs):
     """Calls work(*args, **kwargs) and returns its result set, or reports and cancels."""
-    before = _snapshot()
+    before = snapshot()
     try:
         return work(*args, **kwargs)
     except Exception as exc:  # noqa: BLE001 - whatever fails, the artist's scene comes first
         text = f"Tussock: {message(exc)}" if isinstance(exc, _KNOWN) else message(exc)
     try:
-        _remove_created(before)
+        remove_created(before)
     except Exception:  # noqa: BLE001 - report the first failure, not the clean-up's
         traceback.print_exc()
     operator.report({"ERROR"}, text)

@@ -5,6 +5,9 @@ as it was.
 Capture of a sequence of 60 depth images: progress advances; Esc creates no blade; run to its
 end, it creates the blades.
 
+Add Meadow of a 20 m square (its 1,024 chunk objects): progress advances; Esc adds nothing,
+not even orphan data; run to its end, it grows the meadow.
+
 An interactive bake of a tree and a simulated meadow that a keyframed ball crosses:
 
 - While it runs, its progress advances (the status bar and cursor show it; the numbers are
@@ -123,6 +126,45 @@ def capture_scenario():
         bpy.data.objects.remove(o)
 
 
+def growth_scenario():
+    """Add Meadow of 20 x 20 m (409,600 blades; its patch of 1,024 chunk objects is the long
+    part) from the Add menu's invoke: progress, Esc with nothing added, then a full run."""
+    from tussock.progress import STATE
+    for o in list(bpy.context.scene.objects):
+        bpy.data.objects.remove(o)
+    counts = lambda: (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections))  # noqa: E731,E501
+    before = (scene_state(), counts())
+
+    def grow():
+        with override():
+            return bpy.ops.tussock.add_meadow("INVOKE_DEFAULT", size=(20.0, 20.0),
+                                              density="UNIFORM")
+    expect("Add Meadow runs modal", grow() == {"RUNNING_MODAL"})
+    seen = set()
+    for _ in range(600):
+        if STATE["phase"] == "making the blade chunks":
+            seen.add(STATE["done"])
+        if len(seen) >= 2 or STATE["operator"] == "":
+            break
+        yield 0.005
+    expect("its progress advances while it makes the chunks",
+           len(seen) >= 2 and STATE["total"] == 1024, f"{sorted(seen)[:5]} {STATE}")
+    window().event_simulate(type="ESC", value="PRESS")
+    window().event_simulate(type="ESC", value="RELEASE")
+    ended = yield from wait_until(lambda: STATE["operator"] == "", 10, 0.05)
+    expect("Esc cancels Add Meadow", ended, str(STATE))
+    expect("the cancelled Add Meadow left the scene and the file's data as they were",
+           (scene_state(), counts()) == before, f"{(scene_state(), counts())} != {before}")
+    expect("Add Meadow runs modal again", grow() == {"RUNNING_MODAL"})
+    done = yield from wait_until(lambda: STATE["operator"] == "", 120, 0.1)
+    meadows = [o for o in bpy.context.scene.objects if o.get("tussock_meadow_object")]
+    expect("left to run, it grows the meadow",
+           done and len(meadows) == 1 and meadows[0]["tussock_blades"] == 409600,
+           f"{[(o.name, o.get('tussock_blades')) for o in meadows]}")
+    for o in list(bpy.context.scene.objects):
+        bpy.data.objects.remove(o)
+
+
 def start_bake():
     with override():
         return bpy.ops.tussock.bake("INVOKE_DEFAULT")
@@ -201,6 +243,7 @@ def main():
         harness.enable_addon()
         yield 0.2
         yield from capture_scenario()
+        yield from growth_scenario()
         yield from scenario()
     harness.window_main(steps())
 

@@ -274,13 +274,24 @@ def _give_viewport_off(skip):
 
 def write(obj, settings, key, patch, layout):
     """Writes computed meadow data into the object, its patch collection and modifier."""
+    steps = write_steps(obj, settings, key, patch, layout)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+def write_steps(obj, settings, key, patch, layout):
+    """write(), yielding (chunks made, chunks in all) while it builds the patch's chunk
+    objects, the long part of a large meadow; returns the layout's info."""
     meshes.refuse_edit_mode(obj, "rebuilding the meadow")
     if patch is not None:
         coll = patch_collection(obj)
-        chunk_data.build_chunks(coll, obj.name, patch["positions"], patch["tris"],
-                                patch["uvs"], patch["blade_index"], patch["blade_rand"],
-                                patch["blade_count"], settings.chunk_blades,
-                                material.grass_material())
+        yield from chunk_data.build_chunks_steps(
+            coll, obj.name, patch["positions"], patch["tris"], patch["uvs"],
+            patch["blade_index"], patch["blade_rand"], patch["blade_count"],
+            settings.chunk_blades, material.grass_material())
         obj["tussock_patch_key"] = key
     coll = patch_collection(obj)
     chunk_data.write_points(obj.data, layout["origins"], layout["chunk"],

@@ -34,6 +34,17 @@ def build_chunks(collection, meadow_name, positions, tris, uvs, blade_index, bla
     uvs (V, 2), tris (T, 3) describe the expanded patch where blade b owns a contiguous run
     of vertices and triangles; blade_index (V,) says whose vertex it is; blade_rand
     (blade_count,) is a per-blade random value in [0, 1) for colour variation."""
+    steps = build_chunks_steps(collection, meadow_name, positions, tris, uvs, blade_index,
+                               blade_rand, blade_count, chunk_blades, material)
+    for _ in steps:
+        pass
+    return blade_count // chunk_blades
+
+
+def build_chunks_steps(collection, meadow_name, positions, tris, uvs, blade_index, blade_rand,
+                       blade_count, chunk_blades, material):
+    """build_chunks, yielding (chunks made, chunks in all) after each chunk: an interactive
+    Add Meadow shows its progress and can stop between chunks."""
     for obj in list(collection.objects):
         mesh = obj.data
         bpy.data.objects.remove(obj)
@@ -51,7 +62,7 @@ def build_chunks(collection, meadow_name, positions, tris, uvs, blade_index, bla
         mesh.materials.append(material)
         obj = bpy.data.objects.new(name, mesh)
         collection.objects.link(obj)
-    return chunks
+        yield c + 1, chunks
 
 
 def write_viewport_off(mesh, viewport_off):
