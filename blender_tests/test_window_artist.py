@@ -195,7 +195,8 @@ def scenario():
     if at is None:
         return
     click(at)
-    yield 1.0
+    from tussock import progress
+    yield from wait_until(lambda: meadows() and progress.STATE["operator"] == "", 60, 0.2)
     expect("its click added a meadow over the selected ground", len(meadows()) == 1,
            str([o.name for o in bpy.context.scene.objects]))
     if not meadows():
