@@ -270,6 +270,29 @@ def select_only(obj):
     _bpy().context.view_layer.objects.active = obj
 
 
+def meadow_crossed_by_ball(frames):
+    """The suite's small simulated meadow: a 2 m plane of 32-blade tiles (every blade shown)
+    that a ball of radius 0.2 m, keyframed from frame 1 to `frames`, crosses; the ball is the
+    collection "Colliders". Returns (meadow, ball)."""
+    bpy = _bpy()
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    assert bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=32, density="UNIFORM",
+                                      display=1.0) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.2, location=(-0.9, -0.1, 0.15))
+    ball = bpy.context.active_object
+    ball.keyframe_insert("location", frame=1)
+    ball.location = (0.7, 0.1, 0.15)
+    ball.keyframe_insert("location", frame=frames)
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    coll.objects.link(ball)
+    meadow.tussock_meadow.colliders = coll
+    meadow.tussock_meadow.use_simulation = True
+    return meadow, ball
+
+
 def _bpy():
     import bpy
     return bpy

@@ -225,21 +225,8 @@ def make_meadow_scene(folder, frames=FRAMES):
     breeze, and a small Cycles camera looking at the ball's path; returns its path."""
     scene = empty_scene(frames)
     scene.tussock_wind.base_speed = 3.0
-    bpy.ops.mesh.primitive_plane_add(size=2.0)
-    assert bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=32, density="UNIFORM",
-                                      display=1.0) == {"FINISHED"}
-    meadow = bpy.context.active_object
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.2, location=(-0.9, -0.1, 0.15))
-    ball = bpy.context.active_object
-    ball.keyframe_insert("location", frame=1)
-    ball.location = (0.7, 0.1, 0.15)
-    ball.keyframe_insert("location", frame=frames)
+    meadow, ball = harness.meadow_crossed_by_ball(frames)
     ball.hide_render = True  # the picture shows the blades it pushed
-    coll = bpy.data.collections.new("Colliders")
-    scene.collection.children.link(coll)
-    coll.objects.link(ball)
-    meadow.tussock_meadow.colliders = coll
-    meadow.tussock_meadow.use_simulation = True
     return save_small_render_scene(scene, folder, (0.0, -1.6, 0.9), (1.05, 0.0, 0.0))
 
 

@@ -255,20 +255,7 @@ def keyed_meadow_scene(frames, fluid=False):
         w.use_fluid, w.fluid_resolution, w.fluid_size = True, 48, 6.0
         assert bpy.ops.tussock.add_wind_source(strength=1.0, radius=1.0) == {"FINISHED"}
         bpy.context.active_object.location = (-1.0, 0.0, 0.0)
-    bpy.ops.mesh.primitive_plane_add(size=2.0)
-    assert bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=32, density="UNIFORM",
-                                      display=1.0) == {"FINISHED"}
-    meadow = bpy.context.active_object
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.2, location=(-0.9, -0.1, 0.15))
-    ball = bpy.context.active_object
-    ball.keyframe_insert("location", frame=1)
-    ball.location = (0.7, 0.1, 0.15)
-    ball.keyframe_insert("location", frame=frames)
-    coll = bpy.data.collections.new("Colliders")
-    scene.collection.children.link(coll)
-    coll.objects.link(ball)
-    meadow.tussock_meadow.colliders = coll
-    meadow.tussock_meadow.use_simulation = True
+    meadow, _ball = harness.meadow_crossed_by_ball(frames)
     return scene, meadow
 
 
@@ -283,13 +270,13 @@ def test_keyframed_breeze_on_a_simulated_meadow_is_baked_per_frame():
     live = {}
     for f in range(1, frames + 1):  # the live simulation, frame by frame
         scene.frame_set(f)
-        tiles, counts = simulate._cache[meadow.name].runner.active()
+        tiles, counts = simulate.playback_of(meadow).runner.active()
         live[f] = (tiles.copy(), counts.copy(), simulate.active_ribbons(meadow).copy())
     scene.frame_set(1)
     assert bpy.ops.tussock.bake(save=True) == {"FINISHED"}
     child = bpy.data.objects["Meadow blades"]
     baked_tiles = np.array(child["tussock_baked_tiles"], np.int32)
-    rest = meadow_baking.rest_layout(simulate._cache[meadow.name].runner, baked_tiles)
+    rest = meadow_baking.rest_layout(simulate.playback_of(meadow).runner, baked_tiles)
     floats = 2 * 16 * 3  # per blade ribbon (16 knots)
     offset = np.concatenate([[0], np.cumsum(rest["counts"])]) * floats
     compared = 0

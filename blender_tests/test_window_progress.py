@@ -49,20 +49,7 @@ def make_scene():
     assert bpy.ops.tussock.add_tree(preset="quaking_aspen", seed=3, leaves=False) == {"FINISHED"}
     tree = bpy.context.active_object
     tree.location.x = 6.0
-    bpy.ops.mesh.primitive_plane_add(size=2.0)
-    assert bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=32, density="UNIFORM",
-                                      display=1.0) == {"FINISHED"}
-    meadow = bpy.context.active_object
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.2, location=(-0.9, -0.1, 0.15))
-    ball = bpy.context.active_object
-    ball.keyframe_insert("location", frame=1)
-    ball.location = (0.7, 0.1, 0.15)
-    ball.keyframe_insert("location", frame=FRAMES)
-    coll = bpy.data.collections.new("Colliders")
-    scene.collection.children.link(coll)
-    coll.objects.link(ball)
-    meadow.tussock_meadow.colliders = coll
-    meadow.tussock_meadow.use_simulation = True
+    meadow, _ball = harness.meadow_crossed_by_ball(FRAMES)
     scene.frame_set(SHOWN)
     os.makedirs(TMP, exist_ok=True)
     bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "bake.blend"))
@@ -82,6 +69,15 @@ def cache_files():
     for dirpath, _, files in os.walk(root):
         out += [os.path.relpath(os.path.join(dirpath, f), root) for f in files]
     return sorted(out)
+
+
+def cancel_with_esc(what):
+    """Esc pressed and released (real key events); the running operator must end."""
+    from tussock.progress import STATE
+    window().event_simulate(type="ESC", value="PRESS")
+    window().event_simulate(type="ESC", value="RELEASE")
+    ended = yield from wait_until(lambda: STATE["operator"] == "", 10, 0.05)
+    expect(what, ended, str(STATE))
 
 
 def capture_scenario():
@@ -111,10 +107,7 @@ def capture_scenario():
         yield 0.005
     expect("capture progress advances", len(seen - {0}) >= 2 and STATE["total"] == 60,
            f"{sorted(seen)} {STATE}")
-    window().event_simulate(type="ESC", value="PRESS")
-    window().event_simulate(type="ESC", value="RELEASE")
-    ended = yield from wait_until(lambda: STATE["operator"] == "", 10, 0.05)
-    expect("Esc cancels the capture", ended, str(STATE))
+    yield from cancel_with_esc("Esc cancels the capture")
     expect("the cancelled capture left the scene as it was", (scene_state(), blades()) == before,
            f"{(scene_state(), blades())} != {before}")
     with override():
@@ -149,10 +142,7 @@ def growth_scenario():
         yield 0.005
     expect("its progress advances while it makes the chunks",
            len(seen) >= 2 and STATE["total"] == 1024, f"{sorted(seen)[:5]} {STATE}")
-    window().event_simulate(type="ESC", value="PRESS")
-    window().event_simulate(type="ESC", value="RELEASE")
-    ended = yield from wait_until(lambda: STATE["operator"] == "", 10, 0.05)
-    expect("Esc cancels Add Meadow", ended, str(STATE))
+    yield from cancel_with_esc("Esc cancels Add Meadow")
     expect("the cancelled Add Meadow left the scene and the file's data as they were",
            (scene_state(), counts()) == before, f"{(scene_state(), counts())} != {before}")
     expect("Add Meadow runs modal again", grow() == {"RUNNING_MODAL"})
@@ -193,10 +183,7 @@ def scenario():
            str(seen[-5:]))
     expect("Blender runs meanwhile (the frame shown follows the bake)",
            shown - {before[0]}, str(shown))
-    window().event_simulate(type="ESC", value="PRESS")
-    window().event_simulate(type="ESC", value="RELEASE")
-    ended = yield from wait_until(idle, 10, 0.05)
-    expect("Esc cancels while frames are played", ended, str(STATE))
+    yield from cancel_with_esc("Esc cancels while frames are played")
     expect("the cancelled bake left the scene as it was", scene_state() == before,
            f"{scene_state()} != {before}")
 
@@ -204,10 +191,7 @@ def scenario():
     expect("bake runs modal again", start_bake() == {"RUNNING_MODAL"})
     ok = yield from wait_until(lambda: baking() and STATE["done"] >= 2, 60, 0.02)
     expect("progress advances while frames are baked", ok, str(STATE))
-    window().event_simulate(type="ESC", value="PRESS")
-    window().event_simulate(type="ESC", value="RELEASE")
-    ended = yield from wait_until(idle, 10, 0.05)
-    expect("Esc cancels while frames are baked", ended, str(STATE))
+    yield from cancel_with_esc("Esc cancels while frames are baked")
     expect("that cancelled bake left the scene as it was too", scene_state() == before,
            f"{scene_state()} != {before}")
     expect("its frames are kept for the next bake",
