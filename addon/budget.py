@@ -61,13 +61,24 @@ def _mib(n):
 def check(what, tussock_bytes, blender_bytes, advice):
     """Raises ValueError when Tussock's and Blender's estimates together exceed the memory
     budget, in the native checks' words ("needs about N MiB, more than the memory budget of
-    M MiB") with the two parts and what to do."""
+    M MiB") with the two parts and what to do; else returns (the estimate, the budget)."""
     budget = native.require().memory_budget()
     total = tussock_bytes + blender_bytes
     if total > budget:
         raise ValueError(f"{what}: needs about {_mib(total)} (Tussock {_mib(tussock_bytes)}, "
                          f"Blender {_mib(blender_bytes)}), more than the memory budget of "
                          f"{_mib(budget)}: {advice}")
+    return total, budget
+
+
+def note(estimate):
+    """What to tell the artist about an accepted estimate (total, budget): '' when it is
+    small, else how much memory the result will hold, so a large one is never silent."""
+    total, budget = estimate
+    if total <= budget / 4:
+        return ""
+    return (f"it will hold about {_mib(total)} of memory ({100 * total / budget:.0f} % of "
+            f"Tussock's budget of {_mib(budget)})")
 
 
 def tree_counts(vertices, quads, cage_vertices, cage_quads, smooth_levels):
@@ -99,5 +110,5 @@ def check_tree(vertices, quads, cage_vertices, cage_quads, smooth_levels):
 def check_meadow(tiles, instances, blades):
     tussock = tiles * TUSSOCK_PER_TILE + instances * TUSSOCK_PER_INSTANCE
     blender = instances * BLENDER_PER_INSTANCE
-    check(f"the meadow ({blades:,} blades in {instances:,} instances)", tussock, blender,
-          "cover less ground, or use larger tiles, fewer blades per tile or larger chunks")
+    return check(f"the meadow ({blades:,} blades in {instances:,} instances)", tussock, blender,
+                 "cover less ground, or use larger tiles, fewer blades per tile or larger chunks")

@@ -6,6 +6,7 @@ OpenSubdiv or Blender start on it, and the scene stays as it was."""
 import os
 import sys
 import time
+import types
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import harness  # noqa: E402
@@ -100,6 +101,18 @@ def test_the_64M_blade_meadow_counts_what_blender_holds_for_it():
         lib.set_memory_budget(0)
     assert secs < 5.0, secs
     assert not any(o.get("tussock_meadow_object") for o in bpy.data.objects)
+    # with this machine's default budget it fits (the measured costs, not inflated ones),
+    # but not silently: Add Meadow's report says how much memory it will hold
+    from tussock.meadow import build
+    settings = types.SimpleNamespace(ground=None, models=None, density_image=None,
+                                     **{k: v for k, v in MEADOW_64M.items() if k != "size"},
+                                     patch_blades=16384, scale_min=0.8, scale_max=1.2,
+                                     noise_scale=8.0, noise_octaves=3,
+                                     noise_threshold=0.2, seed=1, display=0.25)
+    layout = build.compute_layout(settings, (0.0, 0.0, 0.0), MEADOW_64M["size"])
+    assert layout["info"]["blade_count"] == 64_000_000
+    note = budget.note(layout["memory"])
+    assert "it will hold about 8," in note and "% of Tussock's budget" in note, note
 
 
 @test

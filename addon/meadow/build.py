@@ -185,11 +185,11 @@ def compute_layout(settings, origin, size):
     meadow = make_meadow(settings, origin, size)
     info = lib.meadow_info(meadow)
     n = info["chunk_instances"]
-    budget.check_meadow(info["tile_count"], n, info["blade_count"])  # Blender's cost too
+    memory = budget.check_meadow(info["tile_count"], n, info["blade_count"])  # Blender's too
     origins = np.empty(n * 3, np.float32)
     chunk = np.empty(n, np.int32)
     lib.meadow_chunk_instances(meadow, origins, chunk)
-    return dict(info=info, origins=origins.reshape(-1, 3), chunk=chunk)
+    return dict(info=info, origins=origins.reshape(-1, 3), chunk=chunk, memory=memory)
 
 
 PATCH_SUFFIX = " patch"

@@ -6,7 +6,7 @@ import types
 
 import bpy
 
-from .. import bounds, errors, progress
+from .. import bounds, budget, errors, progress
 from . import build, identity
 from .props import TussockMeadowSettings
 
@@ -111,8 +111,10 @@ class TUSSOCK_OT_add_meadow(bpy.types.Operator):
             o.select_set(False)
         obj.select_set(True)
         context.view_layer.objects.active = obj
-        self.report({"INFO"}, f"Meadow: {info['blade_count']:,} blades in "
-                              f"{info['nonempty_tiles']:,} tiles")
+        note = budget.note(layout["memory"])
+        self.report({"WARNING"} if note else {"INFO"},
+                    f"Meadow: {info['blade_count']:,} blades in {info['nonempty_tiles']:,} "
+                    "tiles" + (f"; {note}" if note else ""))
         return {"FINISHED"}
 
     # ---- interactive: in slices under a modal timer, with progress; Esc cancels ----------
