@@ -803,7 +803,7 @@ def test_any_exception_mid_operator_cancels_with_the_scene_unchanged():
     assert ops.capture_blades(source="FILES", filepath=PNG) == {"FINISHED"}
     fresh()  # the meadow and the tree in a scene of their own
     n = len(bpy.data.objects)
-    with _FailOnCall(meadow_build, "write", KeyError("Socket_3")):
+    with _FailOnCall(meadow_build, "write_steps", KeyError("Socket_3")):
         expect_cancel(ops.add_meadow, "KeyError", size=(2.0, 2.0))
     with _FailOnCall(tree_build, "write_posed", AttributeError("no fcurves")):
         expect_cancel(ops.add_tree, "AttributeError", preset="black_tupelo")
