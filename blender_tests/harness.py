@@ -270,6 +270,34 @@ def select_only(obj):
     _bpy().context.view_layer.objects.active = obj
 
 
+def empty_scene(frames):
+    """Factory settings with Tussock on and nothing of an earlier test cached (wind, trees,
+    meadow simulations): an empty scene of frames 1..frames."""
+    bpy = _bpy()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    enable_addon()
+    from tussock.meadow import simulate
+    from tussock.trees import build as tree_build
+    from tussock.wind import runtime
+    runtime.clear()
+    tree_build.forget()
+    simulate.forget()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, frames
+    return scene
+
+
+def select_objects(objs):
+    """Selects exactly `objs` (a list), the first of them active; an empty list leaves the
+    active object as it is."""
+    for o in _bpy().context.scene.objects:
+        o.select_set(False)
+    for o in objs:
+        o.select_set(True)
+    if objs:
+        _bpy().context.view_layer.objects.active = objs[0]
+
+
 def meadow_crossed_by_ball(frames):
     """The suite's small simulated meadow: a 2 m plane of 32-blade tiles (every blade shown)
     that a ball of radius 0.2 m, keyframed from frame 1 to `frames`, crosses; the ball is the

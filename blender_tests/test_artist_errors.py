@@ -150,17 +150,8 @@ def test_wind_source_arguments_out_of_the_stored_range_are_refused():
 
 # ---- 2. errors where the artist sees them -----------------------------------------------------
 
-def select_only(objs):
-    for o in bpy.context.scene.objects:
-        o.select_set(False)
-    for o in objs:
-        o.select_set(True)
-    if objs:
-        bpy.context.view_layer.objects.active = objs[0]
-
-
 def enter_edit_mode(obj):
-    select_only([obj])
+    harness.select_objects([obj])
     bpy.ops.object.mode_set(mode="EDIT")
     assert obj.data.is_editmode
 
@@ -207,7 +198,7 @@ def test_a_tree_in_edit_mode_keeps_its_mesh_and_says_why_until_it_leaves():
                    (ops.add_meadow, SMALL_MEADOW), (ops.add_wind_source, {}),
                    (ops.capture_blades, dict(source="FILES", filepath=DEPTH))):
         assert op(**kw) == {"FINISHED"}, op
-    select_only([tree])
+    harness.select_objects([tree])
     bpy.ops.object.mode_set(mode="OBJECT")
     assert vertex_digest(tree)[0] == rest[0], (vertex_digest(tree), rest)  # never emptied
     meshes._poll_edit_mode()

@@ -197,27 +197,18 @@ def blade_object(name, co, widths):
     return obj
 
 
-def select_only(objs):
-    for o in bpy.context.scene.objects:
-        o.select_set(False)
-    for o in objs:
-        o.select_set(True)
-    if objs:
-        bpy.context.view_layer.objects.active = objs[0]
-
-
 @test
 def test_refine_bad_selection_and_parameters_cancel():
     blades = captured_blades()
     assert blades, "the sample capture gave no blades"
     op = ops.refine_blades
-    select_only([])                                            # empty selection
+    harness.select_objects([])                                            # empty selection
     expect_cancel(op, "select one or more Tussock blades")
     cube = bpy.data.objects.new("Not a blade", bpy.data.meshes.new("Not a blade"))
     bpy.context.scene.collection.objects.link(cube)
-    select_only([cube])                                        # wrong selection
+    harness.select_objects([cube])                                        # wrong selection
     expect_cancel(op, "select one or more Tussock blades")
-    select_only(blades[:1])
+    harness.select_objects(blades[:1])
     expect_cancel(op, "mu", mu=NAN)                            # NaN parameter
     expect_cancel(op, "target_knots", custom_knots=1)          # below the minimum
     n = len(blades[0].data.vertices)
@@ -241,7 +232,7 @@ def test_refine_corrupt_blades_cancel():
         ("zero length", np.zeros((8, 3)), [0.01] * 8),
     ]:
         obj = blade_object(name, co, w)
-        select_only([obj])
+        harness.select_objects([obj])
         for method in ("SIMILARITY", "UNIFORM"):
             expect_cancel(op, "", method=method, custom_knots=4)
 
@@ -291,9 +282,9 @@ def test_meadow_bad_ground_and_density_cancel():
     mesh.from_pydata([(0, 0, 0)], [], [])
     ground = bpy.data.objects.new("Point", mesh)
     bpy.context.scene.collection.objects.link(ground)
-    select_only([ground])
+    harness.select_objects([ground])
     expect_cancel(op, "", patch_blades=256)
-    select_only([])
+    harness.select_objects([])
     # painted density without an image
     expect_cancel(op, "density image", size=(2.0, 2.0), density="IMAGE", patch_blades=256)
 

@@ -23,8 +23,6 @@ harness.enable_addon()
 from tussock import bake, native  # noqa: E402
 from tussock.meadow import baking as meadow_baking  # noqa: E402
 from tussock.meadow import simulate  # noqa: E402
-from tussock.trees import build as tree_build  # noqa: E402
-from tussock.wind import runtime  # noqa: E402
 
 lib = native.require()
 TMP = os.environ.get("TSK_TEST_TMP", "/tmp")
@@ -52,21 +50,9 @@ def save_small_render_scene(scene, folder, cam_location, cam_rotation):
     return path
 
 
-def empty_scene(frames):
-    """Factory settings with Tussock on and nothing of an earlier test cached: frames 1..frames."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    harness.enable_addon()
-    runtime.clear()
-    tree_build.forget()
-    simulate.forget()
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = 1, frames
-    return scene
-
-
 def make_scene(folder, frames=FRAMES, preset="quaking_aspen"):
     """A saved .blend with a swaying tree and a small Cycles camera; returns its path."""
-    scene = empty_scene(frames)
+    scene = harness.empty_scene(frames)
     w = scene.tussock_wind
     w.base_speed = 4.0
     wave = w.waves.add()
@@ -223,7 +209,7 @@ def test_version_missing_frame_and_range_change_are_reported():
 def make_meadow_scene(folder, frames=FRAMES):
     """A saved .blend with a small simulated meadow that a keyframed ball crosses, in a
     breeze, and a small Cycles camera looking at the ball's path; returns its path."""
-    scene = empty_scene(frames)
+    scene = harness.empty_scene(frames)
     scene.tussock_wind.base_speed = 3.0
     meadow, ball = harness.meadow_crossed_by_ball(frames)
     ball.hide_render = True  # the picture shows the blades it pushed

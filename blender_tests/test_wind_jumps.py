@@ -21,21 +21,13 @@ harness.enable_addon()
 from tussock import compat, native  # noqa: E402
 from tussock.meadow import baking as meadow_baking  # noqa: E402
 from tussock.meadow import simulate  # noqa: E402
-from tussock.trees import build as tree_build  # noqa: E402
 from tussock.wind import runtime  # noqa: E402
 
 TMP = os.environ.get("TSK_TEST_TMP", "/tmp")
 
 
 def fresh(frames=250):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    harness.enable_addon()
-    runtime.clear()
-    tree_build.forget()
-    simulate.forget()
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = 1, frames
-    return scene
+    return harness.empty_scene(frames)
 
 
 def fluid_scene(resolution):

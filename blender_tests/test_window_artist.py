@@ -258,7 +258,7 @@ def scenario():
     if at is None:
         return
     click(at)
-    from tussock import bake, progress
+    from tussock import bake
     done = yield from wait_until(
         lambda: any(o.modifiers.get(bake.MODIFIER) for o in scene.objects)
         and progress.STATE["operator"] == "", 120, 0.2)
