@@ -1,6 +1,7 @@
 """Which meadow is which (issue 32): a simulated meadow renamed while a ball pushes through
 its blades keeps one set of blade objects and one simulation; a deleted meadow's simulation
-is freed; a meadow linked from another file beside a local meadow of the same name (and the
+is freed with its blades objects; blades objects duplicated with their meadow go to the
+copy, and duplicated alone become plain meshes; a meadow linked from another file beside a local meadow of the same name (and the
 same id) simulates on its own and leaves the local one's blades as they are without it; and
 re-refined blade models reach both the instances and the simulation."""
 
@@ -141,9 +142,21 @@ def test_deleting_a_simulated_meadow_frees_its_simulation():
         o.select_set(False)
     other.select_set(True)
     bpy.context.view_layer.objects.active = other
+    mine = sorted(o.name for o in blade_objects() if o.name.startswith("Meadow blades"))
+    theirs = [o.name for o in blade_objects() if o.name.startswith("Other blades")]
+    assert len(mine) == len(theirs) == 2 * simulate.CHUNKS, (mine, theirs)
+    patch = bpy.data.collections["Other patch"]
+    patch_objects = [o.name for o in patch.objects]
     assert bpy.ops.object.delete() == {"FINISHED"}
     bpy.context.view_layer.update()  # the depsgraph handler frees it, without playing
     assert simulate.live_count() == 1, simulate.live_count()
+    # and its blades objects (frozen in the scene otherwise), their meshes and its patch go
+    # with it; the other meadow's stay
+    assert sorted(o.name for o in blade_objects()) == mine, [o.name for o in blade_objects()]
+    assert not any(m.name.startswith("Other blades") for m in bpy.data.meshes)
+    assert "Other patch" not in bpy.data.collections
+    assert not any(n in bpy.data.objects for n in patch_objects)
+    assert "Meadow patch" in bpy.data.collections
     freed = held - lib.allocated_bytes()
     assert abs(freed - per_meadow) < 0.01 * per_meadow, (freed, per_meadow)
     play()
@@ -192,6 +205,76 @@ def test_a_duplicated_meadow_gets_its_own_id_simulation_and_blades():
     dup.tussock_meadow.seed = 7
     assert sorted(o.name for o in bpy.data.collections["Meadow patch"].objects) == chunks
     assert len(bpy.data.collections[f"{dup.name} patch"].objects) == len(chunks)
+
+
+def select(objs):
+    for o in bpy.context.selected_objects:
+        o.select_set(False)
+    for o in objs:
+        o.select_set(True)
+    bpy.context.view_layer.objects.active = objs[0]
+
+
+def vertices_of(obj):
+    v = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", v)
+    return v
+
+
+@test
+def test_blades_duplicated_with_their_meadow_go_to_the_copy_and_alone_become_plain():
+    fresh()
+    meadow = meadow_with_ball()
+    play(range(1, 7))
+    own = sorted(blade_objects(), key=lambda o: o.name)
+    assert len(own) == 2 * simulate.CHUNKS
+    # Shift+D of the meadow with its blades objects (a box selection of the lot)
+    select([meadow] + own)
+    assert bpy.ops.object.duplicate() == {"FINISHED"}
+    dup = next(o for o in bpy.context.selected_objects if o.get("tussock_meadow_object"))
+    bpy.context.view_layer.update()
+    play()
+    dup_name = dup.name
+    objs = blade_objects()
+    # two sets, each named after its meadow and owned by it: nothing frozen, nothing extra
+    # (the render chunks are disabled in the viewport, so Shift+D leaves them, and the copy
+    # makes its own when its Viewport display leaves blades out)
+    copied = [o for o in own if not o.hide_viewport]
+    assert len(copied) == simulate.CHUNKS
+    assert len(objs) == len(own) + len(copied), sorted(o.name for o in objs)
+    for m, names in ((meadow, [o.name for o in own]),
+                     (dup, [o.name.replace("Meadow", dup_name, 1) for o in copied])):
+        mine = [o for o in objs if o.get(identity.OWNER) == m[identity.ID]]
+        assert sorted(o.name for o in mine) == sorted(names), sorted(o.name for o in mine)
+        assert drawn_vertices(mine) > 0
+    assert dup_name.startswith("Meadow.") and simulate.live_count() == 2
+    first_dup = simulate.blades_object(dup)
+    assert first_dup in bpy.context.selected_objects  # a copy, not a blades object made anew
+    # the copy plays its own simulation: its blades move with the ball as the original's
+    assert np.array_equal(vertices_of(first_dup), vertices_of(simulate.blades_object(meadow)))
+    # Shift+D of blades alone, and Alt+D: the artist's still copies, never written again
+    first = simulate.blades_object(meadow)
+    select([first])
+    assert bpy.ops.object.duplicate() == {"FINISHED"}
+    still = bpy.context.active_object
+    select([first])
+    assert bpy.ops.object.duplicate(linked=True) == {"FINISHED"}
+    shared = bpy.context.active_object
+    assert shared.data == first.data
+    bpy.context.view_layer.update()
+    for o in (still, shared):
+        assert not any(tag in o for tag in simulate._OWN_TAGS), o.keys()
+    kept = vertices_of(still)
+    play(range(FRAMES, 0, -1))
+    assert np.array_equal(vertices_of(still), kept)  # frozen on purpose: a copy of a moment
+    assert np.array_equal(vertices_of(shared), vertices_of(first))  # shows the live mesh
+    assert len([o for o in blade_objects() if o.get(identity.OWNER)]) == len(objs)
+    # the original is renamed afterwards: its set follows, the copies do not get in the way
+    meadow.name = "Lawn"
+    play(range(1, 4))
+    assert sorted(o.name for o in blade_objects() if o.get(identity.OWNER) == meadow[identity.ID]) \
+        == sorted(o.name.replace("Meadow", "Lawn", 1) for o in own)
+    assert meadow.tussock_meadow.last_error == "" and dup.tussock_meadow.last_error == ""
 
 
 @test

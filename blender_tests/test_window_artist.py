@@ -266,6 +266,34 @@ def scenario():
     expect("its click baked the meadow's simulated blades", done and baked,
            str([(o.name, o.modifiers.keys()) for o in scene.objects]))
 
+    # the meadow deleted with the Delete key: its blades objects go with it; Ctrl+Z brings
+    # back the meadow and its blades, which play on
+    def blades():  # (undo replaces the scene: looked up anew)
+        return sorted(o.name for o in bpy.context.scene.objects if "tussock_meadow_name" in o)
+    before = blades()
+    for o in scene.objects:
+        o.select_set(o == meadow)
+    bpy.context.view_layer.objects.active = meadow
+    for key, ctrl in (("DEL", False), ("Z", True)):
+        win.event_simulate(type="MOUSEMOVE", value="NOTHING", x=x, y=y)
+        win.event_simulate(type=key, value="PRESS", x=x, y=y, ctrl=ctrl)
+        win.event_simulate(type=key, value="RELEASE", x=x, y=y, ctrl=ctrl)
+        if key == "DEL":
+            gone = yield from wait_until(lambda: not meadows() and not blades(), 10, 0.1)
+            expect("the Delete key removed the meadow with its blades objects",
+                   gone and before, str(blades()))
+        else:
+            yield from wait_until(lambda: meadows() and blades() == before, 10, 0.1)
+    expect("Ctrl+Z brought back the meadow and its blades objects",
+           len(meadows()) == 1 and blades() == before, f"{len(meadows())} {blades()}")
+    win.event_simulate(type="LEFT_ARROW", value="PRESS", x=x, y=y)
+    win.event_simulate(type="LEFT_ARROW", value="RELEASE", x=x, y=y)
+    yield 0.5
+    errors = [m.tussock_meadow.last_error for m in meadows() if m.tussock_meadow.last_error]
+    scene = bpy.context.scene
+    expect("the meadow plays on after the undo", scene.frame_current == FRAMES - 1
+           and not errors and blades() == before, f"{scene.frame_current} {errors}")
+
 
 def main():
     def steps():

@@ -16,6 +16,9 @@ OWNER = "tussock_meadow_key"  # on each object and collection a meadow owns: the
 
 _holder = {}  # key -> as_pointer() of the object that held it at the last scan
 _scanned = None  # len(bpy.data.objects) at the last scan
+born = {}  # fresh key given by the last scan -> the key its meadow was copied with
+gone = set()  # keys of meadows that a scan found and a later one did not (deleted ones)
+_live = set()  # the keys the last scan found
 
 
 def key(obj):
@@ -55,6 +58,7 @@ def scan(force=False):
     if not force and count == _scanned:
         return None
     _scanned = count
+    born.clear()
     found = {}
     for obj in meadows():  # one entry per meadow object, not per blade
         found.setdefault(key(obj), []).append(obj)
@@ -63,11 +67,17 @@ def scan(force=False):
             objs.sort(key=lambda o: (o.as_pointer() != _holder.get(k), not _blades_named_for(o, k),
                                      o.name))
             for other in objs[1:]:
-                found[give_id(other)] = [other]
+                fresh = give_id(other)
+                found[fresh] = [other]
+                born[fresh] = k
             found[k] = objs[:1]
         _holder[k] = found[k][0].as_pointer()
     for k in [k for k in _holder if k not in found]:
         del _holder[k]
+    gone.update(_live.difference(found))  # (a key given to a meadow still being made is
+    gone.difference_update(found)         # not a meadow's yet); back by undo
+    _live.clear()
+    _live.update(found)
     return set(found)
 
 
@@ -115,4 +125,7 @@ def adopt(obj, thing, old_name):
 def forget():
     global _scanned
     _holder.clear()
+    born.clear()
+    gone.clear()
+    _live.clear()
     _scanned = None

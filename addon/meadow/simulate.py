@@ -898,6 +898,65 @@ def sync(force=False):
         del _cache[which]  # the native solver, patch and snapshots go with it
     for which in [k for k in _hidden_written if k not in live]:
         del _hidden_written[which]
+    _tidy_owned(live)
+
+
+_OWN_TAGS = (identity.OWNER, "tussock_meadow_name", "tussock_simulated_blades",
+             "tussock_blades_chunk", "tussock_blades_render_chunk")
+
+
+def _remove_object(o):
+    mesh = o.data
+    bpy.data.objects.remove(o)
+    if mesh is not None and mesh.users == 0:
+        bpy.data.meshes.remove(mesh)
+
+
+def _tidy_owned(live):
+    """What meadows owned outlives them otherwise, frozen in the scene: the simulated-blade
+    objects of a deleted meadow (identity.gone: one that was there, not one being made by
+    Add Meadow) are removed, with its patch once nothing instances it. Copies
+    of blade objects (Shift+D of a meadow with its blades) go to the meadow copied with them,
+    one copy per chunk, renamed after it at the next frame; copies of blades alone (or
+    sharing their mesh, Alt+D) become the artist's plain meshes, which Tussock never writes.
+    Runs when objects were made or removed (one walk over the file's objects)."""
+    groups = {}
+    for o in bpy.data.objects:
+        k = o.get(identity.OWNER)
+        if k is not None and o.library is None and _role(o) != -1:
+            groups.setdefault((k, _role(o)), []).append(o)
+    heirs = {}
+    for fresh, old in identity.born.items():
+        heirs.setdefault(old, []).append(fresh)
+    taken = set(groups)
+    for (k, role), objs in groups.items():
+        if k not in live:
+            if k in identity.gone:
+                for o in objs:
+                    _remove_object(o)
+            continue
+        if len(objs) == 1:
+            continue
+        meadow = identity.find(k)
+        name = chunk_name(meadow, role) if meadow is not None else None
+        objs.sort(key=lambda o: (o.name != name, o.name))  # the original holds the name
+        for o in objs[1:]:
+            heir = next((h for h in sorted(heirs.get(k, ()))
+                         if (h, role) not in taken), None)
+            if heir is not None and o.data is not None and o.data.users == 1:
+                o[identity.OWNER] = heir
+                taken.add((heir, role))
+            else:
+                for tag in _OWN_TAGS:
+                    if tag in o:
+                        del o[tag]
+    for coll in list(bpy.data.collections):
+        k = coll.get(identity.OWNER)
+        if k in identity.gone and coll.users == 0 and coll.library is None:
+            for o in list(coll.objects):
+                if len(o.users_collection) == 1:
+                    _remove_object(o)
+            bpy.data.collections.remove(coll)
 
 
 _followed = {}  # meadow key -> the name its objects were last renamed after
@@ -936,6 +995,19 @@ def _on_load(*_args):
     forget()
 
 
+SYNC_EVERY = 0.5  # seconds between looks for meadows gone without an update (see _sync_later)
+
+
+def _sync_later():
+    """Delete in a window frees the object after the last depsgraph update it causes, and a
+    script may remove one with none at all: this look, twice a second, finds such a meadow
+    gone and frees what it owned (it costs a count of the file's objects while none is made
+    or removed)."""
+    if native.available() and not suspended:
+        sync()
+    return SYNC_EVERY
+
+
 @bpy.app.handlers.persistent
 def _on_depsgraph_update(scene, depsgraph=None):
     if suspended:
@@ -958,5 +1030,6 @@ def register_extra():
     handlers.add("frame_change_post", _on_frame_change)
     handlers.add("load_post", _on_load)
     handlers.add("depsgraph_update_post", _on_depsgraph_update)
+    handlers.add_timer(_sync_later, SYNC_EVERY, persistent=True)
     handlers.add("undo_post", _on_undo)
     handlers.add("redo_post", _on_undo)
