@@ -31,6 +31,33 @@ def mesh_indices(values):
     return np.ascontiguousarray(a, np.uint32).ravel()
 
 
+def _position_data(mesh):
+    """The collection whose foreach_set/foreach_get copy a mesh's vertex positions in one
+    go, with the name of their float3 property. Blender 3.4 keeps positions in MeshVertex
+    structs, whose `co` is copied as one raw array. From 3.5 positions are the generic
+    point attribute "position", and MeshVertex.co reads and writes it through functions,
+    one vertex at a time: in Blender 5.2.2, vertices.foreach_set("co") of a 323,256-vertex
+    tree takes 51 ms (0.7 ms in 3.4) against 0.15 ms through the attribute."""
+    attr = mesh.attributes.get("position") if VERSION >= (3, 5, 0) else None
+    if attr is not None and attr.data_type == "FLOAT_VECTOR" and attr.domain == "POINT":
+        return attr.data, "vector"
+    return mesh.vertices, "co"
+
+
+def set_positions(mesh, flat):
+    """Writes every vertex position of `mesh` from a flat float32 array (3 per vertex).
+    Call mesh.update() afterwards (it tags the positions changed: normals and bounds are
+    recomputed from them)."""
+    data, name = _position_data(mesh)
+    data.foreach_set(name, flat)
+
+
+def get_positions(mesh, out):
+    """Reads every vertex position of `mesh` into `out`, a flat float32 array."""
+    data, name = _position_data(mesh)
+    data.foreach_get(name, out)
+
+
 def set_face_corners(polygons, corners_per_face):
     """Each face's first corner (loop_start) for faces of `corners_per_face` corners each,
     after polygons.add(). Blender 3.4/3.5 also store each face's corner count (loop_total)

@@ -320,6 +320,84 @@ def test_viewport_shows_the_simulated_blades_of_the_instances_it_shows():
         simulate.CHUNK_MIN_BLADES = min_blades
 
 
+def best_of(fn, repeats=5):
+    """The shortest of `repeats` timings of fn() (the least disturbed by other work)."""
+    import time
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def check_evaluated_blades(meadow):
+    """Blender's evaluated meshes of the viewport chunks hold, for every active blade once,
+    a ribbon whose two vertices per knot are centred on the simulation's knot and as far
+    apart as the blade's width there (within float rounding), then zeros. Read by
+    MeshVertex.co, not the route the write takes. Returns the number of blades checked."""
+    pb = simulate.playback_of(meadow)
+    r = pb.runner
+    knots = blade_knots(meadow)
+    nb, k = len(knots), r.K
+    widths = pb.ribbon[0].reshape(nb, k)
+    dg = bpy.context.evaluated_depsgraph_get()
+    seen = np.zeros(nb, np.int32)
+    for key, part in pb.plan.items():
+        assert not isinstance(key, tuple), key  # every blade shown: no render chunk in use
+        me = bpy.data.objects[simulate.chunk_name(meadow, key)].evaluated_get(dg).data
+        v = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertices.foreach_get("co", v)
+        v = v.reshape(-1, k, 2, 3).astype(np.float64)
+        n = len(part.index)
+        mid = (v[:n, :, 0] + v[:n, :, 1]) / 2
+        want = knots[part.index]
+        # float rounding: a few units in the last place of the largest coordinate
+        tol = 1e-6 * max(1.0, float(np.abs(want).max()) if n else 1.0)
+        err = np.abs(mid - want).max() if n else 0.0
+        assert err <= tol, (key, err, tol)
+        apart = np.linalg.norm(v[:n, :, 1] - v[:n, :, 0], axis=2)
+        err = np.abs(apart - widths[part.index]).max() if n else 0.0
+        assert err <= tol, (key, err, tol)
+        assert not v[n:].any(), key  # the chunk's spare room
+        seen[part.index] += 1
+    assert np.all(seen == 1), np.bincount(seen)
+    return nb
+
+
+@test
+def test_blender_evaluates_the_simulations_knots_and_the_write_is_one_copy():
+    """After each frame change, jumps back and forth included, the dynamic meshes Blender
+    evaluates show every active blade around the simulation's knots of that frame
+    (check_evaluated_blades). Writing them costs little beside making the ribbons: in
+    Blender 5.2 writing MeshVertex.co went vertex by vertex, 160 ns a vertex (5 ms here for
+    896 blades, a hundred times the ribbons themselves; compat.set_positions)."""
+    scene, meadow, ball = rolling_ball_scene()
+    min_blades, simulate.CHUNK_MIN_BLADES = simulate.CHUNK_MIN_BLADES, 64
+    try:
+        counts = []
+        for f in range(1, 25):
+            scene.frame_set(f)
+            if f in (8, 16, 24):
+                counts.append(check_evaluated_blades(meadow))
+        assert max(counts) >= 64 * simulate.CHUNKS, counts  # every chunk object in use
+        pb = simulate.playback_of(meadow)
+        r = pb.runner
+        nb = len(blade_knots(meadow))
+        out = np.empty(nb * 2 * r.K * 3, np.float32)
+        widths, sides = pb.ribbon[0].ravel(), pb.ribbon[1].ravel()
+        ribbons_alone = best_of(lambda: r.lib.blade_sim_ribbons(r.sim, 0, widths, sides, out))
+        write = best_of(lambda: simulate.write(meadow, pb))
+        assert write < 4.0 * ribbons_alone + 0.002, (
+            f"write {write * 1e3:.2f} ms, ribbons alone {ribbons_alone * 1e3:.2f} ms, "
+            f"{nb} blades")
+        for f in (13, 24, 6):  # back from snapshots, and forward again
+            scene.frame_set(f)
+            check_evaluated_blades(meadow)
+    finally:
+        simulate.CHUNK_MIN_BLADES = min_blades
+
+
 def alpha_coverage(scene, path):
     """Renders the scene's camera with Cycles to `path` and returns the image's mean alpha."""
     scene.render.filepath = path

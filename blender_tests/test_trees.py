@@ -211,6 +211,75 @@ def test_new_tree_away_from_the_origin_is_posed_where_it_stands():
     assert np.abs(at_origin.ravel() - made).max() > 1e-4  # where it stands matters
 
 
+def evaluated_pose(obj):
+    """Vertex positions (V, 3) and face normals (F, 3) of the mesh Blender evaluated for
+    `obj`, read by MeshVertex.co (not the route the handler writes by), and its quads'
+    corners (F, 4)."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    me = obj.evaluated_get(dg).data
+    v = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", v)
+    n = np.empty(len(me.polygons) * 3, np.float32)
+    me.polygons.foreach_get("normal", n)
+    corners = np.empty(len(me.loops), np.int32)
+    me.loops.foreach_get("vertex_index", corners)
+    return v.reshape(-1, 3), n.reshape(-1, 3), corners.reshape(-1, 4)
+
+
+def best_of(fn, repeats=5):
+    """The shortest of `repeats` timings of fn() (the least disturbed by other work)."""
+    import time
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+@test
+def test_playback_shows_the_native_pose_and_writes_it_in_one_copy():
+    """What Blender evaluates after each frame change is the tree's native pose at that
+    frame (posed_vertices), bit for bit, whatever frame came before, and the face normals
+    it shades with follow that pose (quad normals from the posed vertices), not a cache of
+    an earlier frame. The handler's copy into the mesh costs little beside the pose itself:
+    in Blender 5.2 writing MeshVertex.co went vertex by vertex and took ten times the whole
+    pose (compat.set_positions)."""
+    fresh()
+    scene = bpy.context.scene
+    windy(scene)
+    obj = add("black_tupelo", seed=3)
+    data = build._cache[obj.name]
+    normals = {}
+    for f in (4, 19, 11, 19):
+        scene.frame_set(f)
+        want = build.posed_vertices(data, obj.matrix_world, obj.tussock_tree.wind_strength,
+                                    lambda xyz: build.wind_runtime.sample(scene, f, xyz))
+        v, n, quads = evaluated_pose(obj)
+        assert v.shape == want.shape and np.array_equal(v, want), \
+            (f, v.shape, want.shape, float(np.abs(v - want).max()) if v.shape == want.shape else 0)
+        # Blender's quad normal: the cross product of the diagonals
+        q = want[quads]
+        c = np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1])
+        size = np.linalg.norm(c, axis=1)
+        ok = size > 1e-8  # a degenerate quad's normal is Blender's choice
+        assert ok.mean() > 0.99, ok.mean()
+        err = np.abs(n[ok] - c[ok] / size[ok, None]).max()
+        assert err < 1e-3, (f, err)
+        normals[f] = n
+    moved = np.abs(normals[19] - normals[4]).max(axis=1)
+    assert (moved > 1e-3).mean() > 0.1, (moved > 1e-3).mean()  # the shading moves with it
+    assert np.array_equal(normals[19], evaluated_pose(obj)[1])
+    # the handler's whole work against the pose alone (wind, native bend, no copy)
+    strength = obj.tussock_tree.wind_strength
+    pose = best_of(lambda: build.pose(obj, scene, 19))
+    alone = best_of(lambda: build.posed_vertices(
+        data, obj.matrix_world, strength, lambda xyz: build.wind_runtime.sample(scene, 19, xyz),
+        out=data["pose_buffer"]))
+    assert pose < 2.0 * alone + 0.002, (f"handler {pose * 1e3:.2f} ms, pose alone "
+                                        f"{alone * 1e3:.2f} ms, {len(obj.data.vertices)} vertices")
+
+
 @test
 def test_smooth_tree_uses_opensubdiv_counts():
     fresh()

@@ -114,7 +114,7 @@ def apply_layout(meadow, child, tiles, layout, k, instance_tile, digest):
     colour values, and the meadow's instances of those tiles hidden."""
     mesh = child.data
     simulate.ribbon_topology(mesh, int(layout["counts"].sum()), k)
-    mesh.vertices.foreach_set("co", layout["rest"])
+    compat.set_positions(mesh, layout["rest"])
     simulate.set_blade_rand(mesh, layout["rand"], k)
     mesh.update()
     mesh["tussock_layout"] = "baked:" + digest

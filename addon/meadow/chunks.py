@@ -5,7 +5,7 @@ the only Python loop is over chunk objects (tens of them), never over blades."""
 import bpy
 import numpy as np
 
-from .. import meshes
+from .. import compat, meshes
 
 
 def chunk_object_name(meadow_name, index):
@@ -17,7 +17,7 @@ def _mesh_from_arrays(name, positions, tris, uvs, blade_rand, normals=None):
     mesh = bpy.data.meshes.new(name)
     nv, nt = len(positions), len(tris)
     mesh.vertices.add(nv)
-    mesh.vertices.foreach_set("co", np.ascontiguousarray(positions, np.float32).ravel())
+    compat.set_positions(mesh, np.ascontiguousarray(positions, np.float32).ravel())
     meshes.set_faces(mesh, np.asarray(tris).reshape(-1, 3))
     uv_layer = mesh.uv_layers.new(name="UVMap")
     uv_layer.data.foreach_set("uv", np.ascontiguousarray(uvs[tris.ravel()], np.float32).ravel())
@@ -81,7 +81,7 @@ def write_points(mesh, origins, chunk, viewport_off, hidden=None):
     mesh.clear_geometry()
     n = len(chunk)
     mesh.vertices.add(n)
-    mesh.vertices.foreach_set("co", np.ascontiguousarray(origins, np.float32).ravel())
+    compat.set_positions(mesh, np.ascontiguousarray(origins, np.float32).ravel())
     for name, kind in (("tsk_chunk", "INT"), ("tsk_hidden", "BOOLEAN"),
                        ("tsk_viewport_off", "BOOLEAN")):
         if name in mesh.attributes:

@@ -653,9 +653,9 @@ def _collapse(child, pb=None, i=None):
     n = len(mesh.vertices) * 3
     if n:
         co = np.empty(n, np.float32)
-        mesh.vertices.foreach_get("co", co)
+        compat.get_positions(mesh, co)
         if co.any():
-            mesh.vertices.foreach_set("co", np.zeros(n, np.float32))
+            compat.set_positions(mesh, np.zeros(n, np.float32))
             mesh.update()
     if pb is not None and pb.held is not None:
         pb.held[i] = _COLLAPSED  # the next write sets this chunk's blades afresh
@@ -694,7 +694,7 @@ def active_ribbons(obj):
         v = np.zeros(0, np.float32)
         if child is not None:
             v = np.empty(len(child.data.vertices) * 3, np.float32)
-            child.data.vertices.foreach_get("co", v)
+            compat.get_positions(child.data, v)
         n = len(part.index) * per
         if len(v) < n or v[n:].any():
             raise AssertionError(f"{key}: the chunk does not hold exactly its {len(part.index)} blades")
@@ -793,7 +793,7 @@ def _write_chunk(child, pb, i, part, k, layout_changed, fit=False):
         pb.runner.lib.blade_sim_ribbon_runs(pb.runner.sim, part.starts, part.counts,
                                             part.widths, part.sides, pos[:used])
     pos[used:] = 0.0  # the chunk's unused room: zero-area quads at the origin
-    mesh.vertices.foreach_set("co", pos)
+    compat.set_positions(mesh, pos)
     mesh.update()
 
 

@@ -144,7 +144,7 @@ def write(obj, data, positions=None, by_operator=False):
     mesh.clear_geometry()
     mesh.vertices.add(len(verts))
     flat = np.ascontiguousarray(verts, np.float32).ravel()  # one float32 copy at most
-    mesh.vertices.foreach_set("co", flat)
+    compat.set_positions(mesh, flat)
     nq = len(quads)
     meshes.set_faces(mesh, quads, edges)
     index = np.zeros(nq, np.int32)
@@ -239,9 +239,9 @@ def pose(obj, scene, frame):
     if len(mesh.vertices) != len(verts):  # the tree itself changed (its settings)
         write(obj, data, verts)
         return
-    mesh.vertices.foreach_set("co", verts.ravel() if verts.dtype == np.float32
-                              and verts.flags.c_contiguous else
-                              np.ascontiguousarray(verts, np.float32).ravel())
+    compat.set_positions(mesh, verts.ravel() if verts.dtype == np.float32
+                         and verts.flags.c_contiguous else
+                         np.ascontiguousarray(verts, np.float32).ravel())
     mesh.update()
 
 
