@@ -284,12 +284,37 @@ def test_an_animated_picture_whose_file_went_missing_says_so_and_renders_magenta
     assert mean[0] > 0.9 and mean[1] < 0.1 and mean[2] > 0.9, mean
     # the bake refuses with the message (the farm bakes before it renders)
     expect_cancel(ops.bake, "not found")
+    # and a farm worker's render of the frame fails, naming why, and writes nothing
+    code, out, written = render_on_command_line(blend, 2)
+    assert code == 1 and "frame 2 of scene 'Scene' is not rendered" in out \
+        and "meadow.png" in out and not written, (code, out[-2000:], written)
     # the file back: the next frame shows the picture again and the message goes
     os.rename(os.path.join(folder, "moved.png"), os.path.join(folder, "meadow.png"))
     scene.frame_set(3)
     assert s.last_error == "", s.last_error
     back = rendered_mean(scene, "back.png")
     assert abs(back[1] - good[1]) < 0.05 and back[0] < 0.9, (back, good)
+    code, out, written = render_on_command_line(blend, 2)
+    assert code == 0 and written == ["f_0002.png"], (code, out[-2000:], written)
+
+
+def render_on_command_line(blend, frame):
+    """`blender -b scene.blend -o … -f N` with Tussock enabled, as a farm worker renders:
+    (exit status, output, files written)."""
+    import subprocess
+    sys.path.insert(0, os.path.join(harness.REPO, "tools"))
+    import blender_env
+    out_dir = tempfile.mkdtemp(prefix="cli_render_", dir=TMP)
+    with blender_env.BlenderUser() as user:
+        script = os.path.join(user.tmp, "enable.py")
+        with open(script, "w") as f:
+            f.write("import addon_utils\naddon_utils.enable('tussock', default_set=True)\n")
+        cmd = [os.environ.get("BLENDER", "blender"), "-b", blend, "--factory-startup",
+               "-noaudio", "--python", script, "-o", os.path.join(out_dir, "f_####"),
+               "-F", "PNG", "-f", str(frame)]
+        proc = subprocess.run(cmd, env=user.env, text=True, errors="replace",
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=300)
+    return proc.returncode, proc.stdout, sorted(os.listdir(out_dir))
 
 
 class _Raising:

@@ -18,7 +18,7 @@ from . import frames
 def _update(scene):
     settings = getattr(scene, "tussock_picture", None)
     if settings is None or not settings.applied or not native.available():
-        return False
+        return None  # no animated picture here
     def update():
         if not picture_bake.serves(scene, scene.frame_current):
             frames.update(scene)
@@ -48,9 +48,24 @@ def on_frame_change(scene, depsgraph=None):
             tree.update_tag()
 
 
+def _rendering_from_command_line():
+    """True in a Blender started to render (`blender -b scene.blend -a` or `-f N`, as farm
+    workers are), not in one that renders from a script or a window."""
+    if not bpy.app.background:
+        return False
+    args = sys.argv[:sys.argv.index("--")] if "--" in sys.argv else sys.argv
+    return any(a in ("-a", "--render-anim", "-f", "--render-frame") for a in args)
+
+
 @bpy.app.handlers.persistent
 def on_render_pre(scene, *_args):
-    _update(scene)
+    if _update(scene) is False and _rendering_from_command_line():
+        # A farm worker would write a magenta frame and report success, and the farm would
+        # take it. SystemExit out of a handler ends Blender with that status (3.4-5.2, tried)
+        # before the frame is written, so the task fails and is retried or reported.
+        print(f"Tussock: frame {scene.frame_current} of scene '{scene.name}' is not rendered: "
+              f"{scene.tussock_picture.last_error}", file=sys.stderr, flush=True)
+        sys.exit(1)
 
 
 @bpy.app.handlers.persistent
