@@ -56,7 +56,7 @@ class SlurmCluster:
 
     def _start(self):
         for d in ("munge", "state", "spool", "log"):
-            os.makedirs(self.path(d), mode=0o700)
+            os.makedirs(self.path(d), mode=0o755 if d == "munge" else 0o700)
         sock = self.path("munge", "munge.socket")
         key = self.path("munge", "munge.key")
         subprocess.run(["/usr/sbin/mungekey", "--create", f"--keyfile={key}"], check=True,

@@ -1,7 +1,7 @@
 """Render farms: one command bakes and renders a saved .blend as a plan of tasks (the bake
 split into frame ranges, one assembly of the caches, the render split into frame ranges),
 run by N local `blender -b` processes or by Slurm array jobs. Everything here but
-operator.py is plain Python without bpy, so it runs outside Blender:
+submit.py is plain Python without bpy, so it runs outside Blender:
 
     python3 <add-on folder>/farm run scene.blend [--backend local|slurm] [--tasks N] ...
 
