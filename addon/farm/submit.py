@@ -18,14 +18,13 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def python():
-    """A Python 3 to run the farm command with (it needs no bpy)."""
-    exe = sys.executable or ""
-    if os.path.basename(exe).startswith("python") and os.access(exe, os.X_OK):
-        return exe
-    found = shutil.which("python3")
-    if found is None:
-        raise OSError("no python3 found to run the farm command: install Python 3")
-    return found
+    """A Python 3 to run the farm command with (it needs no bpy): the system's first, as a
+    version manager's shim (pyenv) that Blender may have found changes the environment of
+    what it starts, and the farm's Blenders would inherit that; else Blender's own."""
+    for exe in ("/usr/bin/python3", sys.executable or "", shutil.which("python3") or ""):
+        if os.path.basename(exe).startswith("python") and os.access(exe, os.X_OK):
+            return exe
+    raise OSError("no python3 found to run the farm command: install Python 3")
 
 
 class TUSSOCK_OT_farm_submit(bpy.types.Operator):
