@@ -124,7 +124,8 @@ def test_plan_splits_ranges_evenly_and_refuses_bad_ranges():
     todo = p.todo()
     assert not todo["bake"] and not todo["assemble"]  # the caches were assembled: kept
     script = open(p.write(todo)).read()
-    assert '"render 0")' in script and '"bake 0")' not in script and "attempt" in script
+    assert '"render 1")' in script and '"render 0")' not in script  # frame 3 verifies
+    assert '"bake 0")' not in script and "attempt 2" not in script and "attempt" in script
 
 
 @test

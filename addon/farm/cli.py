@@ -126,3 +126,7 @@ def main(argv=None):
     except (ValueError, RuntimeError, OSError) as exc:
         say(f"error: {exc}")
         return 2
+    except KeyboardInterrupt:
+        say("interrupted: local tasks are stopped, Slurm jobs go on (`watch` follows them); "
+            "run the same command again to resume")
+        return 130

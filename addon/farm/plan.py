@@ -216,7 +216,12 @@ class Plan:
                 cmd = " ".join('"$BLENDER"' if a == "$BLENDER" else q(a) for a in t.command)
                 lines.append(f'  "{step} {t.index}")  # frames {t.frames[0]}-{t.frames[1]}')
                 lines.append(f"    run=({cmd})")
-                if t.outputs:
+                whole = [self.frame_file(f) for f in range(t.frames[0], t.frames[1] + 1)]
+                if t.outputs and t.outputs == whole:  # every frame of the range
+                    pattern = q(f"render/{self.name.replace('%', '%%')}_%04d.png\\n")
+                    lines.append(f"    mapfile -t check < <(printf {pattern} $(seq "
+                                 f"{t.frames[0]} {t.frames[1]}))")
+                elif t.outputs:
                     lines.append(f"    check=({' '.join(q(o) for o in t.outputs)})")
                 lines.append("    ;;")
         lines += [
