@@ -22,6 +22,13 @@ def _free_port():
         return s.getsockname()[1]
 
 
+def _die_with_parent():
+    """In the daemon's process before it starts: SIGTERM when the test's Blender ends, even
+    killed (a test timeout), so that no daemon outlives it."""
+    import ctypes
+    ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+
+
 class SlurmCluster:
     def __init__(self, start_timeout=60.0):
         self.start_timeout = start_timeout
@@ -35,7 +42,9 @@ class SlurmCluster:
                                "./build.sh deps (Debian packages slurm-wlm and munge)")
         if os.geteuid() != 0:
             raise RuntimeError("the one-node Slurm cluster of the tests needs root")
-        self.root = tempfile.mkdtemp(prefix="tussock-slurm-")
+        # inside the test's own temporary folder when there is one (run.py removes it even
+        # after a killed test)
+        self.root = tempfile.mkdtemp(prefix="tussock-slurm-", dir=os.environ.get("TSK_TEST_TMP"))
         try:
             self._start()
         except BaseException:
@@ -49,7 +58,7 @@ class SlurmCluster:
     def _daemon(self, name, cmd):
         log = open(self.path(f"{name}.stdout"), "w")
         proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=self.env,
-                                start_new_session=True)
+                                start_new_session=True, preexec_fn=_die_with_parent)
         log.close()
         self.procs.append((name, proc))
         return proc
@@ -137,7 +146,19 @@ PartitionName=main Nodes={host} Default=YES MaxTime=INFINITE State=UP
         return "\n".join(out)
 
     def __exit__(self, *exc):
-        # our own daemons only, by their process ids: first the jobs' daemons, munged last
+        # the jobs first (a failed test may leave some running: their Blenders would outlive
+        # slurmd), then our own daemons, by their process ids, munged last
+        if any(name == "slurmctld" and p.poll() is None for name, p in self.procs):
+            jobs = subprocess.run(["squeue", "-h", "-o", "%A"], env=self.env, text=True,
+                                  stdout=subprocess.PIPE, stderr=subprocess.DEVNULL).stdout.split()
+            if jobs:
+                subprocess.run(["scancel", *sorted(set(jobs))], env=self.env,
+                               stderr=subprocess.DEVNULL)
+                deadline = time.time() + 20
+                while time.time() < deadline and subprocess.run(
+                        ["squeue", "-h", "-o", "%A"], env=self.env, text=True,
+                        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL).stdout.strip():
+                    time.sleep(0.25)
         for name, proc in reversed(self.procs):
             if proc.poll() is None:
                 proc.send_signal(signal.SIGTERM)
