@@ -10,6 +10,7 @@ cannot be written is tried twice and reported with its log; and the same plan ru
 The farm runs need the host's Blender 3.4 (its Debian has slurm-wlm and munge, as root):
 they run there only, once per ./build.sh test."""
 
+import json
 import os
 import re
 import shutil
@@ -130,7 +131,7 @@ def test_plan_splits_ranges_evenly_and_refuses_bad_ranges():
 
 @test
 def test_submit_to_farm_refuses_an_unsaved_file_and_bad_frames():
-    scene = harness.empty_scene(FRAMES)
+    harness.empty_scene(FRAMES)
     assert bpy.ops.tussock.add_tree(preset="quaking_aspen", seed=2, leaves=False) == {"FINISHED"}
     expect_cancel(bpy.ops.tussock.farm_submit, "save the .blend first")
     folder = os.path.join(TMP, "submit")
@@ -245,8 +246,8 @@ def test_farm_slurm_and_local_give_the_bytes_of_one_process():
                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                           text=True, errors="replace")
     assert proc.returncode == 0, proc.stdout[-3000:]
-    alpha = pixels(os.path.join(ref_dir, "render", "scene_0006.png")).reshape(-1, 4)
-    assert alpha[:, :3].std() > 0.01  # a picture, not a blank frame
+    px = pixels(os.path.join(ref_dir, "render", "scene_0006.png")).reshape(-1, 4)
+    assert px[:, :3].std() > 0.01  # a picture, not a blank frame
     print(f"test_farm: single process {time.time() - t0:.0f} s", flush=True)
 
     blend = os.path.join(slurm_dir, "scene.blend")
@@ -259,7 +260,6 @@ def test_farm_slurm_and_local_give_the_bytes_of_one_process():
         wait_for(lambda: (os.path.exists(render_dir) and os.listdir(render_dir)) or
                  driver.proc.poll() is not None, 200, "the first rendered frame")
         assert driver.proc.poll() is None, driver.wait()
-        import json
         render_job = [j for s, j, _ in json.load(open(jobs_file)) if s == "render"][0]
         subprocess.run(["scancel", render_job], env=cluster.env, check=True)
         code, out = driver.wait()
