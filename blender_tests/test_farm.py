@@ -2,8 +2,9 @@
 frames, frames outside the scene), the check of rendered frames, Submit to Farm's refusals;
 and a shot with a tree, a simulated meadow and an animated picture done by a one-node Slurm
 cluster of its own in 4 bake and 4 render tasks: its caches are the bytes of a single-process
-bake and its frames the pixels of a single-process render; a render job cancelled mid-way
-(scancel) resumes to the same frames, redoing only the missing ones; a task whose output
+bake and its frames the pixels of a single-process render; a cancelled bake job takes the
+later steps out of the queue; a render job cancelled mid-way (scancel) resumes to the same
+frames, redoing only the missing ones; a task whose output
 cannot be written is tried twice and reported with its log; and the same plan run by the
 `local` back end, started from Blender's Submit to Farm, gives the same bytes.
 
@@ -252,11 +253,21 @@ def test_farm_slurm_and_local_give_the_bytes_of_one_process():
 
     blend = os.path.join(slurm_dir, "scene.blend")
     args = [blend, "--backend", "slurm", "--tasks", "4", "--blender", bpy.app.binary_path]
+    jobs_file = os.path.join(slurm_dir, "scene_farm", "slurm_jobs.json")
+    render_dir = os.path.join(slurm_dir, "render")
     with SlurmCluster() as cluster:
-        # first run: the render job is cancelled as soon as its first frame is written
+        # the bake job cancelled as soon as it is submitted: the steps after it leave the
+        # queue (else they would wait forever for it) and the command ends, reporting all
         driver = Driver(args, cluster.env)
-        jobs_file = os.path.join(slurm_dir, "scene_farm", "slurm_jobs.json")
-        render_dir = os.path.join(slurm_dir, "render")
+        wait_for(lambda: os.path.exists(jobs_file) or driver.proc.poll() is not None, 60,
+                 "the submission")
+        bake_job = [j for s, j, _ in json.load(open(jobs_file)) if s == "bake"][0]
+        subprocess.run(["scancel", bake_job], env=cluster.env, check=True)
+        code, out = driver.wait(timeout=120)
+        assert code == 1 and out.count("did not run to its end") == 9, out
+        os.remove(jobs_file)
+        # resumed: the render job is cancelled as soon as its first frame is written
+        driver = Driver(args, cluster.env)
         wait_for(lambda: (os.path.exists(render_dir) and os.listdir(render_dir)) or
                  driver.proc.poll() is not None, 200, "the first rendered frame")
         assert driver.proc.poll() is None, driver.wait()
