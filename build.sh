@@ -13,7 +13,7 @@ export BLENDER
 
 PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ clang
           libclang-rt-dev libopencv-dev libopenni2-dev libosd-dev valgrind debootstrap
-          xvfb xauth libgl1-mesa-dri)
+          xvfb xauth libgl1-mesa-dri slurm-wlm munge)
 
 # The Blenders the suite runs in: 3 is this machine's own (Debian 12's 3.4); 4 and 5 are
 # Debian trixie's (4.3) and sid's (5.x), each in a Debian root made by debootstrap from

@@ -612,6 +612,7 @@ class TUSSOCK_PT_bake(SubPanel, bpy.types.Panel):
         row = self.layout.row(align=True)
         row.operator("tussock.bake", icon="FILE_CACHE")
         row.operator("tussock.free_bake", icon="TRASH")
+        self.layout.operator("tussock.farm_submit", icon="NETWORK_DRIVE")
         for obj in context.scene.objects:
             if obj.modifiers.get(MODIFIER) is not None:
                 rng = cached_range(obj, context.scene)
