@@ -4,6 +4,7 @@
 #define TSK_TEST_H
 
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,6 +57,17 @@ static int tsk_test_failed_checks;
         CHECK_MSG(strstr(tsk_last_error(), (needle)) != NULL, "message '%s' lacks '%s'",     \
                   tsk_last_error(), (needle));                                               \
     } while (0)
+
+/* FNV-1a over n bytes from h (TSK_TEST_FNV_START to begin): the golden hashes of kernel
+ * outputs. A golden hash is a constant checked in, so a change of any byte a kernel writes
+ * (a reordered sum, a contraction, a new instruction path) fails a test, even when every
+ * path changed alike; a deliberate change updates the constant in the same commit. */
+#define TSK_TEST_FNV_START 1469598103934665603ull
+static inline uint64_t tsk_test_fnv(const void* p, size_t n, uint64_t h) {
+    const unsigned char* b = p;
+    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+    return h;
+}
 
 /* 1 if `name` contains one of the comma-separated substrings of `list`. */
 /* An allocator for tsk_set_allocator that fails once the count at `allocs_left` (an int the

@@ -1334,6 +1334,12 @@ TEST(test_bad_arguments_name_the_argument) {
 
 /* ---- determinism ------------------------------------------------------------------------ */
 
+/* Golden hashes (see tsk_test_fnv) of the warp (layer, UV), the composite, and the two Map UV
+ * samplings of test_identical_bytes_with_1_and_2_threads. */
+static const uint64_t PICTURE_GOLDEN[5] = {0xaf53240d2f0efb7eull, 0x9f189dea2acc93fbull,
+                                           0x023716a716ad2271ull, 0x5146ddfbf0b3dfd4ull,
+                                           0xe1e905c53f283db4ull};
+
 TEST(test_identical_bytes_with_1_and_2_threads) {
     const int W = 200, H = 150, FW = 16, FH = 12;
     float* rgba = smooth_image(W, H);
@@ -1372,6 +1378,9 @@ TEST(test_identical_bytes_with_1_and_2_threads) {
     }
     for (int k = 0; k < 5; ++k) {
         CHECK(memcmp(out[0][k], out[1][k], W * H * 4 * sizeof(float)) == 0);
+        const uint64_t h = tsk_test_fnv(out[0][k], W * H * 4 * sizeof(float), TSK_TEST_FNV_START);
+        CHECK_MSG(h == PICTURE_GOLDEN[k], "output %d's bytes changed: hash %#018llx", k,
+                  (unsigned long long)h);
         free(out[0][k]);
         free(out[1][k]);
     }

@@ -72,12 +72,8 @@ static double dot3(const double* a, const double* b) {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
-static uint64_t fnv(const void* p, size_t n, uint64_t h) {
-    const unsigned char* b = p;
-    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
-    return h;
-}
-static const uint64_t FNV_START = 1469598103934665603ull;
+#define fnv tsk_test_fnv
+#define FNV_START TSK_TEST_FNV_START
 
 /* Mesh positions and normals of a tree's current pose, hashed (FNV-1a from h). */
 static uint64_t pose_hash(const tsk_tree* t, uint64_t h) {
@@ -955,6 +951,9 @@ TEST(test_wind_reset_of_a_resting_tree_changes_nothing) {
 
 /* The 8-wide AVX2 path (where the CPU has it), the 4-wide SSE path and the one-branch path
  * give the same bytes, for both modes. */
+/* The pose's golden hash per wind mode (see tsk_test_fnv): every path must give these bytes. */
+static const uint64_t WIND_GOLDEN[2] = {0x4d387d2a14ca50c5ull, 0x5b17205c23ce72daull};
+
 TEST(test_wind_simd_path_equals_scalar_path) {
     tsk_tree_def def;
     CHECK(tsk_tree_preset("black_tupelo", &def) == TSK_OK);
@@ -985,6 +984,8 @@ TEST(test_wind_simd_path_equals_scalar_path) {
         }
         CHECK_MSG(h[0] == h[1], "mode %d: best SIMD and scalar paths differ", mode);
         CHECK_MSG(h[2] == h[1], "mode %d: SSE and scalar paths differ", mode);
+        CHECK_MSG(h[1] == WIND_GOLDEN[mode], "mode %d: the wind's bytes changed: hash %#018llx",
+                  mode, (unsigned long long)h[1]);
     }
     tree_wind_force_scalar = 0;
 }
