@@ -1,7 +1,8 @@
 """The artist's path through the sidebar by real UI events, in a real Blender window (Xvfb,
 `--enable-event-simulate`): open the Tussock tab, add a meadow with its button, switch its
 simulation on and set its blades per tile in the panel, choose a collider collection, play
-frames with the arrow key, and bake with the Bake button. Every step is checked on the scene.
+frames with the arrow key, bake with the Bake button, delete the meadow and undo, save, and
+submit the shot to the farm on this machine. Every step is checked on the scene or on disk.
 
 Buttons are found as an artist finds them, by pointing: the mouse moves down the sidebar
 and, at each place, Blender's own "Copy Python Command" / "Copy Data Path" (what
@@ -180,6 +181,13 @@ def setup():
         o.select_set(False)
     ground.select_set(True)
     bpy.context.view_layer.objects.active = ground
+    # what the farm renders at the end: small, and an engine that needs no GPU
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = (0.0, -3.0, 1.5), (1.1, 0.0, 0.0)
+    scene.camera = cam
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
     os.makedirs(TMP, exist_ok=True)
     with override():
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "artist.blend"))
@@ -293,6 +301,49 @@ def scenario():
     scene = bpy.context.scene
     expect("the meadow plays on after the undo", scene.frame_current == FRAMES - 1
            and not errors and blades() == before, f"{scene.frame_current} {errors}")
+
+    yield from submit_to_farm(x, y)
+
+
+def submit_to_farm(x, y):
+    """Ctrl+S, then Submit to Farm from the Bake panel: its dialog confirmed with Return
+    runs the shot on this machine (the local back end, 4 tasks): the job script is written
+    beside the .blend, every frame is rendered, and the farm's log says it is done."""
+    win = window()
+    win.event_simulate(type="MOUSEMOVE", value="NOTHING", x=x, y=y)
+    win.event_simulate(type="S", value="PRESS", x=x, y=y, ctrl=True)
+    win.event_simulate(type="S", value="RELEASE", x=x, y=y, ctrl=True)
+    saved = yield from wait_until(lambda: not bpy.data.is_dirty, 10, 0.2)
+    expect("Ctrl+S saved the shot", saved)
+    at = yield from find("bpy.ops.tussock.farm_submit()")
+    expect("the Submit to Farm button is in the Bake panel", at is not None)
+    if at is None:
+        return
+    click(at)
+    yield 1.0  # the dialog opens under the mouse; Return confirms it
+    win.event_simulate(type="RET", value="PRESS", x=at[0], y=at[1])
+    win.event_simulate(type="RET", value="RELEASE", x=at[0], y=at[1])
+    farm = os.path.join(TMP, "artist_farm")
+    script = os.path.join(farm, "job.sh")
+    yield from wait_until(lambda: os.path.isfile(script), 10, 0.2)
+    expect("its dialog wrote the job script beside the .blend", os.path.isfile(script))
+    log = os.path.join(farm, "logs", "farm.out")
+
+    def ended():
+        try:
+            with open(log) as f:
+                text = f.read()
+        except OSError:
+            return False
+        return "tussock farm: done" in text or "did not end well" in text
+    yield from wait_until(ended, 300, 0.5)
+    text = open(log).read() if os.path.isfile(log) else ""
+    frames = sorted(f for f in os.listdir(os.path.join(TMP, "render"))) \
+        if os.path.isdir(os.path.join(TMP, "render")) else []
+    expect("the farm baked and rendered every frame on this machine",
+           "tussock farm: done" in text and frames == [f"artist_{f:04d}.png"
+                                                       for f in range(1, FRAMES + 1)],
+           f"{frames}\n{text[-1500:]}")
 
 
 def main():
