@@ -34,6 +34,7 @@ from tussock.farm import plan as farm_plan  # noqa: E402
 from tussock.farm import verify  # noqa: E402
 
 sys.path.insert(0, os.path.join(harness.REPO, "tools"))
+import picture_sample_scene  # noqa: E402
 from slurm_cluster import SlurmCluster  # noqa: E402
 
 TMP = os.environ.get("TSK_TEST_TMP", "/tmp")
@@ -153,20 +154,15 @@ def make_shot(folder):
     scene = harness.empty_scene(FRAMES)
     scene.tussock_wind.base_speed = 3.0
     os.makedirs(folder, exist_ok=True)
-    for name in ("meadow.png", "grass_mask.png", "crown_mask.png"):
-        shutil.copyfile(os.path.join(harness.REPO, "samples", "picture", name),
+    for name in picture_sample_scene.FILES:
+        shutil.copyfile(os.path.join(picture_sample_scene.FOLDER, name),
                         os.path.join(folder, name))
     path = os.path.join(folder, "scene.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)  # so that '//' paths resolve
     assert bpy.ops.tussock.add_tree(preset="quaking_aspen", seed=2, leaves=False) == {"FINISHED"}
     bpy.context.active_object.location = (1.5, 3.0, 0.0)
     meadow, ball = harness.meadow_crossed_by_ball(FRAMES)
-    s = scene.tussock_picture
-    s.filepath = "//meadow.png"
-    grass = s.layers.add()
-    grass.name, grass.mask_path, grass.root = "Grass", "//grass_mask.png", "TOP"
-    crown = s.layers.add()
-    crown.name, crown.mask_path = "Crown", "//crown_mask.png"
+    picture_sample_scene.describe(scene.tussock_picture, "//", crown_waves=False)
     assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
     cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
     scene.collection.objects.link(cam)

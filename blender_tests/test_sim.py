@@ -320,17 +320,6 @@ def test_viewport_shows_the_simulated_blades_of_the_instances_it_shows():
         simulate.CHUNK_MIN_BLADES = min_blades
 
 
-def best_of(fn, repeats=5):
-    """The shortest of `repeats` timings of fn() (the least disturbed by other work)."""
-    import time
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
 def check_evaluated_blades(meadow):
     """Blender's evaluated meshes of the viewport chunks hold, for every active blade once,
     a ribbon whose two vertices per knot are centred on the simulation's knot and as far
@@ -386,8 +375,8 @@ def test_blender_evaluates_the_simulations_knots_and_the_write_is_one_copy():
         nb = len(blade_knots(meadow))
         out = np.empty(nb * 2 * r.K * 3, np.float32)
         widths, sides = pb.ribbon[0].ravel(), pb.ribbon[1].ravel()
-        ribbons_alone = best_of(lambda: r.lib.blade_sim_ribbons(r.sim, 0, widths, sides, out))
-        write = best_of(lambda: simulate.write(meadow, pb))
+        ribbons_alone = harness.best_of(lambda: r.lib.blade_sim_ribbons(r.sim, 0, widths, sides, out))
+        write = harness.best_of(lambda: simulate.write(meadow, pb))
         assert write < 4.0 * ribbons_alone + 0.002, (
             f"write {write * 1e3:.2f} ms, ribbons alone {ribbons_alone * 1e3:.2f} ms, "
             f"{nb} blades")

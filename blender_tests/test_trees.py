@@ -226,17 +226,6 @@ def evaluated_pose(obj):
     return v.reshape(-1, 3), n.reshape(-1, 3), corners.reshape(-1, 4)
 
 
-def best_of(fn, repeats=5):
-    """The shortest of `repeats` timings of fn() (the least disturbed by other work)."""
-    import time
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
 @test
 def test_playback_shows_the_native_pose_and_writes_it_in_one_copy():
     """What Blender evaluates after each frame change is the tree's native pose at that
@@ -272,8 +261,8 @@ def test_playback_shows_the_native_pose_and_writes_it_in_one_copy():
     assert np.array_equal(normals[19], evaluated_pose(obj)[1])
     # the handler's whole work against the pose alone (wind, native bend, no copy)
     strength = obj.tussock_tree.wind_strength
-    pose = best_of(lambda: build.pose(obj, scene, 19))
-    alone = best_of(lambda: build.posed_vertices(
+    pose = harness.best_of(lambda: build.pose(obj, scene, 19))
+    alone = harness.best_of(lambda: build.posed_vertices(
         data, obj.matrix_world, strength, lambda xyz: build.wind_runtime.sample(scene, 19, xyz),
         out=data["pose_buffer"]))
     assert pose < 2.0 * alone + 0.002, (f"handler {pose * 1e3:.2f} ms, pose alone "

@@ -22,6 +22,7 @@ import bpy
 import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_common import emit, wanted  # noqa: E402
+import picture_sample_scene  # noqa: E402
 
 PICTURE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "samples",
                        "picture")
@@ -48,18 +49,12 @@ def scene_in(folder):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon_utils.enable("tussock", default_set=True)
     lib = native.require()
-    for name in ("meadow.png", "grass_mask.png", "crown_mask.png"):
+    for name in picture_sample_scene.FILES:
         enlarge(lib, os.path.join(PICTURE, name), os.path.join(folder, name))
     bpy.ops.wm.save_as_mainfile(filepath=os.path.join(folder, "bench.blend"))
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, FRAMES
-    s = scene.tussock_picture
-    s.filepath = "//meadow.png"
-    grass = s.layers.add()
-    grass.name, grass.mask_path, grass.root = "Grass", "//grass_mask.png", "TOP"
-    crown = s.layers.add()
-    crown.name, crown.mask_path = "Crown", "//crown_mask.png"
-    crown.lambda_x, crown.lambda_y = 48.0, 12.0
+    picture_sample_scene.describe(scene.tussock_picture, "//")
     assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
     assert (scene.render.resolution_x, scene.render.resolution_y) == (1920, 1080)
     return scene

@@ -21,6 +21,9 @@ os.makedirs(OUT, exist_ok=True)
 
 import addon_utils  # noqa: E402
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import picture_sample_scene  # noqa: E402
+
 _t0 = time.time()
 _start = _t0
 
@@ -167,14 +170,8 @@ def picture_clip():
     """The sample picture (samples/picture/) brought to life through the compositor."""
     reset_scene()
     scene = bpy.context.scene
-    pictures = os.path.join(REPO, "samples", "picture")
     s = scene.tussock_picture
-    s.filepath = os.path.join(pictures, "meadow.png")
-    grass = s.layers.add()
-    grass.name, grass.mask_path, grass.root = "Grass", os.path.join(pictures, "grass_mask.png"), "TOP"
-    crown = s.layers.add()
-    crown.name, crown.mask_path = "Crown", os.path.join(pictures, "crown_mask.png")
-    crown.lambda_x, crown.lambda_y = 48.0, 12.0
+    picture_sample_scene.describe(s)
     bpy.ops.tussock.animate_picture()
     step(f"animated the picture {s.filepath}: 2 layers (grass, crown), background inpainted, "
          "compositor tree built")

@@ -11,6 +11,9 @@ import time
 
 import bpy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import picture_sample_scene  # noqa: E402
+
 ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 OUT = os.path.abspath(ARGS[0] if ARGS else "docs/images")
 WANT = ARGS[1:]
@@ -247,12 +250,7 @@ def picture():
     lib = native.require()
     scene = bpy.context.scene
     s = scene.tussock_picture
-    s.filepath = os.path.join(PICTURE, "meadow.png")
-    grass = s.layers.add()
-    grass.name, grass.mask_path, grass.root = "Grass", os.path.join(PICTURE, "grass_mask.png"), "TOP"
-    crown = s.layers.add()
-    crown.name, crown.mask_path = "Crown", os.path.join(PICTURE, "crown_mask.png")
-    crown.lambda_x, crown.lambda_y = 48.0, 12.0
+    grass, crown = picture_sample_scene.describe(s, PICTURE)
     bpy.ops.tussock.animate_picture()
     w, h = scene.render.resolution_x, scene.render.resolution_y
 
@@ -412,17 +410,11 @@ def farm_picture():
     scene.frame_start, scene.frame_end = 1, 60
     tiles = []
     with tempfile.TemporaryDirectory() as tmp:
-        for name in ("meadow.png", "grass_mask.png", "crown_mask.png"):
+        for name in picture_sample_scene.FILES:
             shutil.copyfile(os.path.join(PICTURE, name), os.path.join(tmp, name))
         blend = os.path.join(tmp, "picture.blend")
         bpy.ops.wm.save_as_mainfile(filepath=blend)
-        s = scene.tussock_picture
-        s.filepath = "//meadow.png"
-        grass = s.layers.add()
-        grass.name, grass.mask_path, grass.root = "Grass", "//grass_mask.png", "TOP"
-        crown = s.layers.add()
-        crown.name, crown.mask_path = "Crown", "//crown_mask.png"
-        crown.lambda_x, crown.lambda_y = 48.0, 12.0
+        picture_sample_scene.describe(scene.tussock_picture, "//")
         bpy.ops.tussock.animate_picture()
         w, h = scene.render.resolution_x, scene.render.resolution_y
         st = scene.render.image_settings
