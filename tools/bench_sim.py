@@ -64,9 +64,10 @@ def add_log(scene, log_length):
 
 
 def inside_log(points, scene, coll):
-    """(points inside the log's capsule by more than INSIDE_TOLERANCE, deepest in m) for
-    float (n, 3) `points`: the capsule Tussock fits to the log (simulate.colliders), so that
-    Tussock's knots and Blender's hair points are judged alike."""
+    """(points inside the log's capsule by more than INSIDE_TOLERANCE, deepest in m, points
+    not finite) for float (n, 3) `points`: the capsule Tussock fits to the log
+    (simulate.colliders), so that Tussock's knots and Blender's hair points are judged alike.
+    A point that is not finite (a simulation that blew up) counts as inside."""
     from tussock.meadow import simulate
     rows = simulate.colliders(scene, coll).astype(np.float64)
     p = np.asarray(points, np.float64).reshape(-1, 3)
@@ -77,15 +78,19 @@ def inside_log(points, scene, coll):
         t = np.clip((p - a) @ ab_ / max(ab_ @ ab_, 1e-30), 0.0, 1.0) if kind == 1 else 0.0
         d = np.linalg.norm(p - (a + np.multiply.outer(t, ab_)), axis=1)
         depth = np.maximum(depth, r - d)
-    count = int(np.count_nonzero(depth > INSIDE_TOLERANCE))
-    return count, float(depth.max()) if len(depth) else 0.0
+    bad = ~np.isfinite(p).all(axis=1)
+    count = int(np.count_nonzero(depth[~bad] > INSIDE_TOLERANCE)) + int(bad.sum())
+    good = depth[~bad]
+    return count, float(good.max()) if len(good) else 0.0, int(bad.sum())
 
 
-def emit_inside(who, count, deepest, points, at_rest, extra, peer=None):
-    """The correctness line; `at_rest` is the count for the same strands left at rest, what
-    a simulation that did nothing would give."""
+def emit_inside(who, inside, points, at_rest, extra, peer=None):
+    """The correctness line of inside_log's `inside`; `at_rest` is the count for the same
+    strands left at rest, what a simulation that did nothing would give."""
+    count, deepest, bad = inside
     emit("blade_playback_inside_log", count, "points inside the log",
          dict({"result": "pass" if count == 0 else "fail", "points_checked": points,
+               "points_not_finite": bad,
                "inside_if_left_at_rest": at_rest,
                "deepest_mm": round(deepest * 1e3, 2),
                "tolerance_mm": INSIDE_TOLERANCE * 1e3, "frame": TIMED[-1],
@@ -131,10 +136,10 @@ def playback(name, log_length, display=1.0, check=False):
         return None
     runner = simulate.playback_of(meadow).runner
     knots = runner.knots().reshape(-1, 3)
-    count, deepest = inside_log(knots, scene, coll)
+    inside = inside_log(knots, scene, coll)
     tiles, _ = runner.active()
     rest = np.concatenate([runner.rest_blades(t)[0] for t in tiles])  # one call per tile
-    emit_inside("Tussock's simulated knots", count, deepest, len(knots),
+    emit_inside("Tussock's simulated knots", inside, len(knots),
                 inside_log(rest, scene, coll)[0], {"blades": len(knots) // runner.K})
     return med, active[-1], rest.reshape(-1, runner.K, 3)
 
@@ -167,6 +172,26 @@ def set_input(mod, name, value):
     if prop.type == "ENUM":
         value = next(i.identifier for i in prop.enum_items if i.name.startswith(value))
     inp.value = value
+
+
+def hair_paths(emitter, pmod, remove=False):
+    """World positions (n, 3) of particle hair's paths at the current frame (17 points a
+    strand at display_step 4): the hair converted to a mesh, which `remove` deletes again."""
+    bpy.ops.object.select_all(action="DESELECT")
+    emitter.select_set(True)
+    bpy.context.view_layer.objects.active = emitter
+    bpy.ops.object.modifier_convert(modifier=pmod.name)
+    conv = bpy.context.active_object
+    points = np.empty(len(conv.data.vertices) * 3, np.float32)
+    conv.data.vertices.foreach_get("co", points)
+    m = np.array(conv.matrix_world, np.float64)
+    points = points.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    if remove:
+        mesh = conv.data
+        bpy.data.objects.remove(conv)
+        bpy.data.meshes.remove(mesh)
+    bpy.context.view_layer.objects.active = emitter
+    return points
 
 
 def timed_frames(scene):
@@ -250,25 +275,14 @@ def peer_hair(tussock, strands):
         log.modifiers.new("Collision", "COLLISION")
         settings = {"substeps": psys.cloth.settings.quality, "hair_length_m": round(ps.hair_length, 3),
                     "emitter_m": [round(float(v), 2) for v in hi - lo]}
+        scene.frame_set(1)
+        rest_points = hair_paths(emitter, pmod, remove=True)  # the strands at rest
         times, all_times = timed_frames(scene)
-        # the strands as they are now: the hair converted to a mesh of the evaluated frame
-        bpy.ops.object.select_all(action="DESELECT")
-        emitter.select_set(True)
-        bpy.context.view_layer.objects.active = emitter
-        bpy.ops.object.modifier_convert(modifier=pmod.name)
-        conv = bpy.context.active_object
-        points = np.empty(len(conv.data.vertices) * 3, np.float32)
-        conv.data.vertices.foreach_get("co", points)
-        points = (np.array(conv.matrix_world, np.float64)[:3, :3] @ points.reshape(-1, 3).T).T \
-            + np.array(conv.matrix_world.translation)
-        moved = None
-        # the same strands left at rest: straight up from their roots
-        paths = points.reshape(n, -1, 3)  # the converted mesh holds each path in turn
-        up = np.linspace(0.0, ps.hair_length, paths.shape[1])
-        still = np.repeat(paths[:, :1], paths.shape[1], axis=1)
-        still[:, :, 2] += up
-        at_rest = inside_log(still, scene, coll)[0]
-        settings["path_points_per_strand"] = paths.shape[1]
+        points = hair_paths(emitter, pmod)
+        moved = float(np.nanmax(np.abs(points - rest_points))) if points.shape == rest_points.shape else None
+        # the same strands left at rest, under the log where it lies now
+        at_rest = inside_log(rest_points, scene, coll)[0]
+        settings["path_points_per_strand"] = len(points) // n
     med = statistics.median(times)
     per = med / n * 1e6
     t_per = t_frame / t_blades * 1e6
@@ -281,11 +295,11 @@ def peer_hair(tussock, strands):
                          f"{t_blades}: the frame time divided by the strands",
                "ratio_to_tussock": round(per / t_per, 1), "tussock_us_per_blade_frame": round(t_per, 3),
                "load_average": round(load, 2)}, **settings), peer=peer)
-    count, deepest = inside_log(points, scene, coll)
+    inside = inside_log(points, scene, coll)
     extra = {"strands": n}
     if moved is not None:
         extra["max_point_moved_mm"] = round(moved * 1e3, 1)
-    emit_inside(what, count, deepest, len(points.reshape(-1, 3)), at_rest, extra, peer=peer)
+    emit_inside(what, inside, len(points.reshape(-1, 3)), at_rest, extra, peer=peer)
 
 
 def hair_peer(strands=2000, segments=15, frames=24):
