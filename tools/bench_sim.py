@@ -279,7 +279,7 @@ def peer_hair(tussock, strands):
         rest_points = hair_paths(emitter, pmod, remove=True)  # the strands at rest
         times, all_times = timed_frames(scene)
         points = hair_paths(emitter, pmod)
-        moved = float(np.nanmax(np.abs(points - rest_points))) if points.shape == rest_points.shape else None
+        moved = float(np.abs(points - rest_points).max()) if points.shape == rest_points.shape else None
         # the same strands left at rest, under the log where it lies now
         at_rest = inside_log(rest_points, scene, coll)[0]
         settings["path_points_per_strand"] = len(points) // n
@@ -297,8 +297,8 @@ def peer_hair(tussock, strands):
                "load_average": round(load, 2)}, **settings), peer=peer)
     inside = inside_log(points, scene, coll)
     extra = {"strands": n}
-    if moved is not None:
-        extra["max_point_moved_mm"] = round(moved * 1e3, 1)
+    if moved is not None:  # JSON has no NaN: a path that blew up gives null
+        extra["max_point_moved_mm"] = round(moved * 1e3, 1) if np.isfinite(moved) else None
     emit_inside(what, inside, len(points.reshape(-1, 3)), at_rest, extra, peer=peer)
 
 
