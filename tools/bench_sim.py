@@ -233,6 +233,7 @@ def peer_hair(tussock, strands):
         uv = (pick[:, 0, :2] + 16.0) / 32.0  # the 32 m plane's UVs span [0, 1]
         curves.attributes.new("surface_uv_coordinate", "FLOAT2", "CURVE").data.foreach_set(
             "vector", uv.astype(np.float32).ravel())
+        ground.add_rest_position_attribute = True  # the asset samples the surface's rest
         curves.surface = ground
         curves.surface_uv_map = ground.data.uv_layers[0].name
         hair = bpy.data.objects.new("Blender hair", curves)
