@@ -36,6 +36,8 @@ class TUSSOCK_OT_farm_submit(bpy.types.Operator):
 
     backend: bpy.props.EnumProperty(
         name="Back End", default="LOCAL",
+        description="Where the tasks run: background Blenders on this machine, or a Slurm "
+                    "cluster this machine submits to",
         items=(("LOCAL", "This Machine", "Background Blenders on this machine, one per task"),
                ("SLURM", "Slurm", "Array jobs submitted with sbatch, one step after the other")))
     tasks: bpy.props.IntProperty(
