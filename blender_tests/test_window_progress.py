@@ -30,7 +30,7 @@ from harness import override, report, wait_until, window  # noqa: E402
 import bpy  # noqa: E402
 
 TMP = os.path.join(os.environ.get("TSK_TEST_TMP") or "/tmp", "window_bake")
-FRAMES = 40
+FRAMES = 200  # enough that reading them takes several of the bake's 50 ms slices, in every Blender
 SHOWN = 30  # the frame the artist is at; reading the frames starts at 1
 
 
