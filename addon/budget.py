@@ -65,17 +65,12 @@ def _mib(n):
     return f"{n / MIB:,.0f} MiB"
 
 
-def object_budget():
-    """The bytes one tree or meadow may take: OBJECT_SHARE of the memory budget."""
-    return int(native.require().memory_budget() * OBJECT_SHARE)
-
-
 def check(what, tussock_bytes, blender_bytes, advice):
     """Raises ValueError when Tussock's and Blender's estimates together exceed what one
     object may take, in the native checks' words ("needs about N MiB, more than ...") with
     the two parts and what to do; else returns (the estimate, that share)."""
     budget = native.require().memory_budget()
-    share = object_budget()
+    share = int(budget * OBJECT_SHARE)
     total = tussock_bytes + blender_bytes
     if total > share:
         raise ValueError(f"{what}: needs about {_mib(total)} (Tussock {_mib(tussock_bytes)}, "

@@ -11,6 +11,14 @@ import numpy as np
 from . import compat, handlers, native
 
 
+def remove_object(obj):
+    """Removes a mesh object Tussock made, and its mesh when nothing else uses it."""
+    mesh = obj.data
+    bpy.data.objects.remove(obj)
+    if mesh is not None and mesh.users == 0:
+        bpy.data.meshes.remove(mesh)
+
+
 def refuse_edit_mode(obj, doing):
     """Raises ValueError when obj's mesh is in Edit Mode: there its geometry is Blender's
     edit copy (vertices cannot be added, attributes read as empty, and leaving Edit Mode

@@ -46,10 +46,7 @@ def build_chunks_steps(collection, meadow_name, positions, tris, uvs, blade_inde
     """build_chunks, yielding (chunks made, chunks in all) after each chunk: an interactive
     Add Meadow shows its progress and can stop between chunks."""
     for obj in list(collection.objects):
-        mesh = obj.data
-        bpy.data.objects.remove(obj)
-        if mesh is not None and mesh.users == 0:
-            bpy.data.meshes.remove(mesh)
+        meshes.remove_object(obj)
     verts_per_blade = len(positions) // blade_count
     tris_per_blade = len(tris) // blade_count
     chunks = blade_count // chunk_blades

@@ -905,13 +905,6 @@ _OWN_TAGS = (identity.OWNER, "tussock_meadow_name", "tussock_simulated_blades",
              "tussock_blades_chunk", "tussock_blades_render_chunk")
 
 
-def _remove_object(o):
-    mesh = o.data
-    bpy.data.objects.remove(o)
-    if mesh is not None and mesh.users == 0:
-        bpy.data.meshes.remove(mesh)
-
-
 def _tidy_owned(live):
     """What meadows owned outlives them otherwise, frozen in the scene: the simulated-blade
     objects of a deleted meadow (identity.gone: one that was there, not one being made by
@@ -923,8 +916,8 @@ def _tidy_owned(live):
     groups = {}
     for o in bpy.data.objects:
         k = o.get(identity.OWNER)
-        if k is not None and o.library is None and _role(o) != -1:
-            groups.setdefault((k, _role(o)), []).append(o)
+        if k is not None and o.library is None and (role := _role(o)) != -1:
+            groups.setdefault((k, role), []).append(o)
     heirs = {}
     for fresh, old in identity.born.items():
         heirs.setdefault(old, []).append(fresh)
@@ -933,7 +926,7 @@ def _tidy_owned(live):
         if k not in live:
             if k in identity.gone:
                 for o in objs:
-                    _remove_object(o)
+                    meshes.remove_object(o)
             continue
         if len(objs) == 1:
             continue
@@ -955,7 +948,7 @@ def _tidy_owned(live):
         if k in identity.gone and coll.users == 0 and coll.library is None:
             for o in list(coll.objects):
                 if len(o.users_collection) == 1:
-                    _remove_object(o)
+                    meshes.remove_object(o)
             bpy.data.collections.remove(coll)
 
 
