@@ -252,14 +252,17 @@ def test_farm_slurm_and_local_give_the_bytes_of_one_process():
     jobs_file = os.path.join(slurm_dir, "scene_farm", "slurm_jobs.json")
     render_dir = os.path.join(slurm_dir, "render")
     with SlurmCluster() as cluster:
-        # the bake job cancelled as soon as it is submitted: the steps after it leave the
-        # queue (else they would wait forever for it) and the command ends, reporting all
+        # the bake job cancelled before any of its tasks ran (the node drained meanwhile, else
+        # a two-frame task may end first): the steps after it leave the queue (else they
+        # would wait forever for it) and the command ends, reporting all
+        cluster.drain()
         driver = Driver(args, cluster.env)
         wait_for(lambda: os.path.exists(jobs_file) or driver.proc.poll() is not None, 60,
                  "the submission")
         bake_job = [j for s, j, _ in json.load(open(jobs_file)) if s == "bake"][0]
         subprocess.run(["scancel", bake_job], env=cluster.env, check=True)
         code, out = driver.wait(timeout=120)
+        cluster.drain(False)
         assert code == 1 and out.count("did not run to its end") == 9, out
         os.remove(jobs_file)
         # resumed: the render job is cancelled as soon as its first frame is written

@@ -76,7 +76,7 @@ class SlurmCluster:
                                 f"--pid-file={self.path('munge', 'munged.pid')}",
                                 f"--log-file={self.path('log', 'munged.log')}",
                                 f"--seed-file={self.path('munge', 'munged.seed')}"])
-        host = socket.gethostname().split(".")[0]
+        self.host = host = socket.gethostname().split(".")[0]
         cpus = os.cpu_count() or 1
         conf = f"""ClusterName=tussock
 SlurmctldHost={host}
@@ -117,6 +117,14 @@ PartitionName=main Nodes={host} Default=YES MaxTime=INFINITE State=UP
         self._daemon("slurmctld", ["/usr/sbin/slurmctld", "-D", "-i", "-f", self.path("slurm.conf")])
         self._daemon("slurmd", ["/usr/sbin/slurmd", "-D", "-f", self.path("slurm.conf")])
         self._wait(self._idle, "the node did not become idle")
+
+    def drain(self, on=True):
+        """Stops (on) or lets again (off) the node start jobs; queued jobs wait meanwhile.
+        A test that cancels a job before it runs drains first: else a short task may end
+        between the submission and the scancel."""
+        state = ["State=DRAIN", "Reason=tussock-test"] if on else ["State=RESUME"]
+        subprocess.run(["scontrol", "update", f"NodeName={self.host}", *state], env=self.env,
+                       check=True, stdout=subprocess.DEVNULL)
 
     def _idle(self):
         out = subprocess.run(["sinfo", "-h", "-N", "-o", "%t"], env=self.env, text=True,
