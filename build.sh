@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Tussock's only entry point:  ./build.sh deps | build | test [--blender 3|4|5,...] | demo [--blender N]
-#                              | bench [--blender N] [NAME...] | package | fuzz [SECONDS [NAME...]]
+#                              | bench [--blender N] [--record] [NAME...] | package | fuzz [SECONDS [NAME...]]
 #                              | roots [4] [5] | shots [--blender N]
 # Each step is idempotent and quiet when there is nothing to do.
 set -euo pipefail
@@ -178,6 +178,27 @@ run_native_tests() { # dir, label
   done
 }
 
+# The plain-Python tests (tests/test_*.py, system Python with numpy, the built module in
+# addon/): the parts of the add-on and the tools that need no Blender.
+run_python_tests() {
+  local t out line p f
+  for t in "$ROOT"/tests/test_*.py; do
+    [ -f "$t" ] || continue
+    if out="$(cd "$ROOT" && "$PY" "$t" 2>&1)"; then :; else
+      printf '%s\n' "$out"
+    fi
+    line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed' | tail -n 1 || true)"
+    if [ -z "$line" ]; then
+      printf '%s\n' "$out"
+      p=0; f=1
+    else
+      p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
+    fi
+    printf '%-8s %-28s %s passed, %s failed\n' python "$(basename "$t")" "$p" "$f"
+    PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+  done
+}
+
 # valgrind memcheck over the release test programs: no invalid access, no use of
 # uninitialised values, no definite/indirect leak (third-party ones suppressed in
 # native/tests/valgrind.supp). Long numeric tests are skipped (TSK_TEST_SKIP): valgrind runs
@@ -261,6 +282,7 @@ cmd_test() {
   done
   cmd_build
   cmd_package >/dev/null
+  run_python_tests
   if [ "$BLENDER_CHOSEN" = 0 ]; then
     build_asan
     export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1"
@@ -304,12 +326,30 @@ cmd_demo() {
   with_blender "${MAJORS[0]}" "$ROOT/tools/blender_run.py" "$ROOT/tools/demo.py" -- "$ROOT/out"
 }
 
-# ./build.sh bench [--blender N[,N]] [NAME...]: the native benchmarks and the Blender ones in
+# ./build.sh bench [--blender N[,N]] [--record] [NAME...]: the native benchmarks and the Blender ones in
 # this machine's Blender; with --blender, only the Blender ones, in each Blender named.
 cmd_bench() {
-  local m b s
+  local a out record=0 names=()
   parse_blenders 3 "$@"
-  set -- ${ARGS[@]+"${ARGS[@]}"}
+  for a in ${ARGS[@]+"${ARGS[@]}"}; do
+    if [ "$a" = --record ]; then record=1; else names+=("$a"); fi
+  done
+  if [ "$record" = 1 ]; then
+    # every line also into this host's record (docs/perf/), then the table remade from it
+    out="$(mktemp)"
+    read -r TSK_BENCH_LOAD _ </proc/loadavg  # before the run, which loads the machine itself
+    export TSK_BENCH_LOAD
+    cmd_bench_run ${names[@]+"${names[@]}"} | tee "$out"
+    "$PY" "$ROOT/tools/perf_table.py" record <"$out"
+    rm -f "$out"
+    "$PY" "$ROOT/tools/perf_table.py" write
+    return
+  fi
+  cmd_bench_run ${names[@]+"${names[@]}"}
+}
+
+cmd_bench_run() {
+  local m b s
   cmd_build
   # as inside Blender (addon/native.py): OpenMP waiters sleep instead of spinning
   export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-PASSIVE}"
@@ -483,7 +523,7 @@ main() {
     roots) cmd_deps; cmd_roots "$@" ;;
     shots) cmd_shots "$@" ;;
     *) say "usage: ./build.sh deps | build | test [--blender 3|4|5[,...]] | demo [--blender N]"
-       say "                  | bench [--blender N] [NAME...] | package | fuzz [SECONDS [NAME...]]"
+       say "                  | bench [--blender N] [--record] [NAME...] | package | fuzz [SECONDS [NAME...]]"
        say "                  | roots [4] [5] | shots [--blender N]"
        exit 2 ;;
   esac
