@@ -69,7 +69,7 @@ def test_table_latest_line_targets_and_peer_ratio():
             dict(base, name="blade_playback", value=26.0, unit="fps", date="2026-12-03",
                  blender="5.2.2")]
     for i, r in enumerate(recs):
-        r["_order"] = (r["date"], "f", i)
+        r["_order"] = (r["date"], 0, "f", i)
     targets = {"blade_playback": {"target": ">= 24", "better": "higher",
                                   "by_blender": {"4": ">= 30", "5": ">= 30"}},
                "blade_sim_1M": {"target": "<= 40", "better": "lower"}}

@@ -112,8 +112,29 @@ def record(lines, out_dir=PERF, info=None, commit=None, today=None, load=None):
     return path, len(rows)
 
 
+def commit_times(commits):
+    """{commit: its committer time} for the commits git knows (empty outside a clone)."""
+    known = sorted({c.rstrip("+") for c in commits if c})
+    if not known:
+        return {}
+    try:
+        out = subprocess.run(["git", "-C", ROOT, "show", "-s", "--format=%h %ct", *known],
+                             text=True, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+    except OSError:
+        return {}
+    times = {}
+    for line in out.stdout.splitlines():
+        h, _, t = line.partition(" ")
+        for c in known:
+            if c.startswith(h) or h.startswith(c):
+                times[c] = int(t)
+    return times
+
+
 def load_records(perf_dir=PERF):
-    """Every record of every host, in file order (a later line of a file is a later run)."""
+    """Every record of every host, each with `_order`: its date, then the time of its commit
+    (records of one day on several hosts are ordered by what was measured later), then its
+    place in its file (a later line is a later run)."""
     out = []
     for fn in sorted(os.listdir(perf_dir)) if os.path.isdir(perf_dir) else []:
         if not fn.endswith(".jsonl"):
@@ -126,8 +147,11 @@ def load_records(perf_dir=PERF):
                 missing = [k for k in KEYS if k not in r]
                 if missing:
                     raise ValueError(f"{fn}:{i + 1}: missing {', '.join(missing)}")
-                r["_order"] = (r["date"], fn, i)
+                r["_order"] = (r["date"], 0, fn, i)
                 out.append(r)
+    times = commit_times(r["commit"] for r in out)
+    for r in out:
+        r["_order"] = (r["date"], times.get((r["commit"] or "").rstrip("+"), 0)) + r["_order"][2:]
     return out
 
 
@@ -179,7 +203,8 @@ def table(records, targets):
     for r in records:
         key = (r["name"], r["blender"])
         if r.get("peer"):
-            peers.setdefault(key + (r["host"], r["commit"], r["date"]), []).append(r)
+            # a peer run in Blender may stand beside a native line of the same run
+            peers.setdefault((r["name"], r["host"], r["commit"], r["date"]), []).append(r)
         elif key not in own or r["_order"] >= own[key]["_order"]:
             own[key] = r
     order = list(targets)
@@ -196,9 +221,14 @@ def table(records, targets):
             value = f"**{value}**" + ("" if ok else " (misses)")
         better = (targets.get(r["name"]) or {}).get("better")
         ps = []
-        for p in peers.get((r["name"], r["blender"], r["host"], r["commit"], r["date"]), []):
+        run = peers.get((r["name"], r["host"], r["commit"], r["date"]), [])
+        same = [p for p in run if p["blender"] == r["blender"]]
+        for p in same or ([] if r["blender"] else run):
             txt = f"{p['peer']}: {fmt(p['value'])} {p['unit']}"
-            ratio = (p.get("params") or {}).get("ratio")
+            if p["blender"] and p["blender"] != r["blender"]:
+                txt += f" (Blender {p['blender']})"
+            params = p.get("params") or {}
+            ratio = params.get("ratio", params.get("ratio_to_tussock"))
             if ratio is None and p["unit"] == r["unit"] and better and r["value"] and p["value"]:
                 ratio = p["value"] / r["value"] if better == "lower" else r["value"] / p["value"]
             if isinstance(ratio, (int, float)):
