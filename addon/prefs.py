@@ -1,9 +1,10 @@
 """Add-on preferences: the native library's version and status, the worker thread count
-(applied to the native library) and the Blender version."""
+(applied to the native library), whether Blender's allocator keeps freed pages for reuse
+(addon/allocator.py) and the Blender version."""
 
 import bpy
 
-from . import native
+from . import allocator, native
 
 
 def _apply_threads(prefs, _context=None):
@@ -15,6 +16,10 @@ def _threads_update(self, context):
     _apply_threads(self, context)
 
 
+def _keep_memory_update(self, _context):
+    allocator.keep_freed(bool(self.keep_freed_memory))
+
+
 class TUSSOCK_AP_preferences(bpy.types.AddonPreferences):
     bl_idname = __package__
 
@@ -23,6 +28,14 @@ class TUSSOCK_AP_preferences(bpy.types.AddonPreferences):
         description="Worker threads of the native library (0 = all cores). "
         "Results are identical whatever the count",
         default=0, min=0, max=256, update=_threads_update)
+
+    keep_freed_memory: bpy.props.BoolProperty(
+        name="Reuse Freed Memory",
+        description="Let Blender's memory allocator keep the pages of freed memory for reuse "
+        "instead of giving them back at once: trees and simulated meadows rewrite their "
+        "geometry every frame and play much faster. The system still takes those pages back "
+        "when it runs short of memory. Only where Blender uses jemalloc (Blender 3.x, 4.x)",
+        default=True, update=_keep_memory_update)
 
     def draw(self, context):
         layout = self.layout
@@ -34,6 +47,10 @@ class TUSSOCK_AP_preferences(bpy.types.AddonPreferences):
         col.prop(self, "threads")
         if native.available():
             col.label(text=f"In use: {native.lib.get_threads()} threads")
+        kind, _ = allocator.state()
+        row = col.row()
+        row.enabled = kind is not None
+        row.prop(self, "keep_freed_memory")
         col.label(text=f"Blender {bpy.app.version_string}")
 
 
@@ -48,6 +65,11 @@ def register_extra():
     p = get()
     if p is not None:
         _apply_threads(p)
+        allocator.keep_freed(bool(p.keep_freed_memory))
+
+
+def unregister_extra():
+    allocator.keep_freed(False)  # the allocator as Blender had it
 
 
 classes = (TUSSOCK_AP_preferences,)

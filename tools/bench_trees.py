@@ -11,7 +11,10 @@
   presets.)
 * `tree_playback_50k`: frames per second of `scene.frame_set` for a tree of more than
   50,000 leaves swaying in the scene's wind, and the same for Sapling's armature wind
-  animation (armAnim) of its tree with leaves, where Sapling can make one.
+  animation (armAnim) of its tree with leaves, where Sapling can make one (with Blender's
+  allocator as Blender sets it). `tree_playback_50k_pages_given_back`: Tussock's tree again
+  with Preferences > Reuse Freed Memory off (addon/allocator.py; only where Blender uses
+  jemalloc).
 
 usage: blender_run.py tools/bench_trees.py -- [NAME...]"""
 
@@ -232,7 +235,18 @@ def bench_playback():
           "pose_ms": round(statistics.median(pose_wall) * 1e3, 2),
           "pose_cpu_ms": round(statistics.median(pose_cpu) * 1e3, 2),
           "what": "scene.frame_set, wind + pose + mesh; pose_ms: Tussock's handler alone",
-          "target_fps": 24})
+          "target_fps": 30})
+    # the same with Blender's allocator giving freed pages back at once (as before Tussock
+    # kept them: addon/allocator.py), where that allocator is jemalloc
+    from tussock import allocator, prefs
+    if allocator.state()[0] is not None:
+        p = prefs.get()
+        p.keep_freed_memory = False
+        wall_back, cpu_back = play(scene, 48)
+        p.keep_freed_memory = True
+        emit("tree_playback_50k_pages_given_back", 1.0 / wall_back, "frames per second",
+             {"ms_per_frame": round(wall_back * 1e3, 2), "cpu_ms_per_frame": round(cpu_back * 1e3, 2),
+              "what": "tree_playback_50k with Preferences > Reuse Freed Memory off"})
     # Sapling: its armature wind animation (armAnim) on its small_pine with leaves (10 %
     # more per twig than the preset, to pass 50,000), a bone per branch segment (curves)
     if sapling_dir() is None:
@@ -240,6 +254,9 @@ def bench_playback():
               file=sys.stderr)
         return
     clear_objects()
+    # Sapling as Blender runs it without Tussock: freed pages given back at once
+    keep = prefs.get().keep_freed_memory
+    prefs.get().keep_freed_memory = False
     sp = sapling_preset("small_pine")
     kw = {k: v for k, v in sp.items() if k not in ("presetName", "limitImport")}
     kw.update(do_update=True, showLeaves=True, useArm=True, armAnim=True, leafAnim=False,
@@ -255,6 +272,7 @@ def bench_playback():
           "bones": bones, "frames": 12, "ms_per_frame": round(wall * 1e3, 2),
           "cpu_ms_per_frame": round(cpu * 1e3, 2), "build_s": round(build, 2),
           "what": "scene.frame_set, armature deform of curve bevel + leaves"}, peer="sapling")
+    prefs.get().keep_freed_memory = keep
 
 
 fresh()
