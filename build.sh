@@ -13,7 +13,7 @@ export BLENDER
 
 PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ clang
           libclang-rt-dev libopencv-dev libopenni2-dev libosd-dev valgrind debootstrap
-          xvfb xauth libgl1-mesa-dri slurm-wlm munge)
+          xvfb xauth libgl1-mesa-dri slurm-wlm munge flake8 clang-format)
 
 # The Blenders the suite runs in: 3 is this machine's own (Debian 12's 3.4); 4 and 5 are
 # Debian trixie's (4.3) and sid's (5.x), each in a Debian root made by debootstrap from
@@ -199,6 +199,24 @@ run_python_tests() {
   done
 }
 
+# The style checks, one result each: flake8 over the Python (.flake8) and clang-format over
+# the C and C++ of native/ (.clang-format); a file either would change is a failure.
+run_lint() {
+  local out files
+  if out="$(cd "$ROOT" && flake8 addon tools tests blender_tests 2>&1)"; then
+    PASSED=$((PASSED + 1)); printf "%-8s %-28s passed\n" lint flake8
+  else
+    printf '%s\n' "$out"; FAILED=$((FAILED + 1)); printf "%-8s %-28s FAILED\n" lint flake8
+  fi
+  mapfile -t files < <(cd "$ROOT" && git ls-files 'native/*.c' 'native/*.h' 'native/*.cpp')
+  if out="$(cd "$ROOT" && clang-format --dry-run --Werror "${files[@]}" 2>&1)"; then
+    PASSED=$((PASSED + 1)); printf "%-8s %-28s passed\n" lint clang-format
+  else
+    printf '%s\n' "${out:0:6000}"
+    FAILED=$((FAILED + 1)); printf "%-8s %-28s FAILED (clang-format -i FILE)\n" lint clang-format
+  fi
+}
+
 # valgrind memcheck over the release test programs: no invalid access, no use of
 # uninitialised values, no definite/indirect leak (third-party ones suppressed in
 # native/tests/valgrind.supp). Long numeric tests are skipped (TSK_TEST_SKIP): valgrind runs
@@ -282,6 +300,7 @@ cmd_test() {
   done
   cmd_build
   cmd_package >/dev/null
+  run_lint
   run_python_tests
   if [ "$BLENDER_CHOSEN" = 0 ]; then
     build_asan

@@ -59,5 +59,3 @@ def check(group_cls, values):
 def check_operator(operator, group_cls, names):
     """check() for the operator's own values of `names`."""
     check(group_cls, {n: getattr(operator, n) for n in names})
-
-

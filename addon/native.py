@@ -1,9 +1,9 @@
 """Loads the compiled module _tussock. A missing or broken build never raises at
 registration: it becomes one clear message that the panel shows and operators report."""
 
-BUILD_HINT = "run ./build.sh build in the Tussock source folder, then restart Blender"
-
 import os
+
+BUILD_HINT = "run ./build.sh build in the Tussock source folder, then restart Blender"
 
 # Spinning OpenMP waiters steal the cores from Blender's own threads on small machines.
 # Tussock's parallel loops run on their own sleeping threads (native/src/core/parallel.c);
@@ -19,7 +19,8 @@ try:
     from . import _tussock as lib  # noqa: F401
 except Exception as exc:  # ImportError, OSError from a missing shared library, ...
     lib = None
-    error = f"Tussock's native library is not available ({exc.__class__.__name__}: {exc}); {BUILD_HINT}."
+    error = (f"Tussock's native library is not available ({exc.__class__.__name__}: {exc}); "
+             f"{BUILD_HINT}.")
 
 Error = lib.Error if lib is not None else RuntimeError
 

@@ -223,6 +223,7 @@ def window_main(steps, first_interval=0.5):
 # ---- real-window tests: where things are, and waiting for the event loop ------------------
 # (bpy is imported inside: the harness is also imported where Blender is not)
 
+
 def window():
     return _bpy().context.window_manager.windows[0]
 
@@ -241,7 +242,7 @@ def override(space_type="VIEW_3D", region_type="WINDOW"):
     """The context of one region of the window: operators and draws run as if there."""
     area = area_of(space_type)
     return _bpy().context.temp_override(window=window(), area=area,
-                                     region=region_of(area, region_type))
+                                        region=region_of(area, region_type))
 
 
 def best_of(fn, repeats=5):
@@ -335,4 +336,3 @@ def meadow_crossed_by_ball(frames):
 def _bpy():
     import bpy
     return bpy
-

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """Runs every blender_tests/test_*.py in its own background Blender
 (`blender -b --factory-startup`), so a crash in one file is that file's failure and not a
-lost suite; test_window_*.py files run in a real Blender window on Xvfb instead. Each Blender gets a fresh user folder whose addons/tussock links to addon/
-(tools/blender_env.py).
+lost suite; test_window_*.py files run in a real Blender window on Xvfb instead. Each Blender
+gets a fresh user folder whose addons/tussock links to addon/ (tools/blender_env.py).
 Prints per-file results and, last, "N passed, N failed"; exits non-zero on any failure.
 
 usage: run.py [NAME_FILTER ...]   (environment: BLENDER, TSK_TEST_TIMEOUT seconds)"""

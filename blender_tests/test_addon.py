@@ -127,6 +127,7 @@ def test_compat_mesh_indices_and_face_corners():
         assert not mesh.validate(), "set_faces made a mesh Blender had to correct"
         bpy.data.meshes.remove(mesh)
 
+
 @test
 def test_every_operator_and_setting_has_a_tooltip():
     """Blender shows an operator's description in its tooltip and in F3 search, and a

@@ -210,7 +210,8 @@ def test_dummy_device_reads_frames_and_reports_no_blades():
 def write_png(path, width, height, bit_depth, colour_type, rows=None):
     """A minimal PNG writer, for bad inputs (8-bit, colour, oversized headers)."""
     def chunk(kind, data):
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+        crc = struct.pack(">I", zlib.crc32(kind + data))
+        return struct.pack(">I", len(data)) + kind + data + crc
     ihdr = struct.pack(">IIBBBBB", width, height, bit_depth, colour_type, 0, 0, 0)
     if rows is None:
         channels = {0: 1, 2: 3}[colour_type]
@@ -286,7 +287,6 @@ def test_bad_inputs_cancel_with_scene_unchanged():
     assert bpy.data.images.get("Tussock Capture Preview") is None
 
 
-
 # ---- tufts: whole blades through the shared base (issue 31) ---------------------------------
 #
 # Fans of every width family whose blades cover each other over their first 10-30 % and
@@ -295,9 +295,8 @@ def test_bad_inputs_cancel_with_scene_unchanged():
 # camera frame: blades found, length (3-D polyline of the knots against the true arc
 # length), mean distance of the knots to the true centreline, the share of the true
 # centreline within 5 mm of the captured one, and width error (sum of |error| over the
-# knots / sum of true width there), over each blade and over its shared first 10-30 %. Noisy: sigma 1.5 mm (z / 1 m)^2 rounded to mm, 2 %
-# of pixels zeroed.
-
+# knots / sum of true width there), over each blade and over its shared first 10-30 %.
+# Noisy: sigma 1.5 mm (z / 1 m)^2 rounded to mm, 2 % of pixels zeroed.
 TUFT_LIMITS = {  # found >=, mean |length error| <=, centreline mm <=, within 5 mm >=, width <=
     "clean": (0.95, 0.05, 2.0, 0.95, 0.10),
     "noisy": (0.90, 0.08, 3.0, 0.90, 0.15),
@@ -387,7 +386,8 @@ def tuft_summary(rows, n_true, extra):
             "truth_to_capture_mm": 1e3 * sum(r["back"] * r["n_true"] for r in rows)
             / max(1, sum(r["n_true"] for r in rows)),
             "width": sum(r["w_abs"] for r in rows) / max(1e-12, sum(r["w_true"] for r in rows)),
-            "width_shared": sum(r["ws_abs"] for r in rows) / max(1e-12, sum(r["ws_true"] for r in rows))}
+            "width_shared": (sum(r["ws_abs"] for r in rows)
+                             / max(1e-12, sum(r["ws_true"] for r in rows)))}
 
 
 def capture_tufts(tufts, noisy, seed=0):

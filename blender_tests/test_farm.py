@@ -107,7 +107,8 @@ def test_plan_splits_ranges_evenly_and_refuses_bad_ranges():
     save_png(good, 64, 48)
     assert verify.check_png(good, 64, 48) is None
     save_png(os.path.join(folder, p.frame_file(4)), 32, 48)
-    assert "32 x 48 pixels, not 64 x 48" in verify.check_png(os.path.join(folder, p.frame_file(4)), 64, 48)
+    msg = verify.check_png(os.path.join(folder, p.frame_file(4)), 64, 48)
+    assert "32 x 48 pixels, not 64 x 48" in msg, msg
     data = open(good, "rb").read()
     cut = os.path.join(folder, "cut.png")
     with open(cut, "wb") as f:
@@ -196,7 +197,8 @@ def assert_same_frames(ref_dir, other_dir):
     assert names == [f"scene_{f:04d}.png" for f in range(1, FRAMES + 1)], names
     assert sorted(os.listdir(os.path.join(other_dir, "render"))) == names
     for n in names:
-        a, b = pixels(os.path.join(ref_dir, "render", n)), pixels(os.path.join(other_dir, "render", n))
+        a = pixels(os.path.join(ref_dir, "render", n))
+        b = pixels(os.path.join(other_dir, "render", n))
         assert np.array_equal(a, b), n
 
 
@@ -305,7 +307,8 @@ def test_farm_slurm_and_local_give_the_bytes_of_one_process():
                   for n in os.listdir(render_dir)}
         code, out = Driver(args, cluster.env).wait()
         assert code == 0 and "1 task(s) to run" in out, out
-        after = {n: os.stat(os.path.join(render_dir, n)).st_mtime_ns for n in os.listdir(render_dir)}
+        after = {n: os.stat(os.path.join(render_dir, n)).st_mtime_ns
+                 for n in os.listdir(render_dir)}
         assert {n for n in after if after[n] != before.get(n)} == {os.path.basename(blocked)}
         assert all(after[n] == kept[n] for n in kept)  # frames of the first run: not redone
     assert_same_caches(ref_dir, slurm_dir)

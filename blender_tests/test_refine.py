@@ -84,7 +84,8 @@ def test_simulated_refine_and_refine_again_from_full_mesh():
     assert bpy.ops.tussock.refine_blades(knots="8", movement="SIMULATED", frames=6) == {"FINISHED"}
     check_refined(target, full, 8)
     # refining again to more knots starts from the full-resolution mesh
-    assert bpy.ops.tussock.refine_blades(custom_knots=20, movement="TRACKED", frames=4) == {"FINISHED"}
+    assert bpy.ops.tussock.refine_blades(custom_knots=20, movement="TRACKED",
+                                         frames=4) == {"FINISHED"}
     check_refined(target, full, 20)
     assert all(len(o.data.vertices) > 20 for o in objs[2:])  # unselected ones untouched
 
@@ -131,7 +132,8 @@ def test_bad_input_cancels_with_scene_unchanged():
     expect_cancel(op, "not captured", movement="TRACKED")
     # duplicate knots: the native check names them
     mesh2 = blades.blade_mesh("dup", np.array([[0, 0, 0], [0, 0, 0], [0, 0, 0.2]], np.float32),
-                              np.array([0.01, 0.008, 0.002], np.float32), np.zeros((3, 3), np.float32))
+                              np.array([0.01, 0.008, 0.002], np.float32),
+                              np.zeros((3, 3), np.float32))
     dup = bpy.data.objects.new("dup", mesh2)
     bpy.context.scene.collection.objects.link(dup)
     hand.select_set(False)

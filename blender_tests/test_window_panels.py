@@ -322,8 +322,8 @@ class _XImage(ctypes.Structure):  # the head of Xlib's XImage, up to what is rea
     _fields_ = [(name, ctypes.c_int) for name in ("width", "height", "xoffset", "format")] + \
         [("data", ctypes.c_void_p)] + \
         [(name, ctypes.c_int) for name in ("byte_order", "bitmap_unit", "bitmap_bit_order",
-                                            "bitmap_pad", "depth", "bytes_per_line",
-                                            "bits_per_pixel")]
+                                           "bitmap_pad", "depth", "bytes_per_line",
+                                           "bits_per_pixel")]
 
 
 def grab_from_x(x, y, width, height):

@@ -41,7 +41,8 @@ def test_doc_map_is_what_the_code_gives():
     with open(module_map.DOC, encoding="utf-8") as f:
         text = f.read()
     new = module_map.render_doc(text, module_map.render(module_map.modules()))
-    assert new == text, "docs/architecture.md's module map is stale: python3 tools/module_map.py write"
+    assert new == text, ("docs/architecture.md's module map is stale: "
+                         "python3 tools/module_map.py write")
 
 
 def main():

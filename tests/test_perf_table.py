@@ -29,7 +29,8 @@ def test_host_from_cpuinfo():
     info = perf_table.cpu_info(CPUINFO)
     assert info == ("AMD EPYC 9R14 96-Core Processor", "AVX-512", 2), info
     assert perf_table.host_slug(info) == "epyc-avx512-2cpu"
-    avx2 = perf_table.cpu_info(CPUINFO.replace(" avx512f", "").replace("AMD EPYC 9R14", "Intel(R) Xeon(R)"))
+    avx2 = perf_table.cpu_info(CPUINFO.replace(" avx512f", "")
+                               .replace("AMD EPYC 9R14", "Intel(R) Xeon(R)"))
     assert perf_table.host_slug(avx2) == "xeon-avx2-2cpu", perf_table.host_slug(avx2)
 
 
@@ -48,7 +49,7 @@ def test_record_keeps_bench_lines_only_with_provenance():
         assert n == 3 and os.path.basename(path) == "epyc-avx512-2cpu.jsonl", (path, n)
         rows = perf_table.load_records(d)
         assert [r["name"] for r in rows] == ["blade_playback", "blade_playback_strand_frame",
-                                            "blade_sim_1M"]
+                                             "blade_sim_1M"]
         assert rows[0]["blender"] == "3.4.1" and rows[2]["blender"] is None
         assert rows[1]["peer"] == "blender_particle_hair" and "peer" not in rows[0]
         assert all(r["host"] == "AMD EPYC 9R14 96-Core Processor, AVX-512, 2 vCPUs"
@@ -62,7 +63,8 @@ def test_table_latest_line_targets_and_peer_ratio():
                  blender=None),
             dict(base, name="blade_sim_1M", value=39.5, unit="ns per blade-step", date="2026-12-03",
                  blender=None, commit="c2"),
-            dict(base, name="blade_sim_1M", value=55000.0, unit="ns per blade-step", date="2026-12-03",
+            dict(base, name="blade_sim_1M", value=55000.0, unit="ns per blade-step",
+                 date="2026-12-03",
                  blender=None, commit="c2", peer="blender_particle_hair"),
             dict(base, name="blade_playback", value=26.0, unit="fps", date="2026-12-03",
                  blender="3.4.1"),

@@ -23,6 +23,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_common import emit, wanted  # noqa: E402
 
+
 def cpu_seconds():
     """CPU time of this process, all threads (steadier than wall time on a shared machine)."""
     r = resource.getrusage(resource.RUSAGE_SELF)
@@ -129,7 +130,8 @@ def playback(name, log_length, display=1.0, check=False):
           "frame_cpu_ms_median": round(statistics.median(cpus) * 1e3, 1),
           "frames": f"{TIMED[0]}-{TIMED[-1]}", "log_m": log_length,
           "active_blades_min": min(active), "active_blades_max": max(active),
-          "active_tiles": meadow["tussock_active_tiles"], "instanced_blades": meadow["tussock_blades"],
+          "active_tiles": meadow["tussock_active_tiles"],
+          "instanced_blades": meadow["tussock_blades"],
           "viewport_display": display, "viewport_blades": meadow["tussock_viewport_blades"],
           "load_average": round(load, 2), "target_fps": target_fps()})
     if not check:
@@ -256,7 +258,8 @@ def peer_hair(tussock, strands):
         moved = float(np.abs(points.reshape(-1, 3) - pick.reshape(-1, 3)).max())
         at_rest = inside_log(pick, scene, coll)[0]
     else:
-        peer, what = "blender_particle_hair", "particle hair dynamics, log with a Collision modifier"
+        peer = "blender_particle_hair"
+        what = "particle hair dynamics, log with a Collision modifier"
         n, k = pick.shape[:2]
         lo, hi = rest[:, 0, :2].min(axis=0), rest[:, 0, :2].max(axis=0)
         bpy.ops.mesh.primitive_plane_add(size=1.0, location=(*((lo + hi) / 2), 0.0))
@@ -274,13 +277,15 @@ def peer_hair(tussock, strands):
         psys.use_hair_dynamics = True
         psys.cloth.collision_settings.use_collision = True  # hair against collision objects
         log.modifiers.new("Collision", "COLLISION")
-        settings = {"substeps": psys.cloth.settings.quality, "hair_length_m": round(ps.hair_length, 3),
+        settings = {"substeps": psys.cloth.settings.quality,
+                    "hair_length_m": round(ps.hair_length, 3),
                     "emitter_m": [round(float(v), 2) for v in hi - lo]}
         scene.frame_set(1)
         rest_points = hair_paths(emitter, pmod, remove=True)  # the strands at rest
         times, all_times = timed_frames(scene)
         points = hair_paths(emitter, pmod)
-        moved = float(np.abs(points - rest_points).max()) if points.shape == rest_points.shape else None
+        moved = (float(np.abs(points - rest_points).max())
+                 if points.shape == rest_points.shape else None)
         # the same strands left at rest, under the log where it lies now
         at_rest = inside_log(rest_points, scene, coll)[0]
         settings["path_points_per_strand"] = len(points) // n
@@ -294,7 +299,8 @@ def peer_hair(tussock, strands):
                "scaled": "no" if n == t_blades else
                          f"{n} strands (every {t_blades / n:.3g}th simulated blade), not "
                          f"{t_blades}: the frame time divided by the strands",
-               "ratio_to_tussock": round(per / t_per, 1), "tussock_us_per_blade_frame": round(t_per, 3),
+               "ratio_to_tussock": round(per / t_per, 1),
+               "tussock_us_per_blade_frame": round(t_per, 3),
                "load_average": round(load, 2)}, **settings), peer=peer)
     inside = inside_log(points, scene, coll)
     extra = {"strands": n}
@@ -336,7 +342,8 @@ PEER_STRANDS = int(os.environ.get("TSK_PEER_STRANDS", "20480"))
 if wanted("blade_playback"):
     tussock = playback("blade_playback", 4.5, check=True)
     emit("blade_playback_strand_frame", round(tussock[0] / tussock[1] * 1e6, 3),
-         "µs per strand-frame", {"blades": tussock[1], "frame_ms_median": round(tussock[0] * 1e3, 1),
+         "µs per strand-frame", {"blades": tussock[1],
+                                 "frame_ms_median": round(tussock[0] * 1e3, 1),
                                  "what": "Tussock, every simulated blade shown"})
     peer_hair(tussock, PEER_STRANDS)
     playback("blade_playback_display01", 4.5, display=0.1)

@@ -1,6 +1,7 @@
 """Benchmarks of trees in Blender (run by ./build.sh bench in background Blender):
 
-* `tree_generate_blender_<species>`: time to add a tree with `tussock.add_tree` (operator + depsgraph
+* `tree_generate_blender_<species>`: time to add a tree with `tussock.add_tree` (operator +
+  depsgraph
   evaluation) against Blender's bundled Sapling Tree Gen (`bpy.ops.curve.tree_add`) growing
   the same species from the same Weber-Penn parameters — Sapling's own preset file, read
   with ast.literal_eval and mapped onto Tussock's definition (docs/trees.md, "Sapling
@@ -188,7 +189,8 @@ def bench_generate():
              dict(common, what="native: grow + mesh topology + vertices, no Blender mesh",
                   vertices=nv, sapling_over_native=round(s_med / statistics.median(tn), 1)))
     if ratios:
-        emit("tree_generate_blender_speedup", statistics.median(ratios), "Sapling time / Tussock time",
+        emit("tree_generate_blender_speedup", statistics.median(ratios),
+             "Sapling time / Tussock time",
              {"species": [s for s in SPECIES], "min": round(min(ratios), 1),
               "max": round(max(ratios), 1), "target": 20})
 
@@ -245,7 +247,8 @@ def bench_playback():
         wall_back, cpu_back = play(scene, 48)
         p.keep_freed_memory = True
         emit("tree_playback_50k_pages_given_back", 1.0 / wall_back, "frames per second",
-             {"ms_per_frame": round(wall_back * 1e3, 2), "cpu_ms_per_frame": round(cpu_back * 1e3, 2),
+             {"ms_per_frame": round(wall_back * 1e3, 2),
+              "cpu_ms_per_frame": round(cpu_back * 1e3, 2),
               "what": "tree_playback_50k with Preferences > Reuse Freed Memory off"})
     # Sapling: its armature wind animation (armAnim) on its small_pine with leaves (10 %
     # more per twig than the preset, to pass 50,000), a bone per branch segment (curves)

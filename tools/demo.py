@@ -68,7 +68,8 @@ def main():
     bpy.ops.rigidbody.object_add(type="PASSIVE")
     soil = bpy.data.materials.new("Soil")
     soil.use_nodes = True
-    soil.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.09, 0.06, 0.035, 1)
+    bsdf = soil.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.09, 0.06, 0.035, 1)
     ground.data.materials.append(soil)
     bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=64, chunk_blades=16,
                                scale_min=1.2, scale_max=2.4, noise_scale=9.0,
@@ -205,7 +206,8 @@ def encode_video(folder, prefix, frames, path, fps, size):
     vscene.render.ffmpeg.codec = "H264"
     vscene.render.filepath = path
     vscene.render.use_file_extension = False
-    bpy.context.window_manager.windows[0].scene = vscene if bpy.context.window_manager.windows else None
+    windows = bpy.context.window_manager.windows
+    windows[0].scene = vscene if windows else None
     bpy.ops.render.render(animation=True, scene=vscene.name)
 
 

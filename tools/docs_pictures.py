@@ -54,7 +54,8 @@ def camera(location, rotation, lens=35.0):
 def soil(obj):
     mat = bpy.data.materials.new("Soil")
     mat.use_nodes = True
-    mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.10, 0.07, 0.04, 1)
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.10, 0.07, 0.04, 1)
     obj.data.materials.append(mat)
 
 
@@ -525,7 +526,8 @@ def reliability():
     found = preview.compose(im["DEPTH"], im["MASK"], im["LABELS"], im["OVERLAY"])
     t, b, l, rr = crop
     gap = np.ones((b - t, 6, 4), np.float32)
-    save_rgba("reliability_capture", np.concatenate([raw[t:b, l:rr], gap, found[t:b, l:rr]], axis=1),
+    save_rgba("reliability_capture",
+              np.concatenate([raw[t:b, l:rr], gap, found[t:b, l:rr]], axis=1),
               zoom=2)
     print(f"[pictures] corrupted frame: {r['summary']['message']}", flush=True)
 

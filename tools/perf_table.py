@@ -9,7 +9,7 @@ optional "note". docs/perf/targets.json gives each headline its target. The tabl
 docs/performance.md (between the marker lines) is made from these files only, so that it
 cannot disagree with them:
 
-  python3 tools/perf_table.py record < lines      append ./build.sh bench's lines to this host's file
+  python3 tools/perf_table.py record < lines      append ./build.sh bench's lines to this host
   python3 tools/perf_table.py write               remake the table in docs/performance.md
   python3 tools/perf_table.py check               exit 1 when the table is not what the data gives
 
@@ -211,7 +211,8 @@ def table(records, targets):
     rows = sorted(own.values(), key=lambda r: (
         order.index(r["name"]) if r["name"] in order else len(order), r["name"],
         r["blender"] or ""))
-    out = ["| benchmark | Blender | target | value | peer (Tussock's lead) | host | commit | date | load |",
+    out = ["| benchmark | Blender | target | value | peer (Tussock's lead) | host | commit | date"
+           " | load |",
            "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         tgt = target_of(targets, r["name"], r["blender"])

@@ -114,7 +114,8 @@ PartitionName=main Nodes={host} Default=YES MaxTime=INFINITE State=UP
         with open(self.path("slurm.conf"), "w") as f:
             f.write(conf)
         self._wait(lambda: os.path.exists(sock), "munged did not start")
-        self._daemon("slurmctld", ["/usr/sbin/slurmctld", "-D", "-i", "-f", self.path("slurm.conf")])
+        conf = self.path("slurm.conf")
+        self._daemon("slurmctld", ["/usr/sbin/slurmctld", "-D", "-i", "-f", conf])
         self._daemon("slurmd", ["/usr/sbin/slurmd", "-D", "-f", self.path("slurm.conf")])
         self._wait(self._idle, "the node did not become idle")
 

@@ -22,7 +22,8 @@ def blade_collection(scene):
     coll = bpy.data.collections.get(COLLECTION)
     if coll is None:
         coll = bpy.data.collections.new(COLLECTION)
-    if coll.name not in scene.collection.children and scene.collection.children.get(coll.name) is None:
+    children = scene.collection.children
+    if coll.name not in children and children.get(coll.name) is None:
         scene.collection.children.link(coll)
     return coll
 

@@ -232,7 +232,8 @@ class Plan:
             'mkdir -p "$FARM/state"',
             'rm -f "$FARM/state/$step.$task"',
             "for attempt in 1 2; do",
-            '  echo "== tussock farm: $step task $task, attempt $attempt, on $(hostname): ${run[*]}"',
+            '  echo "== tussock farm: $step task $task, attempt $attempt, on $(hostname):'
+            ' ${run[*]}"',
             '  if "${run[@]}" && { [ ${#check[@]} -eq 0 ] || '
             f'python3 "$FARM/verify.py" {self.size[0]} {self.size[1]} "${{check[@]}}"; }}; then',
             '    echo ok >"$FARM/state/$step.$task"',

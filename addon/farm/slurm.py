@@ -96,7 +96,8 @@ def watch(plan, jobs, say, poll=1.0, patience=120.0):
         for t in tasks:
             outcome = plan.outcome(step, t.index)
             if outcome != "ok":
-                what = "failed twice" if outcome == "failed" else \
-                    "did not run to its end (cancelled, its node failed, or a step before it failed)"
+                what = ("failed twice" if outcome == "failed" else
+                        "did not run to its end (cancelled, its node failed, or a step before "
+                        "it failed)")
                 bad.append((t, plan.path(plan.farm, "logs", f"{step}_{job}_{t.index}.out"), what))
     return bad

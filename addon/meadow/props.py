@@ -123,7 +123,8 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
                                          description="1/s: how fast blade motion dies down")
     sim_stiffness: bpy.props.FloatProperty(name="Shape stiffness", default=30.0, min=0.0,
                                            max=10000.0, update=_reset_simulation,
-                                           description="1/s: pull toward the rest shape at the root")
+                                           description="1/s: pull toward the rest shape at "
+                                           "the root")
     sim_local_stiffness: bpy.props.FloatProperty(name="Bending stiffness", default=120.0,
                                                  min=0.0, max=100000.0, update=_reset_simulation,
                                                  description="1/s: how strongly each segment "

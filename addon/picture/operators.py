@@ -91,10 +91,12 @@ class TUSSOCK_OT_animate_picture(bpy.types.Operator):
     bl_label = "Animate Picture"
     bl_options = {"REGISTER", "UNDO"}
 
-    filepath: bpy.props.StringProperty(name="Picture", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
+    filepath: bpy.props.StringProperty(name="Picture", subtype="FILE_PATH",
+                                       options=compat.PATH_OPTIONS,
                                        description="Picture file; empty = the scene's "
                                        "Tussock picture settings")
-    mask_path: bpy.props.StringProperty(name="Mask", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
+    mask_path: bpy.props.StringProperty(name="Mask", subtype="FILE_PATH",
+                                        options=compat.PATH_OPTIONS,
                                         description="Mask file of a single layer with "
                                         "default motion, replacing the scene's layers; "
                                         "empty = the scene's layers")

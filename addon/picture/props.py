@@ -46,7 +46,8 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
     mask_mode: bpy.props.EnumProperty(name="Mask", items=MASK_ITEMS, default="FILE",
                                       description="How this layer's vegetation is told apart from "
                                                   "the background")
-    mask_path: bpy.props.StringProperty(name="Mask file", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
+    mask_path: bpy.props.StringProperty(name="Mask file", subtype="FILE_PATH",
+                                        options=compat.PATH_OPTIONS,
                                         description="Image file the size of the picture; "
                                         "white (>= 50 %) is vegetation")
     mask_image: bpy.props.StringProperty(name="Mask image",
@@ -56,7 +57,8 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
                                       description="GrabCut rectangle around the vegetation: "
                                       "x, y of its top-left corner (pixels from the "
                                       "picture's top-left), width, height")
-    strokes_path: bpy.props.StringProperty(name="Strokes", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
+    strokes_path: bpy.props.StringProperty(name="Strokes", subtype="FILE_PATH",
+                                           options=compat.PATH_OPTIONS,
                                            description="Optional image file the size of "
                                            "the picture: red strokes force vegetation, blue "
                                            "strokes force background")
@@ -77,7 +79,8 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
     lambda_y: bpy.props.FloatProperty(name="λ y", default=8.0, soft_min=0.0, soft_max=200.0,
                                       description="How far it moves up and down (keep low "
                                       "for grass seen from the side)", update=_motion_changed)
-    scale_map_path: bpy.props.StringProperty(name="Scale map", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
+    scale_map_path: bpy.props.StringProperty(name="Scale map", subtype="FILE_PATH",
+                                             options=compat.PATH_OPTIONS,
                                              description="Optional image file the size of "
                                              "the picture multiplying λ (dark = far, moves "
                                              "less; white = 1)")
@@ -119,7 +122,8 @@ class TussockPictureImages(bpy.types.PropertyGroup):
 
 
 class TussockPicture(bpy.types.PropertyGroup):
-    filepath: bpy.props.StringProperty(name="Picture", subtype="FILE_PATH", options=compat.PATH_OPTIONS,
+    filepath: bpy.props.StringProperty(name="Picture", subtype="FILE_PATH",
+                                       options=compat.PATH_OPTIONS,
                                        description="PNG, JPEG or OpenEXR picture to animate")
     layers: bpy.props.CollectionProperty(type=TussockPictureLayer,
                                          description="Vegetation layers, back to front")

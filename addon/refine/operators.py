@@ -101,8 +101,9 @@ class TUSSOCK_OT_refine_blades(bpy.types.Operator):
                 continue
             mode = self.movement
             if mode == "AUTO":
-                mode = "TRACKED" if (obj.get("tussock_source") in ("FILES", "ONI") and cam is not None
-                                     and self._sequence_long_enough(obj)) else "SIMULATED"
+                tracked = (obj.get("tussock_source") in ("FILES", "ONI") and cam is not None
+                           and self._sequence_long_enough(obj))
+                mode = "TRACKED" if tracked else "SIMULATED"
             if mode == "TRACKED":
                 if cam is None:
                     raise ValueError(f"'{obj.name}' has no camera_co attribute to track")
@@ -123,8 +124,8 @@ class TUSSOCK_OT_refine_blades(bpy.types.Operator):
                 local_out = (out_k - out_k[0]) @ blades.CAMERA_TO_WORLD.T
             else:
                 local_out = out_k
-                cam_out = (cam[0] + (out_k - local[0]) @ blades.CAMERA_TO_WORLD) if cam is not None \
-                    else out_k
+                cam_out = (cam[0] + (out_k - local[0]) @ blades.CAMERA_TO_WORLD
+                           if cam is not None else out_k)
             results.append((obj, mesh, local_out, out_w, cam_out, ranges.reshape(-1, 2), mode))
         # everything computed: now change the scene
         for obj, mesh, local_out, out_w, cam_out, ranges, mode in results:
@@ -160,7 +161,8 @@ class TUSSOCK_OT_refine_blades(bpy.types.Operator):
             return False
         try:
             info = lib.depth_info(src)
-            return info["frame_count"] - (obj.get("tussock_frame", 0) - info["first_frame"]) >= self.frames
+            seen = obj.get("tussock_frame", 0) - info["first_frame"]
+            return info["frame_count"] - seen >= self.frames
         finally:
             lib.depth_close(src)
 

@@ -43,7 +43,8 @@ class TUSSOCK_OT_add_wind_source(bpy.types.Operator):
         obj.location = context.scene.cursor.location
         obj.rotation_euler = (0.0, math.pi / 2, 0.0)  # the arrow (+Z) points along +X
         s = obj.tussock_wind_source
-        s.is_source, s.strength, s.radius, s.interval = True, self.strength, self.radius, self.interval
+        s.is_source = True
+        s.strength, s.radius, s.interval = self.strength, self.radius, self.interval
         context.collection.objects.link(obj)
         for o in context.selected_objects:
             o.select_set(False)
