@@ -7,31 +7,13 @@
 
 #include <string.h>
 
-static const char* PATCH_CAPSULE = "tussock.patch";
-static const char* MEADOW_CAPSULE = "tussock.meadow";
+static void destroy_patch(void* p) { tsk_patch_destroy(p); }
+static void destroy_meadow(void* m) { tsk_meadow_destroy(m); }
 
-static void patch_capsule_free(PyObject* capsule) {
-    tsk_patch_destroy(PyCapsule_GetPointer(capsule, PATCH_CAPSULE));
-}
-static void meadow_capsule_free(PyObject* capsule) {
-    tsk_meadow_destroy(PyCapsule_GetPointer(capsule, MEADOW_CAPSULE));
-}
-
-static tsk_patch* get_patch(PyObject* obj) {
-    if (!PyCapsule_IsValid(obj, PATCH_CAPSULE)) {
-        tsk_py_raise_arg("patch", "expected a patch handle from patch_create");
-        return NULL;
-    }
-    return PyCapsule_GetPointer(obj, PATCH_CAPSULE);
-}
-
-static tsk_meadow* get_meadow(PyObject* obj) {
-    if (!PyCapsule_IsValid(obj, MEADOW_CAPSULE)) {
-        tsk_py_raise_arg("meadow", "expected a meadow handle from meadow_create");
-        return NULL;
-    }
-    return PyCapsule_GetPointer(obj, MEADOW_CAPSULE);
-}
+static const tsk_py_kind k_patch = {"tussock.patch", "patch", "patch", "patch_create",
+                                    destroy_patch};
+static const tsk_py_kind k_meadow = {"tussock.meadow", "meadow", "meadow", "meadow_create",
+                                     destroy_meadow};
 
 /* ---- blade models ------------------------------------------------------------------------ */
 
@@ -126,17 +108,16 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
     PyMem_Free(models);
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* cap = PyCapsule_New(patch, PATCH_CAPSULE, patch_capsule_free);
-    if (cap == NULL) tsk_patch_destroy(patch);
-    return cap;
+    return tsk_py_handle_new(&k_patch, patch);
 }
 
 static PyObject* py_patch_info(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* obj;
     if (!PyArg_ParseTuple(args, "O:patch_info", &obj)) return NULL;
-    tsk_patch* p = get_patch(obj);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(obj, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     size_t nv = 0, nt = 0;
     tsk_patch_mesh_counts(p, &nv, &nt);
     return Py_BuildValue("{s:i,s:i,s:i,s:n,s:n}", "blade_count", (int)tsk_patch_blade_count(p),
@@ -150,8 +131,9 @@ static PyObject* py_patch_blades(PyObject* self, PyObject* args) {
     PyObject *obj, *xy_o, *turn_o, *scale_o, *model_o;
     if (!PyArg_ParseTuple(args, "OOOOO:patch_blades", &obj, &xy_o, &turn_o, &scale_o, &model_o))
         return NULL;
-    tsk_patch* p = get_patch(obj);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(obj, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     const Py_ssize_t n = tsk_patch_blade_count(p);
     tsk_py_views v = {.n = 0};
     float *xy, *turn, *scale;
@@ -164,9 +146,11 @@ static PyObject* py_patch_blades(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_patch_get_blades(p, xy, turn, scale, model);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -177,8 +161,9 @@ static PyObject* py_patch_model(PyObject* self, PyObject* args) {
     PyObject *obj, *xyz_o, *width_o;
     int index;
     if (!PyArg_ParseTuple(args, "OiOO:patch_model", &obj, &index, &xyz_o, &width_o)) return NULL;
-    tsk_patch* p = get_patch(obj);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(obj, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     tsk_blade_model m;
     tsk_status s = tsk_patch_get_model(p, index, &m);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -202,8 +187,9 @@ static PyObject* py_patch_expand(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OfOOOO|O:patch_expand", &obj, &tile_size, &pos_o, &nrm_o, &uv_o,
                           &tri_o, &bid_o))
         return NULL;
-    tsk_patch* p = get_patch(obj);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(obj, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     size_t nv = 0, nt = 0;
     tsk_patch_mesh_counts(p, &nv, &nt);
     tsk_py_views v = {.n = 0};
@@ -218,9 +204,11 @@ static PyObject* py_patch_expand(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_patch_expand(p, tile_size, pos, nrm, uv, tris, bid);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -365,17 +353,16 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
     Py_END_ALLOW_THREADS
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* cap = PyCapsule_New(m, MEADOW_CAPSULE, meadow_capsule_free);
-    if (cap == NULL) tsk_meadow_destroy(m);
-    return cap;
+    return tsk_py_handle_new(&k_meadow, m);
 }
 
 static PyObject* py_meadow_info(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* obj;
     if (!PyArg_ParseTuple(args, "O:meadow_info", &obj)) return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     tsk_meadow_info i;
     tsk_status s = tsk_meadow_get_info(m, &i);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -393,8 +380,9 @@ static PyObject* py_meadow_tiles(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *obj, *c_o, *o_o, *d_o = Py_None;
     if (!PyArg_ParseTuple(args, "OOO|O:meadow_tiles", &obj, &c_o, &o_o, &d_o)) return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     tsk_meadow_info i;
     tsk_meadow_get_info(m, &i);
     const Py_ssize_t T = (Py_ssize_t)i.tile_count;
@@ -408,9 +396,11 @@ static PyObject* py_meadow_tiles(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hm->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_get_tiles(m, counts, offsets, dens);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -421,8 +411,9 @@ static PyObject* py_meadow_instances(PyObject* self, PyObject* args) {
     PyObject *obj, *org_o, *off_o, *cnt_o;
     if (!PyArg_ParseTuple(args, "OOOO:meadow_instances", &obj, &org_o, &off_o, &cnt_o))
         return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     tsk_meadow_info i;
     tsk_meadow_get_info(m, &i);
     const Py_ssize_t T = (Py_ssize_t)i.tile_count;
@@ -436,9 +427,11 @@ static PyObject* py_meadow_instances(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hm->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_instances(m, org, off, cnt);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -449,8 +442,9 @@ static PyObject* py_meadow_chunk_instances(PyObject* self, PyObject* args) {
     PyObject *obj, *org_o, *chunk_o, *tile_o = Py_None;
     if (!PyArg_ParseTuple(args, "OOO|O:meadow_chunk_instances", &obj, &org_o, &chunk_o, &tile_o))
         return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     tsk_meadow_info i;
     tsk_meadow_get_info(m, &i);
     const Py_ssize_t N = (Py_ssize_t)i.chunk_instances;
@@ -464,9 +458,11 @@ static PyObject* py_meadow_chunk_instances(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hm->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_chunk_instances(m, org, chunk, tile);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -477,8 +473,9 @@ static PyObject* py_meadow_blade_count(PyObject* self, PyObject* args) {
     PyObject* obj;
     long long b, e;
     if (!PyArg_ParseTuple(args, "OLL:meadow_blade_count", &obj, &b, &e)) return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     int64_t n = 0;
     tsk_status s = tsk_meadow_blade_count(m, b, e, &n);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -492,10 +489,12 @@ static PyObject* py_meadow_realise(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OOLLOOOO:meadow_realise", &mo, &po, &b, &e, &xyz_o, &turn_o,
                           &scale_o, &idx_o))
         return NULL;
-    tsk_meadow* m = get_meadow(mo);
-    if (m == NULL) return NULL;
-    tsk_patch* p = get_patch(po);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(mo, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
+    tsk_py_handle* hp = tsk_py_handle_get(po, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     int64_t n = 0;
     tsk_status s = tsk_meadow_blade_count(m, b, e, &n);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -509,9 +508,13 @@ static PyObject* py_meadow_realise(PyObject* self, PyObject* args) {
         tsk_py_views_release(&v);
         return NULL;
     }
+    hm->busy = 1;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_realise(m, p, b, e, xyz, turn, scale, idx);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -524,10 +527,12 @@ static PyObject* py_meadow_realise_knots(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OOLLOOO:meadow_realise_knots", &mo, &po, &b, &e, &k_o, &w_o,
                           &s_o))
         return NULL;
-    tsk_meadow* m = get_meadow(mo);
-    if (m == NULL) return NULL;
-    tsk_patch* p = get_patch(po);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(mo, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
+    tsk_py_handle* hp = tsk_py_handle_get(po, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     int64_t n = 0;
     tsk_status s = tsk_meadow_blade_count(m, b, e, &n);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -540,9 +545,13 @@ static PyObject* py_meadow_realise_knots(PyObject* self, PyObject* args) {
         tsk_py_views_release(&v);
         return NULL;
     }
+    hm->busy = 1;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_realise_knots(m, p, b, e, knots, widths, sides);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;

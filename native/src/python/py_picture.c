@@ -8,26 +8,12 @@
 
 #include "tussock/picture.h"
 
-static const char k_capsule[] = "tussock.picture";
+static void destroy_picture(void* p) { tsk_picture_destroy(p); }
 
-static void capsule_free(PyObject* cap) {
-    tsk_picture_destroy(PyCapsule_GetPointer(cap, k_capsule));
-}
+static const tsk_py_kind k_picture = {"tussock.picture", "picture", "picture",
+                                      "picture_load or picture_create", destroy_picture};
 
-static tsk_picture* get_picture(PyObject* obj) {
-    if (!PyCapsule_IsValid(obj, k_capsule)) {
-        tsk_py_raise_arg("picture", "expected a picture handle from picture_load or "
-                                    "picture_create");
-        return NULL;
-    }
-    return PyCapsule_GetPointer(obj, k_capsule);
-}
-
-static PyObject* wrap(tsk_picture* p) {
-    PyObject* cap = PyCapsule_New(p, k_capsule, capsule_free);
-    if (cap == NULL) tsk_picture_destroy(p);
-    return cap;
-}
+static PyObject* wrap(tsk_picture* p) { return tsk_py_handle_new(&k_picture, p); }
 
 static PyObject* py_picture_load(PyObject* self, PyObject* args) {
     (void)self;
@@ -66,8 +52,9 @@ static PyObject* py_picture_size(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* cap;
     if (!PyArg_ParseTuple(args, "O:picture_size", &cap)) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     int w, h;
     tsk_picture_size(p, &w, &h);
     return Py_BuildValue("(ii)", w, h);
@@ -77,8 +64,9 @@ static PyObject* py_picture_layer_count(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* cap;
     if (!PyArg_ParseTuple(args, "O:picture_layer_count", &cap)) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     return PyLong_FromLong(tsk_picture_layer_count(p));
 }
 
@@ -96,14 +84,16 @@ static PyObject* read_common(PyObject* args, PyObject* kw, int what, const char*
                  : PyArg_ParseTupleAndKeywords(args, kw, fmt, names_plain, &cap, &obj,
                                                &bottom_up);
     if (!ok) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     int w, h;
     tsk_picture_size(p, &w, &h);
     const Py_ssize_t n = (Py_ssize_t)w * h * (what == READ_MATTE ? 1 : 4);
     Py_buffer out;
     if (!tsk_py_buffer(obj, "out", TSK_PY_F32, n, 1, &out)) return NULL;
     tsk_status s = TSK_OK;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     switch (what) {
     case READ_RGBA: s = tsk_picture_read_rgba(p, out.buf, (size_t)n, bottom_up); break;
@@ -112,6 +102,7 @@ static PyObject* read_common(PyObject* args, PyObject* kw, int what, const char*
     case READ_MATTE: s = tsk_picture_read_matte(p, layer, out.buf, (size_t)n, bottom_up); break;
     }
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -143,8 +134,9 @@ static PyObject* py_picture_propose_mask(PyObject* self, PyObject* args, PyObjec
                                      &g.rect_x, &g.rect_y, &g.rect_width, &g.rect_height,
                                      &out_obj, &strokes_obj, &g.iterations))
         return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     int w, h;
     tsk_picture_size(p, &w, &h);
     const Py_ssize_t n = (Py_ssize_t)w * h;
@@ -158,9 +150,11 @@ static PyObject* py_picture_propose_mask(PyObject* self, PyObject* args, PyObjec
         return NULL;
     }
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_picture_propose_mask(p, &g, strokes, has_strokes ? (size_t)n : 0, out, (size_t)n);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -170,8 +164,9 @@ static PyObject* py_picture_add_layer(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *cap, *obj;
     if (!PyArg_ParseTuple(args, "OO:picture_add_layer", &cap, &obj)) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     Py_buffer mask;
     int is_float = 1;
     if (!tsk_py_buffer(obj, "mask", TSK_PY_F32, -1, 0, &mask)) {
@@ -185,10 +180,12 @@ static PyObject* py_picture_add_layer(PyObject* self, PyObject* args) {
     }
     int index = -1;
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = is_float ? tsk_picture_add_layer_f32(p, mask.buf, (size_t)tsk_py_count(&mask), &index)
                  : tsk_picture_add_layer_u8(p, mask.buf, (size_t)tsk_py_count(&mask), &index);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     PyBuffer_Release(&mask);
     if (s != TSK_OK) return tsk_py_raise(s);
     return PyLong_FromLong(index);
@@ -203,15 +200,18 @@ static PyObject* py_picture_build(PyObject* self, PyObject* args, PyObject* kw) 
     if (!PyArg_ParseTupleAndKeywords(args, kw, "O|sfff:picture_build", names, &cap, &method,
                                      &d.inpaint_radius, &d.grow, &d.feather))
         return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     if (strcmp(method, "telea") == 0) d.method = TSK_INPAINT_TELEA;
     else if (strcmp(method, "ns") == 0) d.method = TSK_INPAINT_NS;
     else return tsk_py_raise_arg("method", "must be 'telea' or 'ns', got '%s'", method);
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_picture_build(p, &d);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -281,8 +281,9 @@ static PyObject* py_picture_layer_frame(PyObject* self, PyObject* args, PyObject
                                      &a.def.rigidity, &a.root, &a.root_y, &a.height, &scale_obj,
                                      &a.sampling))
         return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL || !finish_warp_def(&a, 1)) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL || !finish_warp_def(&a, 1)) return NULL;
+    tsk_picture* p = hp->ptr;
     if (fw < 1 || fh < 1 || fw > 4096 || fh > 4096)
         return tsk_py_raise_arg("field_width, field_height", "must be 1..4096, got %dx%d", fw, fh);
     int w, h;
@@ -303,11 +304,13 @@ static PyObject* py_picture_layer_frame(PyObject* self, PyObject* args, PyObject
     }
     tsk_picture_field f = {vx, vy, fw, fh, y_up};
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_picture_layer_frame(p, layer, &a.def, &f, scale, have_scale ? (size_t)n : 0, rgba,
                                 have_rgba ? (size_t)(4 * n) : 0, uv,
                                 have_uv ? (size_t)(4 * n) : 0, uv_bottom_up);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -320,8 +323,9 @@ static PyObject* py_picture_composite(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *cap, *seq, *out_obj;
     if (!PyArg_ParseTuple(args, "OOO:picture_composite", &cap, &seq, &out_obj)) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     int w, h;
     tsk_picture_size(p, &w, &h);
     const Py_ssize_t n4 = (Py_ssize_t)w * h * 4;
@@ -351,9 +355,11 @@ static PyObject* py_picture_composite(PyObject* self, PyObject* args) {
     ok = ok && tsk_py_views_get(&v, out_obj, "out", TSK_PY_F32, n4, 1, 0, (void**)&out);
     tsk_status s = TSK_OK;
     if (ok) {
+        hp->busy = 1;
         Py_BEGIN_ALLOW_THREADS
         s = tsk_picture_composite(p, ptrs, (size_t)count, out, (size_t)n4);
         Py_END_ALLOW_THREADS
+        hp->busy = 0;
     }
     tsk_py_views_release(&v);
     if (!ok) return NULL;
