@@ -178,6 +178,22 @@ run_native_tests() { # dir, label
   done
 }
 
+# The binding's checks (native/tests/py_*.py) under the machine's python3 with numpy, no
+# Blender: handles, def tables, the checked-in stub; same output and tally as the C tests.
+run_python_tests() {
+  local t out line p f
+  for t in "$ROOT"/native/tests/py_*.py; do
+    out="$(cd "$BUILD/release" && PYTHONPATH="$BUILD/release" timeout 600 /usr/bin/python3 "$t" 2>&1)" || true
+    line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed$' | tail -n 1 || true)"
+    if [ -z "$line" ]; then printf '%s\n' "$out"; p=0; f=1; else
+      p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
+      [ "$f" -eq 0 ] || printf '%s\n' "$out" | grep -E '^FAIL' >&2 || true
+    fi
+    printf '%-8s %-28s %s passed, %s failed\n' python "$(basename "$t")" "$p" "$f"
+    PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+  done
+}
+
 # valgrind memcheck over the release test programs: no invalid access, no use of
 # uninitialised values, no definite/indirect leak (third-party ones suppressed in
 # native/tests/valgrind.supp). Long numeric tests are skipped (TSK_TEST_SKIP): valgrind runs
@@ -266,6 +282,7 @@ cmd_test() {
     export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1"
     export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
     run_native_tests "$BUILD/release" native
+    run_python_tests
     run_native_tests "$BUILD/asan" asan+ubsan
     unset ASAN_OPTIONS UBSAN_OPTIONS
     # valgrind memcheck (TSK_VALGRIND=0 skips)
