@@ -396,51 +396,66 @@ static PyObject* py_capture_constants(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_capture_methods[] = {
     {"depth_open_files", py_depth_open_files, METH_VARARGS,
-     "depth_open_files(path) -> source: a 16-bit PNG (mm) or float EXR (m), or a sequence "
-     "with '#' for the frame number."},
+     "depth_open_files($module, path, /)\n--\n\n"
+     "-> source: a 16-bit PNG (mm) or float EXR (m), or a sequence with '#' for the frame "
+     "number."},
     {"depth_open_oni", py_depth_open_oni, METH_VARARGS,
-     "depth_open_oni(path) -> source: an OpenNI2 recording, read frame by frame."},
+     "depth_open_oni($module, path, /)\n--\n\n"
+     "-> source: an OpenNI2 recording, read frame by frame."},
     {"depth_open_device", py_depth_open_device, METH_VARARGS,
-     "depth_open_device(uri=None) -> source: a live OpenNI2 device (None = first)."},
-    {"depth_close", py_depth_close, METH_VARARGS, "depth_close(source): close now."},
-    {"depth_start", py_depth_start, METH_VARARGS, "depth_start(source): start a device."},
-    {"depth_stop", py_depth_stop, METH_VARARGS, "depth_stop(source): stop a device."},
+     "depth_open_device($module, uri=None, /)\n--\n\n"
+     "-> source: a live OpenNI2 device (None = first)."},
+    {"depth_close", py_depth_close, METH_VARARGS, "depth_close($module, source, /)\n--\n\n"
+     "close now."},
+    {"depth_start", py_depth_start, METH_VARARGS, "depth_start($module, source, /)\n--\n\n"
+     "start a device."},
+    {"depth_stop", py_depth_stop, METH_VARARGS, "depth_stop($module, source, /)\n--\n\n"
+     "stop a device."},
     {"depth_info", py_depth_info, METH_VARARGS,
-     "depth_info(source) -> dict(kind, width, height, frame_count, first_frame, "
-     "has_device_intrinsics, fx, fy, cx, cy, description)."},
-    {"depth_seek", py_depth_seek, METH_VARARGS, "depth_seek(source, index): files and .oni."},
+     "depth_info($module, source, /)\n--\n\n"
+     "-> dict(kind, width, height, frame_count, first_frame, has_device_intrinsics, fx, fy, "
+     "cx, cy, description)."},
+    {"depth_seek", py_depth_seek, METH_VARARGS, "depth_seek($module, source, index, /)\n--\n\n"
+     "files and .oni."},
     {"depth_read", py_depth_read, METH_VARARGS,
-     "depth_read(source, out) -> dict(is_new, end, index, timestamp, invalid_pixels); out "
-     "float32 (width*height) in metres, 0 = no data. Never blocks on a device."},
+     "depth_read($module, source, out, /)\n--\n\n"
+     "-> dict(is_new, end, index, timestamp, invalid_pixels); out float32 (width*height) in "
+     "metres, 0 = no data. Never blocks on a device."},
     {"depth_write_png16", py_depth_write_png16, METH_VARARGS,
-     "depth_write_png16(path, depth, width, height): depth float32 metres -> PNG in mm."},
+     "depth_write_png16($module, path, depth, width, height, /)\n--\n\n"
+     "depth float32 metres -> PNG in mm."},
     {"depth_write_exr", py_depth_write_exr, METH_VARARGS,
-     "depth_write_exr(path, depth, width, height): depth float32 metres -> float EXR."},
+     "depth_write_exr($module, path, depth, width, height, /)\n--\n\n"
+     "depth float32 metres -> float EXR."},
     {"default_intrinsics", py_default_intrinsics, METH_VARARGS,
-     "default_intrinsics(width, height) -> (fx, fy, cx, cy) of a 640x480 sensor, scaled."},
-    {"capture_create", py_capture_create, METH_NOARGS, "capture_create() -> capture handle."},
+     "default_intrinsics($module, width, height, /)\n--\n\n"
+     "-> (fx, fy, cx, cy) of a 640x480 sensor, scaled."},
+    {"capture_create", py_capture_create, METH_NOARGS, "capture_create($module, /)\n--\n\n"
+     "-> capture handle."},
     {"capture_process", (PyCFunction)(void (*)(void))py_capture_process,
      METH_VARARGS | METH_KEYWORDS,
-     "capture_process(capture, depth, width, height, *, near=0, far=0, fx=0, fy=0, cx=0, "
-     "cy=0, min_area=150, hole_radius=2, open_radius=0, contour_smooth=1.5, "
-     "split_smooth=3, split_prominence=12, root='BOTTOM', knot_spacing=2, width_smooth=2, "
-     "depth_window=2, min_knots=4, root_trim=1) -> blade count. near=far=0: automatic "
-     "band; fx..cy all 0: default intrinsics."},
+     "capture_process($module, capture, depth, width, height, *, near=0, far=0, fx=0, fy=0, cx=0, cy=0, min_area=150, hole_radius=2, open_radius=0, contour_smooth=1.5, split_smooth=3, split_prominence=12, root='BOTTOM', knot_spacing=2, width_smooth=2, depth_window=2, min_knots=4, root_trim=1)\n--\n\n"
+     "-> blade count. near=far=0: automatic band; fx..cy all 0: default intrinsics."},
     {"capture_propose_band", py_capture_propose_band, METH_VARARGS,
-     "capture_propose_band(depth, width, height, min_pixels=150) -> (near, far) metres."},
+     "capture_propose_band($module, depth, width, height, min_pixels=150, /)\n--\n\n"
+     "-> (near, far) metres."},
     {"capture_summary", py_capture_summary, METH_VARARGS,
-     "capture_summary(capture) -> dict(blades, knots, near, far, fx, fy, cx, cy, message)."},
+     "capture_summary($module, capture, /)\n--\n\n"
+     "-> dict(blades, knots, near, far, fx, fy, cx, cy, message)."},
     {"capture_blades", py_capture_blades, METH_VARARGS,
-     "capture_blades(capture, knot_counts, flags=None): int32 arrays of blade count."},
+     "capture_blades($module, capture, knot_counts, flags=None, /)\n--\n\n"
+     "int32 arrays of blade count."},
     {"capture_knots", py_capture_knots, METH_VARARGS,
-     "capture_knots(capture, camera_xyz=None, width=None, pixel_uv=None): float32 arrays "
-     "of 3, 1, 2 x knot total; blades one after the other, root -> tip."},
+     "capture_knots($module, capture, camera_xyz=None, width=None, pixel_uv=None, /)\n--\n\n"
+     "float32 arrays of 3, 1, 2 x knot total; blades one after the other, root -> tip."},
     {"capture_blade", py_capture_blade, METH_VARARGS,
-     "capture_blade(capture, blade, camera_xyz=None, width=None, pixel_uv=None) -> knots."},
+     "capture_blade($module, capture, blade, camera_xyz=None, width=None, pixel_uv=None, /)\n--\n\n"
+     "-> knots."},
     {"capture_image", py_capture_image, METH_VARARGS,
-     "capture_image(capture, which, out): which DEPTH|MASK|LABELS|OVERLAY, out uint8 "
-     "(width*height)."},
+     "capture_image($module, capture, which, out, /)\n--\n\n"
+     "which DEPTH|MASK|LABELS|OVERLAY, out uint8 (width*height)."},
     {"capture_constants", py_capture_constants, METH_NOARGS,
-     "capture_constants() -> dict of blade flags and limits."},
+     "capture_constants($module, /)\n--\n\n"
+     "-> dict of blade flags and limits."},
     {NULL, NULL, 0, NULL},
 };

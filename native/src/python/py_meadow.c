@@ -559,58 +559,59 @@ static PyObject* py_meadow_realise_knots(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_meadow_methods[] = {
     {"blade_model_default", py_blade_model_default, METH_VARARGS,
-     "blade_model_default(knot_count, xyz, width): the built-in blade into float32 xyz (3n) "
-     "and width (n)."},
+     "blade_model_default($module, knot_count, xyz, width, /)\n--\n\n"
+     "the built-in blade into float32 xyz (3n) and width (n)."},
     {"patch_create", (PyCFunction)(void (*)(void))py_patch_create, METH_VARARGS | METH_KEYWORDS,
-     "patch_create(knots=None, widths=None, knot_counts=None, weights=None, blade_count=16384, "
-     "scale_min=0.8, scale_max=1.2, seed=1, knot_count=0) -> patch handle. knots float32 "
-     "(3 per knot), widths float32 (1 per knot), knot_counts int32 (1 per model), weights "
-     "float32 (1 per model) or None; no models -> the default blade."},
+     "patch_create($module, knots=None, widths=None, knot_counts=None, weights=None, blade_count=16384, scale_min=0.8, scale_max=1.2, seed=1, knot_count=0)\n--\n\n"
+     "-> patch handle. knots float32 (3 per knot), widths float32 (1 per knot), knot_counts "
+     "int32 (1 per model), weights float32 (1 per model) or None; no models -> the default "
+     "blade."},
     {"patch_info", py_patch_info, METH_VARARGS,
-     "patch_info(patch) -> dict(blade_count, knot_count, model_count, vertex_count, "
-     "triangle_count)."},
+     "patch_info($module, patch, /)\n--\n\n"
+     "-> dict(blade_count, knot_count, model_count, vertex_count, triangle_count)."},
     {"patch_blades", py_patch_blades, METH_VARARGS,
-     "patch_blades(patch, xy, turn, scale, model): per-blade data (float32 2n, n, n; int32 n); "
-     "None skips."},
+     "patch_blades($module, patch, xy, turn, scale, model, /)\n--\n\n"
+     "per-blade data (float32 2n, n, n; int32 n); None skips."},
     {"patch_model", py_patch_model, METH_VARARGS,
-     "patch_model(patch, index, xyz, width): the resampled rest model (float32 3K, K)."},
+     "patch_model($module, patch, index, xyz, width, /)\n--\n\n"
+     "the resampled rest model (float32 3K, K)."},
     {"patch_expand", py_patch_expand, METH_VARARGS,
-     "patch_expand(patch, tile_size, positions, normals, uvs, tris[, blade_index]): the patch "
-     "as one mesh in tile-local metres; float32 3V, 3V, 2V; int32 3T, V; None skips."},
+     "patch_expand($module, patch, tile_size, positions, normals, uvs, tris, blade_index=None, /)\n--\n\n"
+     "the patch as one mesh in tile-local metres; float32 3V, 3V, 2V; int32 3T, V; None skips."},
     {"blades_expand", py_blades_expand, METH_VARARGS,
-     "blades_expand(knots, widths, sides, knot_count, positions, normals, uvs): ribbons of n "
-     "blades of K knots; float32 3Kn, Kn, 3n in; 6Kn, 6Kn, 4Kn out (None skips)."},
+     "blades_expand($module, knots, widths, sides, knot_count, positions, normals, uvs, /)\n--\n\n"
+     "ribbons of n blades of K knots; float32 3Kn, Kn, 3n in; 6Kn, 6Kn, 4Kn out (None skips)."},
     {"blade_indices", py_blade_indices, METH_VARARGS,
-     "blade_indices(knot_count, blade_count, tris): triangle indices of blade_count ribbons "
-     "laid out blade after blade; int32 6(K-1) per blade."},
+     "blade_indices($module, knot_count, blade_count, tris, /)\n--\n\n"
+     "triangle indices of blade_count ribbons laid out blade after blade; int32 6(K-1) per "
+     "blade."},
     {"meadow_create", (PyCFunction)(void (*)(void))py_meadow_create,
      METH_VARARGS | METH_KEYWORDS,
-     "meadow_create(origin=(0,0,0), size=(10,10), tile_size=0.5, blades_per_tile=64, "
-     "patch_blades=16384, chunk_blades=1, seed=1, density='noise', noise_scale=8, "
-     "noise_octaves=3, noise_persistence=0.5, noise_threshold=0.15, noise_contrast=2.5, "
-     "image=None, image_width=0, "
-     "image_height=0) -> meadow handle. density: 'uniform' | 'noise' | 'image' (float32 "
-     "image of image_width*image_height values in [0,1], row 0 at origin y)."},
+     "meadow_create($module, origin=(0,0,0), size=(10,10), tile_size=0.5, blades_per_tile=64, patch_blades=16384, chunk_blades=1, seed=1, density='noise', noise_scale=8, noise_octaves=3, noise_persistence=0.5, noise_threshold=0.15, noise_contrast=2.5, image=None, image_width=0, image_height=0)\n--\n\n"
+     "-> meadow handle. density: 'uniform' | 'noise' | 'image' (float32 image of "
+     "image_width*image_height values in [0,1], row 0 at origin y)."},
     {"meadow_info", py_meadow_info, METH_VARARGS,
-     "meadow_info(meadow) -> dict(tiles_x, tiles_y, tile_count, blade_count, nonempty_tiles, "
-     "chunk_instances, patch_blades, chunk_blades, tile_size, origin)."},
+     "meadow_info($module, meadow, /)\n--\n\n"
+     "-> dict(tiles_x, tiles_y, tile_count, blade_count, nonempty_tiles, chunk_instances, "
+     "patch_blades, chunk_blades, tile_size, origin)."},
     {"meadow_tiles", py_meadow_tiles, METH_VARARGS,
-     "meadow_tiles(meadow, counts, offsets[, density]): int32, int32, float32 per tile; None "
-     "skips."},
+     "meadow_tiles($module, meadow, counts, offsets, density=None, /)\n--\n\n"
+     "int32, int32, float32 per tile; None skips."},
     {"meadow_instances", py_meadow_instances, METH_VARARGS,
-     "meadow_instances(meadow, origins, offsets, counts): per tile float32 corner (3), int32 "
-     "patch offset, int32 count; None skips."},
+     "meadow_instances($module, meadow, origins, offsets, counts, /)\n--\n\n"
+     "per tile float32 corner (3), int32 patch offset, int32 count; None skips."},
     {"meadow_chunk_instances", py_meadow_chunk_instances, METH_VARARGS,
-     "meadow_chunk_instances(meadow, origins, chunk[, tile]): per used chunk float32 tile "
-     "corner (3), int32 chunk index into the patch, int32 tile index; chunk_instances of "
-     "them; None skips."},
+     "meadow_chunk_instances($module, meadow, origins, chunk, tile=None, /)\n--\n\n"
+     "per used chunk float32 tile corner (3), int32 chunk index into the patch, int32 tile "
+     "index; chunk_instances of them; None skips."},
     {"meadow_blade_count", py_meadow_blade_count, METH_VARARGS,
-     "meadow_blade_count(meadow, tile_begin, tile_end) -> int."},
+     "meadow_blade_count($module, meadow, tile_begin, tile_end, /)\n--\n\n"
+     "-> int."},
     {"meadow_realise", py_meadow_realise, METH_VARARGS,
-     "meadow_realise(meadow, patch, tile_begin, tile_end, xyz, turn, scale, patch_index): "
+     "meadow_realise($module, meadow, patch, tile_begin, tile_end, xyz, turn, scale, patch_index, /)\n--\n\n"
      "explicit blades; float32 3n, n, n; int32 n; None skips."},
     {"meadow_realise_knots", py_meadow_realise_knots, METH_VARARGS,
-     "meadow_realise_knots(meadow, patch, tile_begin, tile_end, knots, widths, sides): rest "
-     "skeletons in world metres; float32 3Kn, Kn, 3n; None skips."},
+     "meadow_realise_knots($module, meadow, patch, tile_begin, tile_end, knots, widths, sides, /)\n--\n\n"
+     "rest skeletons in world metres; float32 3Kn, Kn, 3n; None skips."},
     {NULL, NULL, 0, NULL},
 };

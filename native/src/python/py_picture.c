@@ -465,53 +465,57 @@ static PyObject* py_warp_apply(PyObject* self, PyObject* args, PyObject* kw) {
 
 PyMethodDef tsk_py_picture_methods[] = {
     {"picture_load", py_picture_load, METH_VARARGS,
-     "picture_load(path) -> picture: PNG/JPEG/EXR as straight float RGBA (size limit 16384 "
-     "per side, 64 Mpx)."},
+     "picture_load($module, path, /)\n--\n\n"
+     "-> picture: PNG/JPEG/EXR as straight float RGBA (size limit 16384 per side, 64 Mpx)."},
     {"picture_create", KW py_picture_create, METH_VARARGS | METH_KEYWORDS,
-     "picture_create(width, height, rgba, bottom_up=False) -> picture; rgba float32 4*W*H "
-     "straight (bottom_up=True for Image.pixels)."},
-    {"picture_size", py_picture_size, METH_VARARGS, "picture_size(picture) -> (width, height)."},
+     "picture_create($module, width, height, rgba, bottom_up=False)\n--\n\n"
+     "-> picture; rgba float32 4*W*H straight (bottom_up=True for Image.pixels)."},
+    {"picture_size", py_picture_size, METH_VARARGS, "picture_size($module, picture, /)\n--\n\n"
+     "-> (width, height)."},
     {"picture_layer_count", py_picture_layer_count, METH_VARARGS,
-     "picture_layer_count(picture) -> int."},
+     "picture_layer_count($module, picture, /)\n--\n\n"
+     "-> int."},
     {"picture_read_rgba", KW py_picture_read_rgba, METH_VARARGS | METH_KEYWORDS,
-     "picture_read_rgba(picture, out, bottom_up=False): straight RGBA as loaded; out float32 "
-     "4*W*H."},
+     "picture_read_rgba($module, picture, out, bottom_up=False)\n--\n\n"
+     "straight RGBA as loaded; out float32 4*W*H."},
     {"picture_read_background", KW py_picture_read_background, METH_VARARGS | METH_KEYWORDS,
-     "picture_read_background(picture, out, bottom_up=False): inpainted plate, premultiplied."},
+     "picture_read_background($module, picture, out, bottom_up=False)\n--\n\n"
+     "inpainted plate, premultiplied."},
     {"picture_read_layer", KW py_picture_read_layer, METH_VARARGS | METH_KEYWORDS,
-     "picture_read_layer(picture, layer, out, bottom_up=False): layer at rest, premultiplied."},
+     "picture_read_layer($module, picture, layer, out, bottom_up=False)\n--\n\n"
+     "layer at rest, premultiplied."},
     {"picture_read_matte", KW py_picture_read_matte, METH_VARARGS | METH_KEYWORDS,
-     "picture_read_matte(picture, layer, out, bottom_up=False): matte, float32 W*H."},
+     "picture_read_matte($module, picture, layer, out, bottom_up=False)\n--\n\n"
+     "matte, float32 W*H."},
     {"picture_propose_mask", KW py_picture_propose_mask, METH_VARARGS | METH_KEYWORDS,
-     "picture_propose_mask(picture, (x, y, w, h), out, strokes=None, iterations=5): GrabCut; "
-     "out uint8 W*H (255 vegetation); strokes uint8 W*H (0 none, 1 fg, 2 bg); top-first rows."},
+     "picture_propose_mask($module, picture, rect, out, strokes=None, iterations=5)\n--\n\n"
+     "GrabCut; out uint8 W*H (255 vegetation); strokes uint8 W*H (0 none, 1 fg, 2 bg); top-"
+     "first rows."},
     {"picture_add_layer", py_picture_add_layer, METH_VARARGS,
-     "picture_add_layer(picture, mask) -> index; mask uint8 (>= 128) or float32 (>= 0.5), "
-     "W*H, top-first; layers go back to front."},
+     "picture_add_layer($module, picture, mask, /)\n--\n\n"
+     "-> index; mask uint8 (>= 128) or float32 (>= 0.5), W*H, top-first; layers go back to "
+     "front."},
     {"picture_build", KW py_picture_build, METH_VARARGS | METH_KEYWORDS,
-     "picture_build(picture, method='telea'|'ns', radius=5, grow=3, feather=4): inpaint the "
-     "background, matte the layers."},
+     "picture_build($module, picture, method='telea', radius=5, grow=3, feather=4)\n--\n\n"
+     "inpaint the background, matte the layers."},
     {"picture_layer_frame", KW py_picture_layer_frame, METH_VARARGS | METH_KEYWORDS,
-     "picture_layer_frame(picture, layer, vx, vy, field_width, field_height, rgba=None, "
-     "uv=None, field_y_up=True, uv_bottom_up=True, cell_x=16, cell_y=16, lambda_x=4, "
-     "lambda_y=4, dt=1/24, rigidity=1, root='bottom'|'top'|'none', root_y=None, height=None, "
-     "scale_map=None, sampling='bilinear'|'map_uv'|'map_uv_5'): one frame; rgba "
-     "(premultiplied, top-first) and/or uv (u, v, 1, 1 for Map UV), float32 4*W*H. "
-     "'map_uv' samples as Blender 3.x/4.x's Map UV node, 'map_uv_5' as Blender 5.x's "
+     "picture_layer_frame($module, picture, layer, vx, vy, field_width, field_height, rgba=None, uv=None, field_y_up=True, uv_bottom_up=True, cell_x=16, cell_y=16, lambda_x=4, lambda_y=4, dt=0.0416667, rigidity=1, root='bottom', root_y=None, height=None, scale_map=None, sampling='bilinear')\n--\n\n"
+     "one frame; rgba (premultiplied, top-first) and/or uv (u, v, 1, 1 for Map UV), float32 "
+     "4*W*H. 'map_uv' samples as Blender 3.x/4.x's Map UV node, 'map_uv_5' as Blender 5.x's "
      "(Interpolation 'Anisotropic', CPU compositor)."},
     {"picture_composite", py_picture_composite, METH_VARARGS,
-     "picture_composite(picture, layers, out): layers back to front (warped frames or None "
-     "for at rest) over the background; premultiplied over."},
+     "picture_composite($module, picture, layers, out, /)\n--\n\n"
+     "layers back to front (warped frames or None for at rest) over the background; "
+     "premultiplied over."},
     {"warp_grid_size", py_warp_grid_size, METH_VARARGS,
-     "warp_grid_size(width, height, cell_x, cell_y) -> (corners_x, corners_y)."},
+     "warp_grid_size($module, width, height, cell_x, cell_y, /)\n--\n\n"
+     "-> (corners_x, corners_y)."},
     {"warp_corners", KW py_warp_corners, METH_VARARGS | METH_KEYWORDS,
-     "warp_corners(width, height, vx, vy, field_width, field_height, corner_dx, corner_dy, "
-     "field_y_up=True, cell_x=16, cell_y=16, lambda_x=4, lambda_y=4, dt=1/24, rigidity=1, "
-     "root='bottom', root_y=None, height_px=None, scale_map=None): eq. 5-7 corner "
-     "displacements in pixels."},
+     "warp_corners($module, width, height, vx, vy, field_width, field_height, corner_dx, corner_dy, field_y_up=True, cell_x=16, cell_y=16, lambda_x=4, lambda_y=4, dt=0.0416667, rigidity=1, root='bottom', root_y=None, height_px=None, scale_map=None)\n--\n\n"
+     "eq. 5-7 corner displacements in pixels."},
     {"warp_apply", KW py_warp_apply, METH_VARARGS | METH_KEYWORDS,
-     "warp_apply(width, height, src, cell_x, cell_y, corner_dx, corner_dy, dst=None, uv=None, "
-     "uv_bottom_up=True, sampling='bilinear'|'map_uv'|'map_uv_5'): eq. 8 inverse warp of "
-     "premultiplied RGBA and/or the UV pass; sampling as in picture_layer_frame."},
+     "warp_apply($module, width, height, src, cell_x, cell_y, corner_dx, corner_dy, dst=None, uv=None, uv_bottom_up=True, sampling='bilinear')\n--\n\n"
+     "eq. 8 inverse warp of premultiplied RGBA and/or the UV pass; sampling as in "
+     "picture_layer_frame."},
     {NULL, NULL, 0, NULL},
 };

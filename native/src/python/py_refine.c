@@ -260,29 +260,31 @@ static PyObject* py_refine_simulate(PyObject* self, PyObject* args, PyObject* kw
 
 PyMethodDef tsk_py_refine_methods[] = {
     {"refine_blade", (PyCFunction)(void (*)(void))py_refine_blade, METH_VARARGS | METH_KEYWORDS,
-     "refine_blade(knots, widths, trajectories, frame_count, target_knots, mu, out_knots, "
-     "out_widths, out_ranges, out_trajectories=None): seed 000 Algorithm 1. knots float32 "
-     "(3K), widths (K), trajectories (frame_count*K*3, frame-major); out_knots (3m), out_widths "
-     "(m), out_ranges int32 (2m: first source knot, count), out_trajectories (frame_count*m*3)."},
+     "refine_blade($module, knots, widths, trajectories, frame_count, target_knots, mu, out_knots, out_widths, out_ranges, out_trajectories=None)\n--\n\n"
+     "seed 000 Algorithm 1. knots float32 (3K), widths (K), trajectories (frame_count*K*3, "
+     "frame-major); out_knots (3m), out_widths (m), out_ranges int32 (2m: first source knot, "
+     "count), out_trajectories (frame_count*m*3)."},
     {"refine_blades", (PyCFunction)(void (*)(void))py_refine_blades,
      METH_VARARGS | METH_KEYWORDS,
-     "refine_blades(knots, widths, trajectories, blade_count, frame_count, target_knots, mu, "
-     "out_knots, out_widths, out_ranges, out_trajectories=None): many blades of equal knot "
-     "count K, in parallel; arrays are refine_blade's stacked per blade "
-     "(trajectories [blade][frame][K][3])."},
+     "refine_blades($module, knots, widths, trajectories, blade_count, frame_count, target_knots, mu, out_knots, out_widths, out_ranges, out_trajectories=None)\n--\n\n"
+     "many blades of equal knot count K, in parallel; arrays are refine_blade's stacked per "
+     "blade (trajectories [blade][frame][K][3])."},
     {"refine_track", py_refine_track, METH_VARARGS,
-     "refine_track(ref_knots, frame_knots, frame_offsets, out_trajectories): trajectories of "
-     "the reference knots through captured skeletons (frame f = frame_knots[offsets[f]:"
-     "offsets[f+1]] knots), matched by normalised arc length. frame_offsets int32 (F+1)."},
+     "refine_track($module, ref_knots, frame_knots, frame_offsets, out_trajectories, /)\n--\n\n"
+     "trajectories of the reference knots through captured skeletons (frame f = "
+     "frame_knots[offsets[f]:offsets[f+1]] knots), matched by normalised arc length. "
+     "frame_offsets int32 (F+1)."},
     {"refine_resample", py_refine_resample, METH_VARARGS,
-     "refine_resample(knots, widths, out_knots, out_widths): uniform arc-length resampling "
-     "to len(out_widths) knots."},
+     "refine_resample($module, knots, widths, out_knots, out_widths, /)\n--\n\n"
+     "uniform arc-length resampling to len(out_widths) knots."},
     {"refine_simulate", (PyCFunction)(void (*)(void))py_refine_simulate,
      METH_VARARGS | METH_KEYWORDS,
-     "refine_simulate(knots, widths, frame_count, out_trajectories, *, youngs_modulus=3e9, "
-     "thickness=4e-4, density=900, min_width_ratio=0.05, gravity_x/y/z=(0,0,-9.81), "
-     "gravity_prestress=True, air_density=1.2, drag_coefficient=1.2, damping=2, wind_speed=3, "
-     "wind_x/y/z=(1,0,0), gust=0.5, fps=24, warmup=1, time_step=0): bending simulation of a "
-     "still blade under the standard wind; out_trajectories (frame_count*K*3)."},
+     "refine_simulate($module, knots, widths, frame_count, out_trajectories, *, "
+     "youngs_modulus=3e9, thickness=4e-4, density=900, min_width_ratio=0.05, gravity_x=0, "
+     "gravity_y=0, gravity_z=-9.81, gravity_prestress=True, air_density=1.2, "
+     "drag_coefficient=1.2, damping=2, wind_speed=3, wind_x=1, wind_y=0, wind_z=0, gust=0.5, "
+     "fps=24, warmup=1, time_step=0)\n--\n\n"
+     "bending simulation of a still blade under the standard wind; out_trajectories "
+     "(frame_count*K*3)."},
     {NULL, NULL, 0, NULL},
 };

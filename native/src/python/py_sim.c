@@ -395,39 +395,51 @@ static PyObject* py_tile_state(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_sim_methods[] = {
     {"default_blade_sim_def", py_default_def, METH_NOARGS,
-     "default_blade_sim_def() -> dict: every blade-simulation setting and its default."},
+     "default_blade_sim_def($module, /)\n--\n\n"
+     "-> dict: every blade-simulation setting and its default."},
     {"blade_sim_create", (PyCFunction)(void (*)(void))py_create, METH_VARARGS | METH_KEYWORDS,
-     "blade_sim_create(**settings) -> handle. Settings as default_blade_sim_def()."},
+     "blade_sim_create($module, **settings)\n--\n\n"
+     "-> handle. Settings as default_blade_sim_def()."},
     {"blade_sim_clone", py_clone, METH_VARARGS,
-     "blade_sim_clone(sim) -> handle: an independent deep copy of the whole state (a snapshot to "
-     "resume from; stepping both the same way gives the same bytes)."},
+     "blade_sim_clone($module, sim, /)\n--\n\n"
+     "-> handle: an independent deep copy of the whole state (a snapshot to resume from; "
+     "stepping both the same way gives the same bytes)."},
     {"blade_sim_set_colliders", py_set_colliders, METH_VARARGS,
-     "blade_sim_set_colliders(sim, colliders): float32 (n, 8) rows kind (0 sphere, 1 capsule), "
-     "radius, ax, ay, az, bx, by, bz; updates which tiles are touched and pending."},
+     "blade_sim_set_colliders($module, sim, colliders, /)\n--\n\n"
+     "float32 (n, 8) rows kind (0 sphere, 1 capsule), radius, ax, ay, az, bx, by, bz; updates "
+     "which tiles are touched and pending."},
     {"blade_sim_activate_tile", py_activate_tile, METH_VARARGS,
-     "blade_sim_activate_tile(sim, tile): make a tile pending (or keep it active) without a collider."},
+     "blade_sim_activate_tile($module, sim, tile, /)\n--\n\n"
+     "make a tile pending (or keep it active) without a collider."},
     {"blade_sim_pending", py_pending, METH_VARARGS,
-     "blade_sim_pending(sim, tiles=None) -> count; fills int32 tiles (count) when given."},
+     "blade_sim_pending($module, sim, tiles=None, /)\n--\n\n"
+     "-> count; fills int32 tiles (count) when given."},
     {"blade_sim_provide_tile", py_provide_tile, METH_VARARGS,
-     "blade_sim_provide_tile(sim, tile, knots, widths, sides=None): rest blades of a tile, float32 "
-     "knots (n*K*3), widths (n*K), sides (n*3)."},
+     "blade_sim_provide_tile($module, sim, tile, knots, widths, sides=None, /)\n--\n\n"
+     "rest blades of a tile, float32 knots (n*K*3), widths (n*K), sides (n*3)."},
     {"blade_sim_step", py_step, METH_VARARGS,
-     "blade_sim_step(sim, dt, wind=None, layout=0): advance dt seconds; wind float32 for layout "
-     "1 uniform (3), 2 per active blade (3n), 3 per knot (3nK)."},
-    {"blade_sim_info", py_info, METH_VARARGS, "blade_sim_info(sim) -> dict."},
+     "blade_sim_step($module, sim, dt, wind=None, layout=0, /)\n--\n\n"
+     "advance dt seconds; wind float32 for layout 1 uniform (3), 2 per active blade (3n), 3 "
+     "per knot (3nK)."},
+    {"blade_sim_info", py_info, METH_VARARGS, "blade_sim_info($module, sim, /)\n--\n\n"
+     "-> dict."},
     {"blade_sim_get_active", py_get_active, METH_VARARGS,
-     "blade_sim_get_active(sim, tiles, blade_counts): int32 arrays of info['active_tiles']."},
+     "blade_sim_get_active($module, sim, tiles, blade_counts, /)\n--\n\n"
+     "int32 arrays of info['active_tiles']."},
     {"blade_sim_ribbons", py_get_ribbons, METH_VARARGS,
-     "blade_sim_ribbons(sim, first, widths, sides, positions): ribbon vertices of n active blades "
-     "from `first` on (n = len(sides) / 3; widths n*K, positions n*2K*3 float32), the bytes "
-     "blades_expand gives on their knots."},
+     "blade_sim_ribbons($module, sim, first, widths, sides, positions, /)\n--\n\n"
+     "ribbon vertices of n active blades from `first` on (n = len(sides) / 3; widths n*K, "
+     "positions n*2K*3 float32), the bytes blades_expand gives on their knots."},
     {"blade_sim_ribbon_runs", py_get_ribbon_runs, METH_VARARGS,
-     "blade_sim_ribbon_runs(sim, starts, counts, widths, sides, positions): ribbon vertices, as "
-     "blade_sim_ribbons makes them, of the runs of active blades counts[r] long from starts[r] "
-     "(int64 arrays), one run after another in widths, sides and positions."},
+     "blade_sim_ribbon_runs($module, sim, starts, counts, widths, sides, positions, /)\n--\n\n"
+     "ribbon vertices, as blade_sim_ribbons makes them, of the runs of active blades counts[r]"
+     " long from starts[r] (int64 arrays), one run after another in widths, sides and "
+     "positions."},
     {"blade_sim_get_knots", py_get_knots, METH_VARARGS,
-     "blade_sim_get_knots(sim, out): float32 out of info['active_blades'] * K * 3."},
+     "blade_sim_get_knots($module, sim, out, /)\n--\n\n"
+     "float32 out of info['active_blades'] * K * 3."},
     {"blade_sim_tile_state", py_tile_state, METH_VARARGS,
-     "blade_sim_tile_state(sim, tile) -> 1 active, 2 pending, 0 neither, -1 out of range."},
+     "blade_sim_tile_state($module, sim, tile, /)\n--\n\n"
+     "-> 1 active, 2 pending, 0 neither, -1 out of range."},
     {NULL, NULL, 0, NULL},
 };

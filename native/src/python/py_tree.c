@@ -562,53 +562,66 @@ static PyObject* py_quad_normals(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_tree_methods[] = {
     {"tree_default_def", py_tree_default_def, METH_NOARGS,
-     "tree_default_def() -> dict: every Weber-Penn parameter with its default; 'level' is a "
-     "list of 4 per-level dicts."},
-    {"tree_presets", py_tree_presets, METH_NOARGS, "tree_presets() -> list of preset names."},
-    {"tree_preset", py_tree_preset, METH_VARARGS, "tree_preset(name) -> dict of that preset."},
+     "tree_default_def($module, /)\n--\n\n"
+     "-> dict: every Weber-Penn parameter with its default; 'level' is a list of 4 per-level "
+     "dicts."},
+    {"tree_presets", py_tree_presets, METH_NOARGS, "tree_presets($module, /)\n--\n\n"
+     "-> list of preset names."},
+    {"tree_preset", py_tree_preset, METH_VARARGS, "tree_preset($module, name, /)\n--\n\n"
+     "-> dict of that preset."},
     {"tree_create", py_tree_create, METH_VARARGS,
-     "tree_create(def: dict) -> tree handle. Missing keys keep their defaults; unknown keys "
-     "and bad values raise tussock.Error naming the parameter."},
+     "tree_create($module, definition, /)\n--\n\n"
+     "-> tree handle. Missing keys keep their defaults; unknown keys and bad values raise "
+     "tussock.Error naming the parameter."},
     {"tree_counts", py_tree_counts, METH_VARARGS,
-     "tree_counts(tree) -> {'branches', 'leaves', 'levels': (n0, n1, n2, n3)}."},
+     "tree_counts($module, tree, /)\n--\n\n"
+     "-> {'branches', 'leaves', 'levels': (n0, n1, n2, n3)}."},
     {"tree_branches", (PyCFunction)(void (*)(void))py_tree_branches, METH_VARARGS | METH_KEYWORDS,
-     "tree_branches(tree, parent=None, level=None, points=None, rest=None, attach=None, "
-     "radius=None, length=None, orient=None, depth=None): fills the given buffers (int32 n, "
-     "int32 n, float32 12n, 12n, 3n, 2n, n, 3n, int32 n)."},
+     "tree_branches($module, tree, parent=None, level=None, points=None, rest=None, attach=None, radius=None, length=None, orient=None, depth=None)\n--\n\n"
+     "fills the given buffers (int32 n, int32 n, float32 12n, 12n, 3n, 2n, n, 3n, int32 n)."},
     {"tree_leaves", (PyCFunction)(void (*)(void))py_tree_leaves, METH_VARARGS | METH_KEYWORDS,
-     "tree_leaves(tree, position=None, direction=None, normal=None, size=None, parent=None): "
+     "tree_leaves($module, tree, position=None, direction=None, normal=None, size=None, parent=None)\n--\n\n"
      "float32 3m, 3m, 3m, 2m, int32 m."},
     {"tree_tips", py_tree_tips, METH_VARARGS,
-     "tree_tips(tree, out): branch tips, float32 3n (where to sample the wind)."},
+     "tree_tips($module, tree, out, /)\n--\n\n"
+     "branch tips, float32 3n (where to sample the wind)."},
     {"tree_wind_step", (PyCFunction)(void (*)(void))py_tree_wind_step, METH_VARARGS | METH_KEYWORDS,
-     "tree_wind_step(tree, force, mode=0, strength=1.0, bend_power=1.8, length_power=1.0): "
+     "tree_wind_step($module, tree, force, *, mode=0, strength=1.0, bend_power=1.8, length_power=1.0)\n--\n\n"
      "force float32 3n at the tips; mode 0 = lagged (seed), 1 = exact."},
-    {"tree_reset", py_tree_reset, METH_VARARGS, "tree_reset(tree): back to the rest pose."},
+    {"tree_reset", py_tree_reset, METH_VARARGS, "tree_reset($module, tree, /)\n--\n\n"
+     "back to the rest pose."},
     {"tree_attachment_gap", py_tree_attachment_gap, METH_VARARGS,
-     "tree_attachment_gap(tree) -> (largest child gap / parent radius, largest gap in m)."},
+     "tree_attachment_gap($module, tree, /)\n--\n\n"
+     "-> (largest child gap / parent radius, largest gap in m)."},
     {"tree_mesh_count", (PyCFunction)(void (*)(void))py_tree_mesh_count,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_count(tree, along=None, around=None, leaves=True) -> (vertices, quads)."},
+     "tree_mesh_count($module, tree, along=None, around=None, leaves=True)\n--\n\n"
+     "-> (vertices, quads)."},
     {"tree_mesh_topology", (PyCFunction)(void (*)(void))py_tree_mesh_topology,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_topology(tree, faces, uvs=None, along=None, around=None, leaves=True): faces "
-     "int32 4q, uvs float32 8q (per corner)."},
+     "tree_mesh_topology($module, tree, faces, uvs=None, along=None, around=None, leaves=True)\n--\n\n"
+     "faces int32 4q, uvs float32 8q (per corner)."},
     {"tree_mesh_edges", (PyCFunction)(void (*)(void))py_tree_mesh_edges,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_edges(tree, edges, corner_edges, along=None, around=None, leaves=True) -> "
-     "edge count: edges int32 8q (2 per edge, the first 2 * count written), corner_edges "
+     "tree_mesh_edges($module, tree, edges, corner_edges, along=None, around=None, leaves=True)\n--\n\n"
+     "-> edge count: edges int32 8q (2 per edge, the first 2 * count written), corner_edges "
      "int32 4q; the edges of tree_mesh_topology's faces in closed form."},
     {"tree_mesh_deform", (PyCFunction)(void (*)(void))py_tree_mesh_deform,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_deform(tree, positions, normals=None, along=None, around=None, leaves=True): "
+     "tree_mesh_deform($module, tree, positions, normals=None, along=None, around=None, leaves=True)\n--\n\n"
      "float32 3v each, for the current pose."},
     {"subdiv_create", py_subdiv_create, METH_VARARGS,
-     "subdiv_create(faces, vertex_count, levels) -> handle (OpenSubdiv stencils, built once)."},
-    {"subdiv_counts", py_subdiv_counts, METH_VARARGS, "subdiv_counts(h) -> (vertices, quads)."},
-    {"subdiv_faces", py_subdiv_faces, METH_VARARGS, "subdiv_faces(h, out): int32 4q."},
+     "subdiv_create($module, faces, vertex_count, levels, /)\n--\n\n"
+     "-> handle (OpenSubdiv stencils, built once)."},
+    {"subdiv_counts", py_subdiv_counts, METH_VARARGS, "subdiv_counts($module, h, /)\n--\n\n"
+     "-> (vertices, quads)."},
+    {"subdiv_faces", py_subdiv_faces, METH_VARARGS, "subdiv_faces($module, h, out, /)\n--\n\n"
+     "int32 4q."},
     {"subdiv_apply", py_subdiv_apply, METH_VARARGS,
-     "subdiv_apply(h, cage, out): cage float32 3*cage_vertices, out float32 3*vertices."},
+     "subdiv_apply($module, h, cage, out, /)\n--\n\n"
+     "cage float32 3*cage_vertices, out float32 3*vertices."},
     {"quad_normals", py_quad_normals, METH_VARARGS,
-     "quad_normals(positions, faces, out): area-weighted vertex normals."},
+     "quad_normals($module, positions, faces, out, /)\n--\n\n"
+     "area-weighted vertex normals."},
     {NULL, NULL, 0, NULL},
 };

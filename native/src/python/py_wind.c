@@ -326,37 +326,48 @@ static PyObject* py_wind_load_state(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_wind_methods[] = {
     {"wind_create", (PyCFunction)(void (*)(void))py_wind_create, METH_VARARGS | METH_KEYWORDS,
-     "wind_create(**params) -> handle. Keywords (defaults from tsk_default_wind_def): base_x, "
-     "base_y, waves (float32, 7 per wave: amplitude, dir_x, dir_y, wavelength, speed, phase, "
-     "power), gust_strength, gust_interval, gust_duration, gust_dir_x, gust_dir_y, "
-     "gust_front_speed, seed; nx, ny (0, 0 = no grid), origin_x, origin_y, cell_size, dt, speed, "
-     "viscosity, decay, pressure_iterations, pressure_tolerance, diffusion_iterations; "
-     "continuum (bool), c, gamma, drive."},
-    {"wind_destroy", py_wind_destroy, METH_O, "wind_destroy(handle): frees the wind now."},
+     "wind_create($module, **params)\n--\n\n"
+     "-> handle. Keywords (defaults from tsk_default_wind_def): base_x, base_y, waves "
+     "(float32, 7 per wave: amplitude, dir_x, dir_y, wavelength, speed, phase, power), "
+     "gust_strength, gust_interval, gust_duration, gust_dir_x, gust_dir_y, gust_front_speed, "
+     "seed; nx, ny (0, 0 = no grid), origin_x, origin_y, cell_size, dt, speed, viscosity, "
+     "decay, pressure_iterations, pressure_tolerance, diffusion_iterations; continuum (bool), "
+     "c, gamma, drive."},
+    {"wind_destroy", py_wind_destroy, METH_O, "wind_destroy($module, handle, /)\n--\n\n"
+     "frees the wind now."},
     {"wind_set_sines", (PyCFunction)(void (*)(void))py_wind_set_sines,
      METH_VARARGS | METH_KEYWORDS,
-     "wind_set_sines(handle, start_time, blend_time, **sines): cross-fades to new breeze, waves "
-     "and gusts (same keywords as wind_create; unset ones take the defaults)."},
+     "wind_set_sines($module, handle, start_time, blend_time, /, **sines)\n--\n\n"
+     "cross-fades to new breeze, waves and gusts (same keywords as wind_create; unset ones "
+     "take the defaults)."},
     {"wind_set_sources", py_wind_set_sources, METH_VARARGS,
-     "wind_set_sources(handle, sources): float32, 8 per source: x, y, dir_x, dir_y, strength, "
-     "radius, interval, start."},
-    {"wind_step", py_wind_step, METH_VARARGS, "wind_step(handle, steps): advances fluid+continuum."},
-    {"wind_time", py_wind_time, METH_O, "wind_time(handle) -> float: simulation time, s."},
+     "wind_set_sources($module, handle, sources, /)\n--\n\n"
+     "float32, 8 per source: x, y, dir_x, dir_y, strength, radius, interval, start."},
+    {"wind_step", py_wind_step, METH_VARARGS, "wind_step($module, handle, steps, /)\n--\n\n"
+     "advances fluid+continuum."},
+    {"wind_time", py_wind_time, METH_O, "wind_time($module, handle, /)\n--\n\n"
+     "-> float: simulation time, s."},
     {"wind_save_state", py_wind_save_state, METH_O,
-     "wind_save_state(handle) -> bytes: the wind's state (clock, sines, sources, fluid, "
-     "continuum), about 28 bytes per grid cell."},
+     "wind_save_state($module, handle, /)\n--\n\n"
+     "-> bytes: the wind's state (clock, sines, sources, fluid, continuum), about 28 bytes per"
+     " grid cell."},
     {"wind_load_state", py_wind_load_state, METH_VARARGS,
-     "wind_load_state(handle, state): restores a state saved from a wind of the same fluid and "
-     "continuum settings; it then steps and samples bit for bit as the saving wind did."},
-    {"wind_grid_size", py_wind_grid_size, METH_O, "wind_grid_size(handle) -> (nx, ny)."},
+     "wind_load_state($module, handle, state, /)\n--\n\n"
+     "restores a state saved from a wind of the same fluid and continuum settings; it then "
+     "steps and samples bit for bit as the saving wind did."},
+    {"wind_grid_size", py_wind_grid_size, METH_O, "wind_grid_size($module, handle, /)\n--\n\n"
+     "-> (nx, ny)."},
     {"wind_sample", py_wind_sample, METH_VARARGS,
-     "wind_sample(handle, t, x, y, vx, vy[, sway_x, sway_y]): float32 arrays of one length; "
-     "writes the wind (m/s) and optionally the continuum sway."},
+     "wind_sample($module, handle, t, x, y, vx, vy, sway_x=None, sway_y=None, /)\n--\n\n"
+     "float32 arrays of one length; writes the wind (m/s) and optionally the continuum sway."},
     {"wind_sample_xyz", py_wind_sample_xyz, METH_VARARGS,
-     "wind_sample_xyz(handle, t, xyz, vel_xyz[, sway_xyz]): float32, 3 per point."},
+     "wind_sample_xyz($module, handle, t, xyz, vel_xyz, sway_xyz=None, /)\n--\n\n"
+     "float32, 3 per point."},
     {"wind_read_fluid", py_wind_read_fluid, METH_VARARGS,
-     "wind_read_fluid(handle, vx, vy): float32 nx*ny each, normalised fluid velocity at centres."},
+     "wind_read_fluid($module, handle, vx, vy, /)\n--\n\n"
+     "float32 nx*ny each, normalised fluid velocity at centres."},
     {"wind_read_continuum", py_wind_read_continuum, METH_VARARGS,
-     "wind_read_continuum(handle, px, py): float32 nx*ny each, continuum Vp at centres."},
+     "wind_read_continuum($module, handle, px, py, /)\n--\n\n"
+     "float32 nx*ny each, continuum Vp at centres."},
     {NULL, NULL, 0, NULL},
 };
