@@ -355,6 +355,7 @@ def meadow_chunk_instances(meadow: Any, origins: Any, chunk: Any, tile: Any = No
     """
 
 def meadow_create(
+    *,
     origin: Any = (0, 0, 0),
     size: Any = (10, 10),
     tile_size: Any = 0.5,
@@ -446,6 +447,7 @@ def patch_blades(patch: Any, xy: Any, turn: Any, scale: Any, model: Any, /) -> N
     """
 
 def patch_create(
+    *,
     knots: Any = None,
     widths: Any = None,
     knot_counts: Any = None,
@@ -504,6 +506,7 @@ def picture_add_layer(picture: Any, mask: Any, /) -> int:
 
 def picture_build(
     picture: Any,
+    *,
     method: Any = 'telea',
     radius: Any = 5,
     grow: Any = 3,
@@ -540,6 +543,7 @@ def picture_layer_frame(
     uv: Any = None,
     field_y_up: Any = True,
     uv_bottom_up: Any = True,
+    *,
     cell_x: Any = 16,
     cell_y: Any = 16,
     lambda_x: Any = 4,
@@ -568,6 +572,7 @@ def picture_propose_mask(
     rect: Any,
     out: Any,
     strokes: Any = None,
+    *,
     iterations: Any = 5,
 ) -> None:
     """
@@ -900,6 +905,7 @@ def warp_corners(
     corner_dx: Any,
     corner_dy: Any,
     field_y_up: Any = True,
+    *,
     cell_x: Any = 16,
     cell_y: Any = 16,
     lambda_x: Any = 4,

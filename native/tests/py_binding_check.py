@@ -191,6 +191,23 @@ check(error_of(lambda: t.capture_process(cap, depth, 64, 48, min_areaa=3)) ==
       "min_areaa: unknown capture setting", "unknown capture setting")
 check(isinstance(t.capture_process(capture=cap, depth=depth, width=64, height=48), int),
       "capture arguments by name")
+check(error_of(lambda: t.meadow_create(size=(3, 4, 5))) == "size: must be a sequence of 2 numbers",
+      "meadow size")
+check(error_of(lambda: t.meadow_create(density="dense")) ==
+      "density: must be 'uniform', 'noise' or 'image', got 'dense'", "meadow density")
+check(t.meadow_info(t.meadow_create(size=(3, 4), density="uniform"))["tile_count"] == 48,
+      "meadow settings reach the def")
+check(t.patch_info(t.patch_create(blade_count=100, seed=3))["blade_count"] == 100, "patch")
+pic = t.picture_create(32, 32, np.random.default_rng(1).random(32 * 32 * 4).astype(np.float32))
+check(error_of(lambda: t.picture_build(pic, method="fast")) ==
+      "method: must be 'telea' or 'ns', got 'fast'", "inpaint method")
+z = np.zeros(64, np.float32)
+cx, cy = t.warp_grid_size(32, 32, 16, 16)
+corners = np.zeros(cx * cy, np.float32)
+check(error_of(lambda: t.warp_corners(32, 32, z, z, 8, 8, corners, corners, sampling="map_uv"))
+      == "sampling: unknown warp setting", "warp_corners samples nothing")
+check(error_of(lambda: t.warp_corners(32, 32, z, z, 8, 8, corners, corners, root="none")) == "",
+      "warp_corners without a root")
 # refine_simulate's settings each reach their own field: air density given as its default
 # simulates as the default does
 knots = np.zeros((10, 3), np.float32)

@@ -160,25 +160,27 @@ static int set_value(const tsk_py_field* f, char* p, PyObject* value, void* def)
         *(int*)p = t;
         return 1;
     }
+    case TSK_PY_VEC2:
     case TSK_PY_VEC3: {
+        const Py_ssize_t n = f->type == TSK_PY_VEC2 ? 2 : 3;
         float x[3];
-        if (!PySequence_Check(value) || PySequence_Size(value) != 3) {
+        if (!PySequence_Check(value) || PySequence_Size(value) != n) {
             PyErr_Clear();
-            tsk_py_raise_arg(f->name, "must be a sequence of 3 numbers");
+            tsk_py_raise_arg(f->name, "must be a sequence of %zd numbers", n);
             return 0;
         }
-        for (Py_ssize_t c = 0; c < 3; ++c) {
+        for (Py_ssize_t c = 0; c < n; ++c) {
             PyObject* item = PySequence_GetItem(value, c);
             const double d = item ? PyFloat_AsDouble(item) : -1.0;
             Py_XDECREF(item);
             if (d == -1.0 && PyErr_Occurred()) {
                 PyErr_Clear();
-                tsk_py_raise_arg(f->name, "must be a sequence of 3 numbers");
+                tsk_py_raise_arg(f->name, "must be a sequence of %zd numbers", n);
                 return 0;
             }
             x[c] = (float)d;
         }
-        memcpy(p, x, sizeof x);
+        memcpy(p, x, (size_t)n * sizeof x[0]);
         return 1;
     }
     case TSK_PY_CHOICE: return read_choice(value, f, (int*)p);
@@ -246,6 +248,10 @@ static PyObject* field_value(const tsk_py_field* f, const void* def) {
     case TSK_PY_U32: return PyLong_FromUnsignedLong(*(const uint32_t*)p);
     case TSK_PY_U64: return PyLong_FromUnsignedLongLong(*(const uint64_t*)p);
     case TSK_PY_BOOL: return PyBool_FromLong(*(const int*)p);
+    case TSK_PY_VEC2: {
+        const float* x = (const float*)p;
+        return Py_BuildValue("(dd)", (double)x[0], (double)x[1]);
+    }
     case TSK_PY_VEC3: {
         const float* x = (const float*)p;
         return Py_BuildValue("(ddd)", (double)x[0], (double)x[1], (double)x[2]);

@@ -109,6 +109,7 @@ typedef enum tsk_py_ftype {
     TSK_PY_U32,    ///< uint32, from an integer 0..2^32-1
     TSK_PY_U64,    ///< uint64, from any integer taken modulo 2^64 (seeds)
     TSK_PY_BOOL,   ///< int 0/1, from any truth value
+    TSK_PY_VEC2,   ///< float[2], from a sequence of 2 numbers
     TSK_PY_VEC3,   ///< float[3], from a sequence of 3 numbers
     TSK_PY_CHOICE, ///< an int-sized enum, from one of the names in `choices` (index = value)
     TSK_PY_CUSTOM, ///< converted by `read` / `write` (buffers, nested lists)

@@ -434,7 +434,10 @@ PyMethodDef tsk_py_capture_methods[] = {
      "-> capture handle."},
     {"capture_process", (PyCFunction)(void (*)(void))py_capture_process,
      METH_VARARGS | METH_KEYWORDS,
-     "capture_process($module, capture, depth, width, height, *, near=0, far=0, fx=0, fy=0, cx=0, cy=0, min_area=150, hole_radius=2, open_radius=0, contour_smooth=1.5, split_smooth=3, split_prominence=12, root='BOTTOM', knot_spacing=2, width_smooth=2, depth_window=2, min_knots=4, root_trim=1)\n--\n\n"
+     "capture_process($module, capture, depth, width, height, *, near=0, far=0, fx=0, fy=0, "
+     "cx=0, cy=0, min_area=150, hole_radius=2, open_radius=0, contour_smooth=1.5, "
+     "split_smooth=3, split_prominence=12, root='BOTTOM', knot_spacing=2, width_smooth=2, "
+     "depth_window=2, min_knots=4, root_trim=1)\n--\n\n"
      "-> blade count. near=far=0: automatic band; fx..cy all 0: default intrinsics."},
     {"capture_propose_band", py_capture_propose_band, METH_VARARGS,
      "capture_propose_band($module, depth, width, height, min_pixels=150, /)\n--\n\n"

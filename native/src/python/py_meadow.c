@@ -5,6 +5,7 @@
 
 #include "tussock/meadow.h"
 
+#include <stddef.h>
 #include <string.h>
 
 static void destroy_patch(void* p) { tsk_patch_destroy(p); }
@@ -41,20 +42,27 @@ static PyObject* py_blade_model_default(PyObject* self, PyObject* args) {
 
 /* ---- the patch --------------------------------------------------------------------------- */
 
+#define F(name, type) {#name, type, offsetof(tsk_patch_def, name), NULL, NULL, NULL}
+static const tsk_py_field k_patch_fields[] = {
+    F(blade_count, TSK_PY_INT), F(scale_min, TSK_PY_FLOAT), F(scale_max, TSK_PY_FLOAT),
+    F(seed, TSK_PY_U64),        F(knot_count, TSK_PY_INT),
+};
+#undef F
+static const tsk_py_def k_patch_def = {"patch setting", TSK_PY_FIELDS(k_patch_fields), NULL, 0};
+
 static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"knots",     "widths",    "knot_counts", "weights", "blade_count",
-                            "scale_min", "scale_max", "seed",        "knot_count", NULL};
+    /* the models' arrays; the rest of the keywords are the def's */
+    static char* names[] = {"knots", "widths", "knot_counts", "weights", NULL};
     tsk_patch_def d = tsk_default_patch_def();
     PyObject *knots_obj = Py_None, *widths_obj = Py_None, *counts_obj = Py_None,
-             *weights_obj = Py_None;
-    unsigned long long seed = d.seed;
-    int blade_count = d.blade_count, knot_count = d.knot_count;
-    float smin = d.scale_min, smax = d.scale_max;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "|OOOOiffKi:patch_create", names, &knots_obj,
-                                     &widths_obj, &counts_obj, &weights_obj, &blade_count, &smin,
-                                     &smax, &seed, &knot_count))
-        return NULL;
+             *weights_obj = Py_None, *rest;
+    if (!tsk_py_def_read(&k_patch_def, kw, &d, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "|$OOOO:patch_create", names,
+                                                   &knots_obj, &widths_obj, &counts_obj,
+                                                   &weights_obj);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
     tsk_py_views v = {.n = 0};
     const int32_t* counts = NULL;
     Py_ssize_t model_count = 0;
@@ -91,11 +99,6 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
             return PyErr_NoMemory();
         }
     }
-    d.blade_count = blade_count;
-    d.scale_min = smin;
-    d.scale_max = smax;
-    d.seed = seed;
-    d.knot_count = knot_count;
     d.models = models;
     d.model_count = (int32_t)model_count;
     d.model_weights = weights;
@@ -272,68 +275,44 @@ static PyObject* py_blade_indices(PyObject* self, PyObject* args) {
 
 /* ---- the meadow -------------------------------------------------------------------------- */
 
-static int parse_floats(PyObject* obj, const char* name, float* out, int n) {
-    if (obj == NULL || obj == Py_None) return 1;
-    if (!PySequence_Check(obj) || PySequence_Size(obj) != n) {
-        PyErr_Clear();
-        tsk_py_raise_arg(name, "expected a sequence of %d numbers", n);
-        return 0;
-    }
-    for (int i = 0; i < n; ++i) {
-        PyObject* item = PySequence_GetItem(obj, i);
-        const double v = item ? PyFloat_AsDouble(item) : -1.0;
-        Py_XDECREF(item);
-        if (v == -1.0 && PyErr_Occurred()) {
-            PyErr_Clear();
-            tsk_py_raise_arg(name, "item %d is not a number", i);
-            return 0;
-        }
-        out[i] = (float)v;
-    }
-    return 1;
-}
+static const char* const k_densities[] = {"uniform", "noise", "image", NULL};
+_Static_assert(TSK_DENSITY_UNIFORM == 0 && TSK_DENSITY_NOISE == 1 && TSK_DENSITY_IMAGE == 2,
+               "k_densities is in enum order");
+_Static_assert(sizeof(tsk_density_kind) == sizeof(int), "density is read as an int");
+
+#define F(name, type) {#name, type, offsetof(tsk_meadow_def, name), NULL, NULL, NULL}
+static const tsk_py_field k_meadow_fields[] = {
+    F(origin, TSK_PY_VEC3),
+    F(size, TSK_PY_VEC2),
+    F(tile_size, TSK_PY_FLOAT),
+    F(blades_per_tile, TSK_PY_INT),
+    F(patch_blades, TSK_PY_INT),
+    F(chunk_blades, TSK_PY_INT),
+    F(seed, TSK_PY_U64),
+    {"density", TSK_PY_CHOICE, offsetof(tsk_meadow_def, density), k_densities, NULL, NULL},
+    F(noise_scale, TSK_PY_FLOAT),
+    F(noise_octaves, TSK_PY_INT),
+    F(noise_persistence, TSK_PY_FLOAT),
+    F(noise_threshold, TSK_PY_FLOAT),
+    F(noise_contrast, TSK_PY_FLOAT),
+};
+#undef F
+static const tsk_py_def k_meadow_def = {"meadow setting", TSK_PY_FIELDS(k_meadow_fields), NULL,
+                                        0};
 
 static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"origin",        "size",          "tile_size",
-                            "blades_per_tile", "patch_blades", "chunk_blades",
-                            "seed",          "density",       "noise_scale",
-                            "noise_octaves", "noise_persistence", "noise_threshold",
-                            "noise_contrast",
-                            "image",         "image_width",   "image_height", NULL};
+    /* the density image and its size, used when density is 'image'; the rest of the
+     * keywords are the def's */
+    static char* names[] = {"image", "image_width", "image_height", NULL};
     tsk_meadow_def d = tsk_default_meadow_def();
-    PyObject *origin_o = NULL, *size_o = NULL, *image_o = Py_None;
-    const char* density = "noise";
-    unsigned long long seed = d.seed;
-    int bpt = d.blades_per_tile, pb = d.patch_blades, cb = d.chunk_blades, oct = d.noise_octaves;
+    PyObject *image_o = Py_None, *rest;
     int iw = 0, ih = 0;
-    float ts = d.tile_size, ns = d.noise_scale, np = d.noise_persistence, nt = d.noise_threshold,
-          nc = d.noise_contrast;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "|OOfiiiKsfifffOii:meadow_create", names,
-                                     &origin_o, &size_o, &ts, &bpt, &pb, &cb, &seed, &density,
-                                     &ns, &oct, &np, &nt, &nc, &image_o, &iw, &ih))
-        return NULL;
-    if (!parse_floats(origin_o, "origin", d.origin, 3) || !parse_floats(size_o, "size", d.size, 2))
-        return NULL;
-    if (strcmp(density, "uniform") == 0)
-        d.density = TSK_DENSITY_UNIFORM;
-    else if (strcmp(density, "noise") == 0)
-        d.density = TSK_DENSITY_NOISE;
-    else if (strcmp(density, "image") == 0)
-        d.density = TSK_DENSITY_IMAGE;
-    else
-        return tsk_py_raise_arg("density", "must be 'uniform', 'noise' or 'image', got '%s'",
-                                density);
-    d.tile_size = ts;
-    d.blades_per_tile = bpt;
-    d.patch_blades = pb;
-    d.chunk_blades = cb;
-    d.seed = seed;
-    d.noise_scale = ns;
-    d.noise_octaves = oct;
-    d.noise_persistence = np;
-    d.noise_threshold = nt;
-    d.noise_contrast = nc;
+    if (!tsk_py_def_read(&k_meadow_def, kw, &d, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "|$Oii:meadow_create", names,
+                                                   &image_o, &iw, &ih);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
     tsk_py_views v = {.n = 0};
     if (d.density == TSK_DENSITY_IMAGE) {
         if (iw < 1 || ih < 1 || iw > TSK_MEADOW_MAX_IMAGE_SIDE || ih > TSK_MEADOW_MAX_IMAGE_SIDE)
@@ -562,7 +541,8 @@ PyMethodDef tsk_py_meadow_methods[] = {
      "blade_model_default($module, knot_count, xyz, width, /)\n--\n\n"
      "the built-in blade into float32 xyz (3n) and width (n)."},
     {"patch_create", (PyCFunction)(void (*)(void))py_patch_create, METH_VARARGS | METH_KEYWORDS,
-     "patch_create($module, knots=None, widths=None, knot_counts=None, weights=None, blade_count=16384, scale_min=0.8, scale_max=1.2, seed=1, knot_count=0)\n--\n\n"
+     "patch_create($module, *, knots=None, widths=None, knot_counts=None, weights=None, "
+     "blade_count=16384, scale_min=0.8, scale_max=1.2, seed=1, knot_count=0)\n--\n\n"
      "-> patch handle. knots float32 (3 per knot), widths float32 (1 per knot), knot_counts "
      "int32 (1 per model), weights float32 (1 per model) or None; no models -> the default "
      "blade."},
@@ -576,7 +556,8 @@ PyMethodDef tsk_py_meadow_methods[] = {
      "patch_model($module, patch, index, xyz, width, /)\n--\n\n"
      "the resampled rest model (float32 3K, K)."},
     {"patch_expand", py_patch_expand, METH_VARARGS,
-     "patch_expand($module, patch, tile_size, positions, normals, uvs, tris, blade_index=None, /)\n--\n\n"
+     "patch_expand($module, patch, tile_size, positions, normals, uvs, tris, blade_index=None, "
+     "/)\n--\n\n"
      "the patch as one mesh in tile-local metres; float32 3V, 3V, 2V; int32 3T, V; None skips."},
     {"blades_expand", py_blades_expand, METH_VARARGS,
      "blades_expand($module, knots, widths, sides, knot_count, positions, normals, uvs, /)\n--\n\n"
@@ -587,7 +568,10 @@ PyMethodDef tsk_py_meadow_methods[] = {
      "blade."},
     {"meadow_create", (PyCFunction)(void (*)(void))py_meadow_create,
      METH_VARARGS | METH_KEYWORDS,
-     "meadow_create($module, origin=(0,0,0), size=(10,10), tile_size=0.5, blades_per_tile=64, patch_blades=16384, chunk_blades=1, seed=1, density='noise', noise_scale=8, noise_octaves=3, noise_persistence=0.5, noise_threshold=0.15, noise_contrast=2.5, image=None, image_width=0, image_height=0)\n--\n\n"
+     "meadow_create($module, *, origin=(0,0,0), size=(10,10), tile_size=0.5, blades_per_tile=64, "
+     "patch_blades=16384, chunk_blades=1, seed=1, density='noise', noise_scale=8, "
+     "noise_octaves=3, noise_persistence=0.5, noise_threshold=0.15, noise_contrast=2.5, "
+     "image=None, image_width=0, image_height=0)\n--\n\n"
      "-> meadow handle. density: 'uniform' | 'noise' | 'image' (float32 image of "
      "image_width*image_height values in [0,1], row 0 at origin y)."},
     {"meadow_info", py_meadow_info, METH_VARARGS,
@@ -608,10 +592,12 @@ PyMethodDef tsk_py_meadow_methods[] = {
      "meadow_blade_count($module, meadow, tile_begin, tile_end, /)\n--\n\n"
      "-> int."},
     {"meadow_realise", py_meadow_realise, METH_VARARGS,
-     "meadow_realise($module, meadow, patch, tile_begin, tile_end, xyz, turn, scale, patch_index, /)\n--\n\n"
+     "meadow_realise($module, meadow, patch, tile_begin, tile_end, xyz, turn, scale, "
+     "patch_index, /)\n--\n\n"
      "explicit blades; float32 3n, n, n; int32 n; None skips."},
     {"meadow_realise_knots", py_meadow_realise_knots, METH_VARARGS,
-     "meadow_realise_knots($module, meadow, patch, tile_begin, tile_end, knots, widths, sides, /)\n--\n\n"
+     "meadow_realise_knots($module, meadow, patch, tile_begin, tile_end, knots, widths, sides, "
+     "/)\n--\n\n"
      "rest skeletons in world metres; float32 3Kn, Kn, 3n; None skips."},
     {NULL, NULL, 0, NULL},
 };

@@ -260,13 +260,15 @@ static PyObject* py_refine_simulate(PyObject* self, PyObject* args, PyObject* kw
 
 PyMethodDef tsk_py_refine_methods[] = {
     {"refine_blade", (PyCFunction)(void (*)(void))py_refine_blade, METH_VARARGS | METH_KEYWORDS,
-     "refine_blade($module, knots, widths, trajectories, frame_count, target_knots, mu, out_knots, out_widths, out_ranges, out_trajectories=None)\n--\n\n"
+     "refine_blade($module, knots, widths, trajectories, frame_count, target_knots, mu, "
+     "out_knots, out_widths, out_ranges, out_trajectories=None)\n--\n\n"
      "seed 000 Algorithm 1. knots float32 (3K), widths (K), trajectories (frame_count*K*3, "
      "frame-major); out_knots (3m), out_widths (m), out_ranges int32 (2m: first source knot, "
      "count), out_trajectories (frame_count*m*3)."},
     {"refine_blades", (PyCFunction)(void (*)(void))py_refine_blades,
      METH_VARARGS | METH_KEYWORDS,
-     "refine_blades($module, knots, widths, trajectories, blade_count, frame_count, target_knots, mu, out_knots, out_widths, out_ranges, out_trajectories=None)\n--\n\n"
+     "refine_blades($module, knots, widths, trajectories, blade_count, frame_count, "
+     "target_knots, mu, out_knots, out_widths, out_ranges, out_trajectories=None)\n--\n\n"
      "many blades of equal knot count K, in parallel; arrays are refine_blade's stacked per "
      "blade (trajectories [blade][frame][K][3])."},
     {"refine_track", py_refine_track, METH_VARARGS,

@@ -577,16 +577,19 @@ PyMethodDef tsk_py_tree_methods[] = {
      "tree_counts($module, tree, /)\n--\n\n"
      "-> {'branches', 'leaves', 'levels': (n0, n1, n2, n3)}."},
     {"tree_branches", (PyCFunction)(void (*)(void))py_tree_branches, METH_VARARGS | METH_KEYWORDS,
-     "tree_branches($module, tree, parent=None, level=None, points=None, rest=None, attach=None, radius=None, length=None, orient=None, depth=None)\n--\n\n"
+     "tree_branches($module, tree, parent=None, level=None, points=None, rest=None, attach=None, "
+     "radius=None, length=None, orient=None, depth=None)\n--\n\n"
      "fills the given buffers (int32 n, int32 n, float32 12n, 12n, 3n, 2n, n, 3n, int32 n)."},
     {"tree_leaves", (PyCFunction)(void (*)(void))py_tree_leaves, METH_VARARGS | METH_KEYWORDS,
-     "tree_leaves($module, tree, position=None, direction=None, normal=None, size=None, parent=None)\n--\n\n"
+     "tree_leaves($module, tree, position=None, direction=None, normal=None, size=None, "
+     "parent=None)\n--\n\n"
      "float32 3m, 3m, 3m, 2m, int32 m."},
     {"tree_tips", py_tree_tips, METH_VARARGS,
      "tree_tips($module, tree, out, /)\n--\n\n"
      "branch tips, float32 3n (where to sample the wind)."},
     {"tree_wind_step", (PyCFunction)(void (*)(void))py_tree_wind_step, METH_VARARGS | METH_KEYWORDS,
-     "tree_wind_step($module, tree, force, *, mode=0, strength=1.0, bend_power=1.8, length_power=1.0)\n--\n\n"
+     "tree_wind_step($module, tree, force, *, mode=0, strength=1.0, bend_power=1.8, "
+     "length_power=1.0)\n--\n\n"
      "force float32 3n at the tips; mode 0 = lagged (seed), 1 = exact."},
     {"tree_reset", py_tree_reset, METH_VARARGS, "tree_reset($module, tree, /)\n--\n\n"
      "back to the rest pose."},
@@ -599,16 +602,19 @@ PyMethodDef tsk_py_tree_methods[] = {
      "-> (vertices, quads)."},
     {"tree_mesh_topology", (PyCFunction)(void (*)(void))py_tree_mesh_topology,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_topology($module, tree, faces, uvs=None, along=None, around=None, leaves=True)\n--\n\n"
+     "tree_mesh_topology($module, tree, faces, uvs=None, along=None, around=None, "
+     "leaves=True)\n--\n\n"
      "faces int32 4q, uvs float32 8q (per corner)."},
     {"tree_mesh_edges", (PyCFunction)(void (*)(void))py_tree_mesh_edges,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_edges($module, tree, edges, corner_edges, along=None, around=None, leaves=True)\n--\n\n"
+     "tree_mesh_edges($module, tree, edges, corner_edges, along=None, around=None, "
+     "leaves=True)\n--\n\n"
      "-> edge count: edges int32 8q (2 per edge, the first 2 * count written), corner_edges "
      "int32 4q; the edges of tree_mesh_topology's faces in closed form."},
     {"tree_mesh_deform", (PyCFunction)(void (*)(void))py_tree_mesh_deform,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_deform($module, tree, positions, normals=None, along=None, around=None, leaves=True)\n--\n\n"
+     "tree_mesh_deform($module, tree, positions, normals=None, along=None, around=None, "
+     "leaves=True)\n--\n\n"
      "float32 3v each, for the current pose."},
     {"subdiv_create", py_subdiv_create, METH_VARARGS,
      "subdiv_create($module, faces, vertex_count, levels, /)\n--\n\n"
