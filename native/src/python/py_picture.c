@@ -1,6 +1,6 @@
 /* Binding of the picture module: pictures as PyCapsule handles, layers, GrabCut proposals,
  * frames (warped RGBA and the UV pass for Map UV) into caller-owned numpy float32 buffers.
- * Argument and buffer checks only; a picture must not be used by two threads at once. */
+ * Argument and buffer checks only; a picture in use by one thread is refused to another. */
 #include "binding.h"
 
 #include <stddef.h>
