@@ -59,7 +59,8 @@ tsk_py_handle* tsk_py_handle_get(PyObject* obj, const tsk_py_kind* kind) {
     tsk_py_handle* h = handle_of(obj, kind);
     if (h == NULL) return NULL;
     if (h->ptr == NULL) {
-        tsk_py_raise_arg(kind->arg, "the %s handle is closed", kind->noun);
+        tsk_py_raise_arg(kind->arg, "the %s handle is closed (destroyed by %s)", kind->noun,
+                         kind->closer ? kind->closer : "?");
         return NULL;
     }
     return refuse_busy(h) ? NULL : h;

@@ -61,13 +61,15 @@ void tsk_py_views_release(tsk_py_views* v);
  * of it from another thread meanwhile raises tussock.Error instead of racing. Every check
  * and mark happens with the GIL held, so a plain int is enough. */
 
-/// One kind of handle: its capsule name, the argument name used in messages, what it is and
-/// the function that makes it (for "expected a ... from ..."), and how to free it.
+/// One kind of handle: its capsule name, the argument name used in messages, what it is, the
+/// functions that make it (for "expected a ... from ...") and close it early (NULL: none, it
+/// is freed with its last reference), and how to free it.
 typedef struct tsk_py_kind {
     const char* capsule; ///< "tussock.blade_sim"
     const char* arg;     ///< "sim"
     const char* noun;    ///< "blade simulation"
     const char* maker;   ///< "blade_sim_create"
+    const char* closer;  ///< "wind_destroy"
     void (*destroy)(void* ptr);
 } tsk_py_kind;
 

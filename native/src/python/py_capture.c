@@ -13,9 +13,9 @@ static void destroy_capture(void* cap) { tsk_capture_destroy(cap); }
 
 static const tsk_py_kind k_source = {"tussock.depth_source", "source", "depth source",
                                      "depth_open_files, depth_open_oni or depth_open_device",
-                                     destroy_source};
-static const tsk_py_kind k_capture = {"tussock.capture", "capture", "capture", "capture_create",
-                                      destroy_capture};
+                                     "depth_close", destroy_source};
+static const tsk_py_kind k_capture = {"tussock.capture", "capture", "capture",
+                                      "capture_create", NULL, destroy_capture};
 
 /* ---- depth sources --------------------------------------------------------------- */
 

@@ -12,9 +12,9 @@ static void destroy_patch(void* p) { tsk_patch_destroy(p); }
 static void destroy_meadow(void* m) { tsk_meadow_destroy(m); }
 
 static const tsk_py_kind k_patch = {"tussock.patch", "patch", "patch", "patch_create",
-                                    destroy_patch};
+                                    NULL, destroy_patch};
 static const tsk_py_kind k_meadow = {"tussock.meadow", "meadow", "meadow", "meadow_create",
-                                     destroy_meadow};
+                                     NULL, destroy_meadow};
 
 /* ---- blade models ------------------------------------------------------------------------ */
 

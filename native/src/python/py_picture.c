@@ -12,7 +12,8 @@
 static void destroy_picture(void* p) { tsk_picture_destroy(p); }
 
 static const tsk_py_kind k_picture = {"tussock.picture", "picture", "picture",
-                                      "picture_load or picture_create", destroy_picture};
+                                      "picture_load or picture_create", NULL,
+                                      destroy_picture};
 
 static PyObject* wrap(tsk_picture* p) { return tsk_py_handle_new(&k_picture, p); }
 

@@ -11,7 +11,7 @@
 static void destroy_sim(void* sim) { tsk_blade_sim_destroy(sim); }
 
 static const tsk_py_kind k_sim = {"tussock.blade_sim", "sim", "blade simulation",
-                                  "blade_sim_create", destroy_sim};
+                                  "blade_sim_create", NULL, destroy_sim};
 
 /* The simulation behind handle `obj` and its handle in *h (NULL, with the exception set, when
  * it is none, closed or busy). */
@@ -203,7 +203,8 @@ static PyObject* py_provide_tile(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_provide_tile(sim, tile, (int32_t)blades, knots, widths, sides));
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_provide_tile(sim, tile, (int32_t)blades, knots, widths,
+                                                      sides));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -324,7 +325,8 @@ static PyObject* py_get_ribbons(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_get_ribbons(sim, (int64_t)first, (int64_t)n, widths, sides, out));
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_get_ribbons(sim, (int64_t)first, (int64_t)n, widths, sides,
+                                                     out));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -376,7 +378,8 @@ static PyObject* py_get_ribbon_runs(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_get_ribbon_runs(sim, starts, counts, (int64_t)runs, widths, sides, out));
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_get_ribbon_runs(sim, starts, counts, (int64_t)runs, widths,
+                                                         sides, out));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;

@@ -86,9 +86,10 @@ static PyObject* def_to_dict(const tsk_tree_def* def) { return tsk_py_def_dict(&
 static void destroy_tree(void* t) { tsk_tree_destroy(t); }
 static void destroy_subdiv(void* s) { tsk_subdiv_destroy(s); }
 
-static const tsk_py_kind k_tree = {"tussock.tree", "tree", "tree", "tree_create()", destroy_tree};
-static const tsk_py_kind k_subdiv = {"tussock.subdiv", "subdiv", "subdivision", "subdiv_create()",
-                                     destroy_subdiv};
+static const tsk_py_kind k_tree = {"tussock.tree", "tree", "tree", "tree_create()", NULL,
+                                 destroy_tree};
+static const tsk_py_kind k_subdiv = {"tussock.subdiv", "subdiv", "subdivision",
+                                     "subdiv_create()", NULL, destroy_subdiv};
 
 /* ---- functions ----------------------------------------------------------------------------- */
 

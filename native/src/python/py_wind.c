@@ -10,7 +10,8 @@
 
 static void destroy_wind(void* wind) { tsk_wind_destroy(wind); }
 
-static const tsk_py_kind k_wind = {"tussock.wind", "wind", "wind", "wind_create", destroy_wind};
+static const tsk_py_kind k_wind = {"tussock.wind", "wind", "wind", "wind_create",
+                                   "wind_destroy", destroy_wind};
 
 /* ---- keyword parameters -> definition ---------------------------------------------- */
 
