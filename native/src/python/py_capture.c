@@ -134,7 +134,8 @@ static PyObject* py_depth_read(PyObject* self, PyObject* args) {
         return NULL;
     tsk_depth_frame fr;
     tsk_status s;
-    TSK_PY_UNLOCKED(box, s = tsk_depth_read(box->ptr, out.buf, (size_t)tsk_py_count(&out), &fr));
+    TSK_PY_UNLOCKED(box,
+                    s = tsk_depth_read(box->ptr, out.buf, (size_t)tsk_py_count(&out), &fr));
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     return Py_BuildValue("{s:O,s:O,s:i,s:d,s:i}", "is_new", fr.is_new ? Py_True : Py_False,

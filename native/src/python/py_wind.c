@@ -216,7 +216,8 @@ static PyObject* py_wind_sample(PyObject* self, PyObject* args) {
     tsk_py_handle* box = got ? tsk_py_handle_get(capsule, &k_wind) : NULL;
     tsk_status s = TSK_OK;
     if (box != NULL) {
-        TSK_PY_UNLOCKED(box, s = tsk_wind_sample(box->ptr, t, (size_t)n, x, y, vx, vy, sx, sy));
+        TSK_PY_UNLOCKED(box,
+                        s = tsk_wind_sample(box->ptr, t, (size_t)n, x, y, vx, vy, sx, sy));
     }
     tsk_py_views_release(&v);
     if (box == NULL) return NULL;
@@ -243,7 +244,8 @@ static PyObject* py_wind_sample_xyz(PyObject* self, PyObject* args) {
     tsk_py_handle* box = got ? tsk_py_handle_get(capsule, &k_wind) : NULL;
     tsk_status s = TSK_OK;
     if (box != NULL) {
-        TSK_PY_UNLOCKED(box, s = tsk_wind_sample_xyz(box->ptr, t, (size_t)(n3 / 3), p, vel, sw));
+        TSK_PY_UNLOCKED(box,
+                        s = tsk_wind_sample_xyz(box->ptr, t, (size_t)(n3 / 3), p, vel, sw));
     }
     tsk_py_views_release(&v);
     if (box == NULL) return NULL;
