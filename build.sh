@@ -178,21 +178,20 @@ run_native_tests() { # dir, label
   done
 }
 
-# The plain-Python tests (tests/test_*.py, system Python with numpy, the built module in
-# addon/): the parts of the add-on and the tools that need no Blender.
+# The plain-Python tests under the machine's python3 with numpy, no Blender: tests/test_*.py
+# (the parts of the add-on and the tools that need no Blender; they find the built module in
+# addon/) and the binding's checks native/tests/py_*.py (handles, def tables, the checked-in
+# stub; run beside the release build's module). Same output and tally as the C tests.
 run_python_tests() {
-  local t out line p f
-  for t in "$ROOT"/tests/test_*.py; do
+  local t out line p f dir
+  for t in "$ROOT"/tests/test_*.py "$ROOT"/native/tests/py_*.py; do
     [ -f "$t" ] || continue
-    if out="$(cd "$ROOT" && "$PY" "$t" 2>&1)"; then :; else
-      printf '%s\n' "$out"
-    fi
-    line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed' | tail -n 1 || true)"
-    if [ -z "$line" ]; then
-      printf '%s\n' "$out"
-      p=0; f=1
-    else
+    case "$t" in "$ROOT"/native/*) dir="$BUILD/release" ;; *) dir="$ROOT" ;; esac
+    out="$(cd "$dir" && PYTHONPATH="$BUILD/release" timeout 600 "$PY" "$t" 2>&1)" || true
+    line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed$' | tail -n 1 || true)"
+    if [ -z "$line" ]; then printf '%s\n' "$out"; p=0; f=1; else
       p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
+      [ "$f" -eq 0 ] || printf '%s\n' "$out"
     fi
     printf '%-8s %-28s %s passed, %s failed\n' python "$(basename "$t")" "$p" "$f"
     PASSED=$((PASSED + p)); FAILED=$((FAILED + f))

@@ -120,16 +120,22 @@ static PyObject* py_pc2_read_sample(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_bake_methods[] = {
     {"bake_write_frame", py_bake_write_frame, METH_VARARGS,
-     "bake_write_frame(path, frame, xyz): one frame file, atomically; xyz float32 (3n)."},
+     "bake_write_frame($module, path, frame, xyz, /)\n--\n\n"
+     "one frame file, atomically; xyz float32 (3n)."},
     {"bake_frame_info", py_bake_frame_info, METH_VARARGS,
-     "bake_frame_info(path) -> (frame, points): verifies header and checksum."},
+     "bake_frame_info($module, path, /)\n--\n\n"
+     "-> (frame, points): verifies header and checksum."},
     {"bake_read_frame", py_bake_read_frame, METH_VARARGS,
-     "bake_read_frame(path, out): a verified frame into out float32 (3n)."},
+     "bake_read_frame($module, path, out, /)\n--\n\n"
+     "a verified frame into out float32 (3n)."},
     {"bake_assemble_pc2", py_bake_assemble_pc2, METH_VARARGS,
-     "bake_assemble_pc2(path, frame_paths, start_frame, sample_rate): verified frames -> .pc2."},
+     "bake_assemble_pc2($module, path, frame_paths, start_frame, sample_rate, /)\n--\n\n"
+     "verified frames -> .pc2."},
     {"pc2_info", py_pc2_info, METH_VARARGS,
-     "pc2_info(path) -> dict(points, start_frame, sample_rate, samples)."},
+     "pc2_info($module, path, /)\n--\n\n"
+     "-> dict(points, start_frame, sample_rate, samples)."},
     {"pc2_read_sample", py_pc2_read_sample, METH_VARARGS,
-     "pc2_read_sample(path, index, out): one sample of a .pc2 into out float32 (3n)."},
+     "pc2_read_sample($module, path, index, out, /)\n--\n\n"
+     "one sample of a .pc2 into out float32 (3n)."},
     {NULL, NULL, 0, NULL},
 };

@@ -45,11 +45,12 @@ static PyObject* py_bake_image_info(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_bake_image_methods[] = {
     {"bake_write_image", py_bake_write_image, METH_VARARGS,
-     "bake_write_image(path, frame, key, rgba, width, height): an OpenEXR frame (float32 "
-     "RGBA 4*W*H, rows top-first) and its sidecar path + '.tski', atomically; key: a 64-bit "
-     "int the caller derives from the frame's inputs."},
+     "bake_write_image($module, path, frame, key, rgba, width, height, /)\n--\n\n"
+     "an OpenEXR frame (float32 RGBA 4*W*H, rows top-first) and its sidecar path + '.tski', "
+     "atomically; key: a 64-bit int the caller derives from the frame's inputs."},
     {"bake_image_info", py_bake_image_info, METH_VARARGS,
-     "bake_image_info(path) -> dict(frame, key, width, height): verifies the sidecar "
-     "(format version) and the EXR's size and checksum."},
+     "bake_image_info($module, path, /)\n--\n\n"
+     "-> dict(frame, key, width, height): verifies the sidecar (format version) and the EXR's "
+     "size and checksum."},
     {NULL, NULL, 0, NULL},
 };

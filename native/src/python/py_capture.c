@@ -3,68 +3,19 @@
  * buffer. Argument and buffer checks only; the GIL is released around C calls. */
 #include "binding.h"
 
+#include <stddef.h>
 #include <string.h>
 
 #include "tussock/capture.h"
 
-/* A capsule holds this box so that an explicit close can empty it; `busy` refuses a
- * close from another thread while a call without the GIL is using the handle. */
-typedef struct handle_box {
-    void* ptr;
-    int busy;
-} handle_box;
+static void destroy_source(void* src) { tsk_depth_close(src); }
+static void destroy_capture(void* cap) { tsk_capture_destroy(cap); }
 
-static const char* const SOURCE_NAME = "tussock.depth_source";
-static const char* const CAPTURE_NAME = "tussock.capture";
-
-static void source_destructor(PyObject* cap) {
-    handle_box* box = PyCapsule_GetPointer(cap, SOURCE_NAME);
-    if (box == NULL) {
-        PyErr_Clear();
-        return;
-    }
-    tsk_depth_close(box->ptr);
-    PyMem_Free(box);
-}
-
-static void capture_destructor(PyObject* cap) {
-    handle_box* box = PyCapsule_GetPointer(cap, CAPTURE_NAME);
-    if (box == NULL) {
-        PyErr_Clear();
-        return;
-    }
-    tsk_capture_destroy(box->ptr);
-    PyMem_Free(box);
-}
-
-static PyObject* wrap(void* ptr, const char* name, PyCapsule_Destructor d) {
-    handle_box* box = PyMem_Malloc(sizeof *box);
-    if (box == NULL) return PyErr_NoMemory();
-    box->ptr = ptr;
-    box->busy = 0;
-    PyObject* cap = PyCapsule_New(box, name, d);
-    if (cap == NULL) PyMem_Free(box);
-    return cap;
-}
-
-/* The box of a live handle, or NULL with tussock.Error set. */
-static handle_box* unwrap(PyObject* obj, const char* name, const char* arg) {
-    if (!PyCapsule_IsValid(obj, name)) {
-        tsk_py_raise_arg(arg, "expected a %s handle", name);
-        return NULL;
-    }
-    handle_box* box = PyCapsule_GetPointer(obj, name);
-    if (box == NULL || box->ptr == NULL) {
-        PyErr_Clear();
-        tsk_py_raise_arg(arg, "the %s handle is closed", name);
-        return NULL;
-    }
-    if (box->busy) {
-        tsk_py_raise_arg(arg, "the %s handle is in use by another thread", name);
-        return NULL;
-    }
-    return box;
-}
+static const tsk_py_kind k_source = {"tussock.depth_source", "source", "depth source",
+                                     "depth_open_files, depth_open_oni or depth_open_device",
+                                     "depth_close", destroy_source};
+static const tsk_py_kind k_capture = {"tussock.capture", "capture", "capture",
+                                      "capture_create", NULL, destroy_capture};
 
 /* ---- depth sources --------------------------------------------------------------- */
 
@@ -76,9 +27,7 @@ static PyObject* open_source(tsk_status (*fn)(const char*, tsk_depth_source**),
     s = fn(path, &src);
     Py_END_ALLOW_THREADS
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* cap = wrap(src, SOURCE_NAME, source_destructor);
-    if (cap == NULL) tsk_depth_close(src);
-    return cap;
+    return tsk_py_handle_new(&k_source, src);
 }
 
 static PyObject* py_depth_open_files(PyObject* self, PyObject* args) {
@@ -106,28 +55,17 @@ static PyObject* py_depth_close(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* h;
     if (!PyArg_ParseTuple(args, "O:depth_close", &h)) return NULL;
-    if (!PyCapsule_IsValid(h, SOURCE_NAME)) return tsk_py_raise_arg("source", "expected a handle");
-    handle_box* box = PyCapsule_GetPointer(h, SOURCE_NAME);
-    if (box->busy) return tsk_py_raise_arg("source", "the handle is in use by another thread");
-    tsk_depth_source* src = box->ptr;
-    box->ptr = NULL;
-    Py_BEGIN_ALLOW_THREADS
-    tsk_depth_close(src);
-    Py_END_ALLOW_THREADS
+    if (!tsk_py_handle_close(h, &k_source)) return NULL;
     Py_RETURN_NONE;
 }
 
 static PyObject* source_call(PyObject* args, const char* fmt, tsk_status (*fn)(tsk_depth_source*)) {
     PyObject* h;
     if (!PyArg_ParseTuple(args, fmt, &h)) return NULL;
-    handle_box* box = unwrap(h, SOURCE_NAME, "source");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_source);
     if (box == NULL) return NULL;
     tsk_status s;
-    box->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = fn(box->ptr);
-    Py_END_ALLOW_THREADS
-    box->busy = 0;
+    TSK_PY_UNLOCKED(box, s = fn(box->ptr));
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -155,7 +93,7 @@ static PyObject* py_depth_info(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* h;
     if (!PyArg_ParseTuple(args, "O:depth_info", &h)) return NULL;
-    handle_box* box = unwrap(h, SOURCE_NAME, "source");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_source);
     if (box == NULL) return NULL;
     tsk_depth_info info;
     tsk_status s = tsk_depth_get_info(box->ptr, &info);
@@ -175,14 +113,10 @@ static PyObject* py_depth_seek(PyObject* self, PyObject* args) {
     PyObject* h;
     int index;
     if (!PyArg_ParseTuple(args, "Oi:depth_seek", &h, &index)) return NULL;
-    handle_box* box = unwrap(h, SOURCE_NAME, "source");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_source);
     if (box == NULL) return NULL;
     tsk_status s;
-    box->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_depth_seek(box->ptr, index);
-    Py_END_ALLOW_THREADS
-    box->busy = 0;
+    TSK_PY_UNLOCKED(box, s = tsk_depth_seek(box->ptr, index));
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -191,7 +125,7 @@ static PyObject* py_depth_read(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *h, *out_obj;
     if (!PyArg_ParseTuple(args, "OO:depth_read", &h, &out_obj)) return NULL;
-    handle_box* box = unwrap(h, SOURCE_NAME, "source");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_source);
     if (box == NULL) return NULL;
     tsk_depth_info info;
     tsk_depth_get_info(box->ptr, &info);
@@ -200,11 +134,8 @@ static PyObject* py_depth_read(PyObject* self, PyObject* args) {
         return NULL;
     tsk_depth_frame fr;
     tsk_status s;
-    box->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_depth_read(box->ptr, out.buf, (size_t)tsk_py_count(&out), &fr);
-    Py_END_ALLOW_THREADS
-    box->busy = 0;
+    TSK_PY_UNLOCKED(box,
+                    s = tsk_depth_read(box->ptr, out.buf, (size_t)tsk_py_count(&out), &fr));
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     return Py_BuildValue("{s:O,s:O,s:i,s:d,s:i}", "is_new", fr.is_new ? Py_True : Py_False,
@@ -258,47 +189,60 @@ static PyObject* py_capture_create(PyObject* self, PyObject* args) {
     tsk_capture* cap = NULL;
     tsk_status s = tsk_capture_create(&cap);
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* o = wrap(cap, CAPTURE_NAME, capture_destructor);
-    if (o == NULL) tsk_capture_destroy(cap);
-    return o;
+    return tsk_py_handle_new(&k_capture, cap);
 }
+
+static const char* const k_roots[] = {"BOTTOM", "CENTROID", NULL};
+_Static_assert(TSK_ROOT_BOTTOM == 0 && TSK_ROOT_CENTROID == 1, "k_roots is in enum order");
+_Static_assert(sizeof(tsk_capture_root) == sizeof(int), "root is read as an int");
+
+#define F(name, member, type) {name, type, offsetof(tsk_capture_def, member), NULL, NULL, NULL}
+static const tsk_py_field k_capture_fields[] = {
+    F("near", near_m, TSK_PY_FLOAT),
+    F("far", far_m, TSK_PY_FLOAT),
+    F("fx", intrinsics.fx, TSK_PY_FLOAT),
+    F("fy", intrinsics.fy, TSK_PY_FLOAT),
+    F("cx", intrinsics.cx, TSK_PY_FLOAT),
+    F("cy", intrinsics.cy, TSK_PY_FLOAT),
+    F("min_area", min_area, TSK_PY_INT),
+    F("hole_radius", hole_radius, TSK_PY_INT),
+    F("open_radius", open_radius, TSK_PY_INT),
+    F("contour_smooth", contour_smooth, TSK_PY_FLOAT),
+    F("split_smooth", split_smooth, TSK_PY_FLOAT),
+    F("split_prominence", split_prominence, TSK_PY_FLOAT),
+    {"root", TSK_PY_CHOICE, offsetof(tsk_capture_def, root), k_roots, NULL, NULL},
+    F("knot_spacing", knot_spacing, TSK_PY_FLOAT),
+    F("width_smooth", width_smooth, TSK_PY_FLOAT),
+    F("depth_window", depth_window, TSK_PY_INT),
+    F("min_knots", min_knots, TSK_PY_INT),
+    F("root_trim", root_trim, TSK_PY_FLOAT),
+};
+#undef F
+static const tsk_py_def k_capture_def = {"capture setting", TSK_PY_FIELDS(k_capture_fields),
+                                         NULL, 0};
 
 static PyObject* py_capture_process(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"capture", "depth", "width", "height", "near", "far", "fx", "fy",
-                            "cx", "cy", "min_area", "hole_radius", "open_radius",
-                            "contour_smooth", "split_smooth", "split_prominence", "root",
-                            "knot_spacing", "width_smooth", "depth_window", "min_knots",
-                            "root_trim", NULL};
+    static char* names[] = {"capture", "depth", "width", "height", NULL};
     tsk_capture_def d = tsk_default_capture_def();
-    PyObject *h, *depth_obj;
+    PyObject *h, *depth_obj, *rest;
     int w, hh;
-    const char* root = "BOTTOM";
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOii|$ffffffiiifffsffiif:capture_process", names,
-                                     &h, &depth_obj, &w, &hh, &d.near_m, &d.far_m,
-                                     &d.intrinsics.fx, &d.intrinsics.fy, &d.intrinsics.cx,
-                                     &d.intrinsics.cy, &d.min_area, &d.hole_radius,
-                                     &d.open_radius, &d.contour_smooth, &d.split_smooth,
-                                     &d.split_prominence, &root, &d.knot_spacing,
-                                     &d.width_smooth, &d.depth_window, &d.min_knots,
-                                     &d.root_trim))
-        return NULL;
-    if (strcmp(root, "BOTTOM") == 0) d.root = TSK_ROOT_BOTTOM;
-    else if (strcmp(root, "CENTROID") == 0) d.root = TSK_ROOT_CENTROID;
-    else return tsk_py_raise_arg("root", "must be 'BOTTOM' or 'CENTROID', got '%s'", root);
+    /* the settings by the table; the four arguments, when given by name, as Python parses
+     * them */
+    if (!tsk_py_def_read(&k_capture_def, kw, &d, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "OOii:capture_process", names, &h,
+                                                   &depth_obj, &w, &hh);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
     if (w <= 0 || hh <= 0 || w > TSK_DEPTH_MAX_SIDE || hh > TSK_DEPTH_MAX_SIDE)
         return tsk_py_raise_arg("width", "size %dx%d outside 1..%d", w, hh, TSK_DEPTH_MAX_SIDE);
-    handle_box* box = unwrap(h, CAPTURE_NAME, "capture");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_capture);
     if (box == NULL) return NULL;
     Py_buffer depth;
     if (!tsk_py_buffer(depth_obj, "depth", TSK_PY_F32, (Py_ssize_t)w * hh, 0, &depth))
         return NULL;
     tsk_status s;
-    box->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_capture_process(box->ptr, &d, depth.buf, w, hh);
-    Py_END_ALLOW_THREADS
-    box->busy = 0;
+    TSK_PY_UNLOCKED(box, s = tsk_capture_process(box->ptr, &d, depth.buf, w, hh));
     PyBuffer_Release(&depth);
     if (s != TSK_OK) return tsk_py_raise(s);
     return PyLong_FromLong(tsk_capture_blade_count(box->ptr));
@@ -328,7 +272,7 @@ static PyObject* py_capture_summary(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* h;
     if (!PyArg_ParseTuple(args, "O:capture_summary", &h)) return NULL;
-    handle_box* box = unwrap(h, CAPTURE_NAME, "capture");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_capture);
     if (box == NULL) return NULL;
     float near_m, far_m;
     tsk_capture_band(box->ptr, &near_m, &far_m);
@@ -345,7 +289,7 @@ static PyObject* py_capture_blades(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *h, *counts_obj, *flags_obj = Py_None;
     if (!PyArg_ParseTuple(args, "OO|O:capture_blades", &h, &counts_obj, &flags_obj)) return NULL;
-    handle_box* box = unwrap(h, CAPTURE_NAME, "capture");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_capture);
     if (box == NULL) return NULL;
     const Py_ssize_t n = tsk_capture_blade_count(box->ptr);
     tsk_py_views v = {.n = 0};
@@ -379,7 +323,7 @@ static PyObject* py_capture_knots(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *h, *xyz = Py_None, *w = Py_None, *uv = Py_None;
     if (!PyArg_ParseTuple(args, "O|OOO:capture_knots", &h, &xyz, &w, &uv)) return NULL;
-    handle_box* box = unwrap(h, CAPTURE_NAME, "capture");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_capture);
     if (box == NULL) return NULL;
     const Py_ssize_t n = tsk_capture_knot_total(box->ptr);
     tsk_py_views v = {.n = 0};
@@ -399,7 +343,7 @@ static PyObject* py_capture_blade(PyObject* self, PyObject* args) {
     PyObject *h, *xyz = Py_None, *w = Py_None, *uv = Py_None;
     int blade;
     if (!PyArg_ParseTuple(args, "Oi|OOO:capture_blade", &h, &blade, &xyz, &w, &uv)) return NULL;
-    handle_box* box = unwrap(h, CAPTURE_NAME, "capture");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_capture);
     if (box == NULL) return NULL;
     const int nb = tsk_capture_blade_count(box->ptr);
     if (blade < 0 || blade >= nb) return tsk_py_raise_arg("blade", "%d is not in 0..%d", blade, nb - 1);
@@ -430,7 +374,7 @@ static PyObject* py_capture_image(PyObject* self, PyObject* args) {
     else if (strcmp(which, "OVERLAY") == 0) img = TSK_IMAGE_OVERLAY;
     else
         return tsk_py_raise_arg("which", "must be DEPTH, MASK, LABELS or OVERLAY, got '%s'", which);
-    handle_box* box = unwrap(h, CAPTURE_NAME, "capture");
+    tsk_py_handle* box = tsk_py_handle_get(h, &k_capture);
     if (box == NULL) return NULL;
     Py_buffer out;
     if (!tsk_py_buffer(out_obj, "out", TSK_PY_U8, -1, 1, &out)) return NULL;
@@ -453,51 +397,69 @@ static PyObject* py_capture_constants(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_capture_methods[] = {
     {"depth_open_files", py_depth_open_files, METH_VARARGS,
-     "depth_open_files(path) -> source: a 16-bit PNG (mm) or float EXR (m), or a sequence "
-     "with '#' for the frame number."},
+     "depth_open_files($module, path, /)\n--\n\n"
+     "-> source: a 16-bit PNG (mm) or float EXR (m), or a sequence with '#' for the frame "
+     "number."},
     {"depth_open_oni", py_depth_open_oni, METH_VARARGS,
-     "depth_open_oni(path) -> source: an OpenNI2 recording, read frame by frame."},
+     "depth_open_oni($module, path, /)\n--\n\n"
+     "-> source: an OpenNI2 recording, read frame by frame."},
     {"depth_open_device", py_depth_open_device, METH_VARARGS,
-     "depth_open_device(uri=None) -> source: a live OpenNI2 device (None = first)."},
-    {"depth_close", py_depth_close, METH_VARARGS, "depth_close(source): close now."},
-    {"depth_start", py_depth_start, METH_VARARGS, "depth_start(source): start a device."},
-    {"depth_stop", py_depth_stop, METH_VARARGS, "depth_stop(source): stop a device."},
+     "depth_open_device($module, uri=None, /)\n--\n\n"
+     "-> source: a live OpenNI2 device (None = first)."},
+    {"depth_close", py_depth_close, METH_VARARGS, "depth_close($module, source, /)\n--\n\n"
+     "close now."},
+    {"depth_start", py_depth_start, METH_VARARGS, "depth_start($module, source, /)\n--\n\n"
+     "start a device."},
+    {"depth_stop", py_depth_stop, METH_VARARGS, "depth_stop($module, source, /)\n--\n\n"
+     "stop a device."},
     {"depth_info", py_depth_info, METH_VARARGS,
-     "depth_info(source) -> dict(kind, width, height, frame_count, first_frame, "
-     "has_device_intrinsics, fx, fy, cx, cy, description)."},
-    {"depth_seek", py_depth_seek, METH_VARARGS, "depth_seek(source, index): files and .oni."},
+     "depth_info($module, source, /)\n--\n\n"
+     "-> dict(kind, width, height, frame_count, first_frame, has_device_intrinsics, fx, fy, "
+     "cx, cy, description)."},
+    {"depth_seek", py_depth_seek, METH_VARARGS, "depth_seek($module, source, index, /)\n--\n\n"
+     "files and .oni."},
     {"depth_read", py_depth_read, METH_VARARGS,
-     "depth_read(source, out) -> dict(is_new, end, index, timestamp, invalid_pixels); out "
-     "float32 (width*height) in metres, 0 = no data. Never blocks on a device."},
+     "depth_read($module, source, out, /)\n--\n\n"
+     "-> dict(is_new, end, index, timestamp, invalid_pixels); out float32 (width*height) in "
+     "metres, 0 = no data. Never blocks on a device."},
     {"depth_write_png16", py_depth_write_png16, METH_VARARGS,
-     "depth_write_png16(path, depth, width, height): depth float32 metres -> PNG in mm."},
+     "depth_write_png16($module, path, depth, width, height, /)\n--\n\n"
+     "depth float32 metres -> PNG in mm."},
     {"depth_write_exr", py_depth_write_exr, METH_VARARGS,
-     "depth_write_exr(path, depth, width, height): depth float32 metres -> float EXR."},
+     "depth_write_exr($module, path, depth, width, height, /)\n--\n\n"
+     "depth float32 metres -> float EXR."},
     {"default_intrinsics", py_default_intrinsics, METH_VARARGS,
-     "default_intrinsics(width, height) -> (fx, fy, cx, cy) of a 640x480 sensor, scaled."},
-    {"capture_create", py_capture_create, METH_NOARGS, "capture_create() -> capture handle."},
+     "default_intrinsics($module, width, height, /)\n--\n\n"
+     "-> (fx, fy, cx, cy) of a 640x480 sensor, scaled."},
+    {"capture_create", py_capture_create, METH_NOARGS, "capture_create($module, /)\n--\n\n"
+     "-> capture handle."},
     {"capture_process", (PyCFunction)(void (*)(void))py_capture_process,
      METH_VARARGS | METH_KEYWORDS,
-     "capture_process(capture, depth, width, height, *, near=0, far=0, fx=0, fy=0, cx=0, "
-     "cy=0, min_area=150, hole_radius=2, open_radius=0, contour_smooth=1.5, "
+     "capture_process($module, capture, depth, width, height, *, near=0, far=0, fx=0, fy=0, "
+     "cx=0, cy=0, min_area=150, hole_radius=2, open_radius=0, contour_smooth=1.5, "
      "split_smooth=3, split_prominence=12, root='BOTTOM', knot_spacing=2, width_smooth=2, "
-     "depth_window=2, min_knots=4, root_trim=1) -> blade count. near=far=0: automatic "
-     "band; fx..cy all 0: default intrinsics."},
+     "depth_window=2, min_knots=4, root_trim=1)\n--\n\n"
+     "-> blade count. near=far=0: automatic band; fx..cy all 0: default intrinsics."},
     {"capture_propose_band", py_capture_propose_band, METH_VARARGS,
-     "capture_propose_band(depth, width, height, min_pixels=150) -> (near, far) metres."},
+     "capture_propose_band($module, depth, width, height, min_pixels=150, /)\n--\n\n"
+     "-> (near, far) metres."},
     {"capture_summary", py_capture_summary, METH_VARARGS,
-     "capture_summary(capture) -> dict(blades, knots, near, far, fx, fy, cx, cy, message)."},
+     "capture_summary($module, capture, /)\n--\n\n"
+     "-> dict(blades, knots, near, far, fx, fy, cx, cy, message)."},
     {"capture_blades", py_capture_blades, METH_VARARGS,
-     "capture_blades(capture, knot_counts, flags=None): int32 arrays of blade count."},
+     "capture_blades($module, capture, knot_counts, flags=None, /)\n--\n\n"
+     "int32 arrays of blade count."},
     {"capture_knots", py_capture_knots, METH_VARARGS,
-     "capture_knots(capture, camera_xyz=None, width=None, pixel_uv=None): float32 arrays "
-     "of 3, 1, 2 x knot total; blades one after the other, root -> tip."},
+     "capture_knots($module, capture, camera_xyz=None, width=None, pixel_uv=None, /)\n--\n\n"
+     "float32 arrays of 3, 1, 2 x knot total; blades one after the other, root -> tip."},
     {"capture_blade", py_capture_blade, METH_VARARGS,
-     "capture_blade(capture, blade, camera_xyz=None, width=None, pixel_uv=None) -> knots."},
+     "capture_blade($module, capture, blade, camera_xyz=None, width=None, pixel_uv=None, /)\n--\n\n"
+     "-> knots."},
     {"capture_image", py_capture_image, METH_VARARGS,
-     "capture_image(capture, which, out): which DEPTH|MASK|LABELS|OVERLAY, out uint8 "
-     "(width*height)."},
+     "capture_image($module, capture, which, out, /)\n--\n\n"
+     "which DEPTH|MASK|LABELS|OVERLAY, out uint8 (width*height)."},
     {"capture_constants", py_capture_constants, METH_NOARGS,
-     "capture_constants() -> dict of blade flags and limits."},
+     "capture_constants($module, /)\n--\n\n"
+     "-> dict of blade flags and limits."},
     {NULL, NULL, 0, NULL},
 };

@@ -154,26 +154,36 @@ static PyObject* py_memory_budget(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_core_methods[] = {
     {"set_memory_budget", py_set_memory_budget, METH_VARARGS,
-     "set_memory_budget(bytes): largest memory estimate one request may have; 0 = default "
-     "(half of physical memory, or TSK_MEMORY_BUDGET_MB)."},
-    {"memory_budget", py_memory_budget, METH_NOARGS, "memory_budget() -> int: bytes."},
-    {"version", py_version, METH_NOARGS, "version() -> str: native library version."},
+     "set_memory_budget($module, bytes, /)\n--\n\n"
+     "largest memory estimate one request may have; 0 = default (half of physical memory, or "
+     "TSK_MEMORY_BUDGET_MB)."},
+    {"memory_budget", py_memory_budget, METH_NOARGS, "memory_budget($module, /)\n--\n\n"
+     "-> int: bytes."},
+    {"version", py_version, METH_NOARGS, "version($module, /)\n--\n\n"
+     "-> str: native library version."},
     {"set_threads", py_set_threads, METH_VARARGS,
-     "set_threads(n): worker threads, 0 = all cores."},
-    {"get_threads", py_get_threads, METH_NOARGS, "get_threads() -> int."},
-    {"hash4", py_hash4, METH_VARARGS, "hash4(seed, a, b, c) -> int: counter-based hash."},
+     "set_threads($module, n, /)\n--\n\n"
+     "worker threads, 0 = all cores."},
+    {"get_threads", py_get_threads, METH_NOARGS, "get_threads($module, /)\n--\n\n"
+     "-> int."},
+    {"hash4", py_hash4, METH_VARARGS, "hash4($module, seed, a, b, c, /)\n--\n\n"
+     "-> int: counter-based hash."},
     {"rand_fill", py_rand_fill, METH_VARARGS,
-     "rand_fill(seed, stream, out): out[i] = uniform [0,1) of (seed, stream, i); out float32."},
+     "rand_fill($module, seed, stream, out, /)\n--\n\n"
+     "out[i] = uniform [0,1) of (seed, stream, i); out float32."},
     {"vec3_lengths", py_vec3_lengths, METH_VARARGS,
-     "vec3_lengths(xyz, out): out[i] = |xyz[i]|; xyz float32 (3n), out float32 (n)."},
+     "vec3_lengths($module, xyz, out, /)\n--\n\n"
+     "out[i] = |xyz[i]|; xyz float32 (3n), out float32 (n)."},
     {"vec3_bounds", py_vec3_bounds, METH_VARARGS,
-     "vec3_bounds(xyz) -> ((lo x, y, z), (hi x, y, z)): bounding box of float32 points (3n, "
-     "n >= 1); non-finite points are refused."},
+     "vec3_bounds($module, xyz, /)\n--\n\n"
+     "-> ((lo x, y, z), (hi x, y, z)): bounding box of float32 points (3n, n >= 1); non-finite"
+     " points are refused."},
     {"mesh_edges", py_mesh_edges, METH_VARARGS,
-     "mesh_edges(corners, face_size, vertex_count, edges, corner_edges) -> int: the distinct "
-     "edges of faces of face_size corners (int32), in first-use order; edges int32 (room for "
-     "2 per corner), corner_edges int32 (one per corner)."},
+     "mesh_edges($module, corners, face_size, vertex_count, edges, corner_edges, /)\n--\n\n"
+     "-> int: the distinct edges of faces of face_size corners (int32), in first-use order; "
+     "edges int32 (room for 2 per corner), corner_edges int32 (one per corner)."},
     {"allocated_bytes", py_allocated_bytes, METH_NOARGS,
-     "allocated_bytes() -> int: bytes held by the native library."},
+     "allocated_bytes($module, /)\n--\n\n"
+     "-> int: bytes held by the native library."},
     {NULL, NULL, 0, NULL},
 };

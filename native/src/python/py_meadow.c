@@ -5,33 +5,16 @@
 
 #include "tussock/meadow.h"
 
+#include <stddef.h>
 #include <string.h>
 
-static const char* PATCH_CAPSULE = "tussock.patch";
-static const char* MEADOW_CAPSULE = "tussock.meadow";
+static void destroy_patch(void* p) { tsk_patch_destroy(p); }
+static void destroy_meadow(void* m) { tsk_meadow_destroy(m); }
 
-static void patch_capsule_free(PyObject* capsule) {
-    tsk_patch_destroy(PyCapsule_GetPointer(capsule, PATCH_CAPSULE));
-}
-static void meadow_capsule_free(PyObject* capsule) {
-    tsk_meadow_destroy(PyCapsule_GetPointer(capsule, MEADOW_CAPSULE));
-}
-
-static tsk_patch* get_patch(PyObject* obj) {
-    if (!PyCapsule_IsValid(obj, PATCH_CAPSULE)) {
-        tsk_py_raise_arg("patch", "expected a patch handle from patch_create");
-        return NULL;
-    }
-    return PyCapsule_GetPointer(obj, PATCH_CAPSULE);
-}
-
-static tsk_meadow* get_meadow(PyObject* obj) {
-    if (!PyCapsule_IsValid(obj, MEADOW_CAPSULE)) {
-        tsk_py_raise_arg("meadow", "expected a meadow handle from meadow_create");
-        return NULL;
-    }
-    return PyCapsule_GetPointer(obj, MEADOW_CAPSULE);
-}
+static const tsk_py_kind k_patch = {"tussock.patch", "patch", "patch", "patch_create",
+                                    NULL, destroy_patch};
+static const tsk_py_kind k_meadow = {"tussock.meadow", "meadow", "meadow", "meadow_create",
+                                     NULL, destroy_meadow};
 
 /* ---- blade models ------------------------------------------------------------------------ */
 
@@ -59,20 +42,27 @@ static PyObject* py_blade_model_default(PyObject* self, PyObject* args) {
 
 /* ---- the patch --------------------------------------------------------------------------- */
 
+#define F(name, type) {#name, type, offsetof(tsk_patch_def, name), NULL, NULL, NULL}
+static const tsk_py_field k_patch_fields[] = {
+    F(blade_count, TSK_PY_INT), F(scale_min, TSK_PY_FLOAT), F(scale_max, TSK_PY_FLOAT),
+    F(seed, TSK_PY_U64),        F(knot_count, TSK_PY_INT),
+};
+#undef F
+static const tsk_py_def k_patch_def = {"patch setting", TSK_PY_FIELDS(k_patch_fields), NULL, 0};
+
 static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"knots",     "widths",    "knot_counts", "weights", "blade_count",
-                            "scale_min", "scale_max", "seed",        "knot_count", NULL};
+    /* the models' arrays; the rest of the keywords are the def's */
+    static char* names[] = {"knots", "widths", "knot_counts", "weights", NULL};
     tsk_patch_def d = tsk_default_patch_def();
     PyObject *knots_obj = Py_None, *widths_obj = Py_None, *counts_obj = Py_None,
-             *weights_obj = Py_None;
-    unsigned long long seed = d.seed;
-    int blade_count = d.blade_count, knot_count = d.knot_count;
-    float smin = d.scale_min, smax = d.scale_max;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "|OOOOiffKi:patch_create", names, &knots_obj,
-                                     &widths_obj, &counts_obj, &weights_obj, &blade_count, &smin,
-                                     &smax, &seed, &knot_count))
-        return NULL;
+             *weights_obj = Py_None, *rest;
+    if (!tsk_py_def_read(&k_patch_def, kw, &d, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "|$OOOO:patch_create", names,
+                                                   &knots_obj, &widths_obj, &counts_obj,
+                                                   &weights_obj);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
     tsk_py_views v = {.n = 0};
     const int32_t* counts = NULL;
     Py_ssize_t model_count = 0;
@@ -109,11 +99,6 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
             return PyErr_NoMemory();
         }
     }
-    d.blade_count = blade_count;
-    d.scale_min = smin;
-    d.scale_max = smax;
-    d.seed = seed;
-    d.knot_count = knot_count;
     d.models = models;
     d.model_count = (int32_t)model_count;
     d.model_weights = weights;
@@ -126,17 +111,16 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
     PyMem_Free(models);
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* cap = PyCapsule_New(patch, PATCH_CAPSULE, patch_capsule_free);
-    if (cap == NULL) tsk_patch_destroy(patch);
-    return cap;
+    return tsk_py_handle_new(&k_patch, patch);
 }
 
 static PyObject* py_patch_info(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* obj;
     if (!PyArg_ParseTuple(args, "O:patch_info", &obj)) return NULL;
-    tsk_patch* p = get_patch(obj);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(obj, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     size_t nv = 0, nt = 0;
     tsk_patch_mesh_counts(p, &nv, &nt);
     return Py_BuildValue("{s:i,s:i,s:i,s:n,s:n}", "blade_count", (int)tsk_patch_blade_count(p),
@@ -150,8 +134,9 @@ static PyObject* py_patch_blades(PyObject* self, PyObject* args) {
     PyObject *obj, *xy_o, *turn_o, *scale_o, *model_o;
     if (!PyArg_ParseTuple(args, "OOOOO:patch_blades", &obj, &xy_o, &turn_o, &scale_o, &model_o))
         return NULL;
-    tsk_patch* p = get_patch(obj);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(obj, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     const Py_ssize_t n = tsk_patch_blade_count(p);
     tsk_py_views v = {.n = 0};
     float *xy, *turn, *scale;
@@ -164,9 +149,11 @@ static PyObject* py_patch_blades(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_patch_get_blades(p, xy, turn, scale, model);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -177,8 +164,9 @@ static PyObject* py_patch_model(PyObject* self, PyObject* args) {
     PyObject *obj, *xyz_o, *width_o;
     int index;
     if (!PyArg_ParseTuple(args, "OiOO:patch_model", &obj, &index, &xyz_o, &width_o)) return NULL;
-    tsk_patch* p = get_patch(obj);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(obj, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     tsk_blade_model m;
     tsk_status s = tsk_patch_get_model(p, index, &m);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -202,8 +190,9 @@ static PyObject* py_patch_expand(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OfOOOO|O:patch_expand", &obj, &tile_size, &pos_o, &nrm_o, &uv_o,
                           &tri_o, &bid_o))
         return NULL;
-    tsk_patch* p = get_patch(obj);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(obj, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     size_t nv = 0, nt = 0;
     tsk_patch_mesh_counts(p, &nv, &nt);
     tsk_py_views v = {.n = 0};
@@ -218,9 +207,11 @@ static PyObject* py_patch_expand(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_patch_expand(p, tile_size, pos, nrm, uv, tris, bid);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -284,68 +275,44 @@ static PyObject* py_blade_indices(PyObject* self, PyObject* args) {
 
 /* ---- the meadow -------------------------------------------------------------------------- */
 
-static int parse_floats(PyObject* obj, const char* name, float* out, int n) {
-    if (obj == NULL || obj == Py_None) return 1;
-    if (!PySequence_Check(obj) || PySequence_Size(obj) != n) {
-        PyErr_Clear();
-        tsk_py_raise_arg(name, "expected a sequence of %d numbers", n);
-        return 0;
-    }
-    for (int i = 0; i < n; ++i) {
-        PyObject* item = PySequence_GetItem(obj, i);
-        const double v = item ? PyFloat_AsDouble(item) : -1.0;
-        Py_XDECREF(item);
-        if (v == -1.0 && PyErr_Occurred()) {
-            PyErr_Clear();
-            tsk_py_raise_arg(name, "item %d is not a number", i);
-            return 0;
-        }
-        out[i] = (float)v;
-    }
-    return 1;
-}
+static const char* const k_densities[] = {"uniform", "noise", "image", NULL};
+_Static_assert(TSK_DENSITY_UNIFORM == 0 && TSK_DENSITY_NOISE == 1 && TSK_DENSITY_IMAGE == 2,
+               "k_densities is in enum order");
+_Static_assert(sizeof(tsk_density_kind) == sizeof(int), "density is read as an int");
+
+#define F(name, type) {#name, type, offsetof(tsk_meadow_def, name), NULL, NULL, NULL}
+static const tsk_py_field k_meadow_fields[] = {
+    F(origin, TSK_PY_VEC3),
+    F(size, TSK_PY_VEC2),
+    F(tile_size, TSK_PY_FLOAT),
+    F(blades_per_tile, TSK_PY_INT),
+    F(patch_blades, TSK_PY_INT),
+    F(chunk_blades, TSK_PY_INT),
+    F(seed, TSK_PY_U64),
+    {"density", TSK_PY_CHOICE, offsetof(tsk_meadow_def, density), k_densities, NULL, NULL},
+    F(noise_scale, TSK_PY_FLOAT),
+    F(noise_octaves, TSK_PY_INT),
+    F(noise_persistence, TSK_PY_FLOAT),
+    F(noise_threshold, TSK_PY_FLOAT),
+    F(noise_contrast, TSK_PY_FLOAT),
+};
+#undef F
+static const tsk_py_def k_meadow_def = {"meadow setting", TSK_PY_FIELDS(k_meadow_fields), NULL,
+                                        0};
 
 static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"origin",        "size",          "tile_size",
-                            "blades_per_tile", "patch_blades", "chunk_blades",
-                            "seed",          "density",       "noise_scale",
-                            "noise_octaves", "noise_persistence", "noise_threshold",
-                            "noise_contrast",
-                            "image",         "image_width",   "image_height", NULL};
+    /* the density image and its size, used when density is 'image'; the rest of the
+     * keywords are the def's */
+    static char* names[] = {"image", "image_width", "image_height", NULL};
     tsk_meadow_def d = tsk_default_meadow_def();
-    PyObject *origin_o = NULL, *size_o = NULL, *image_o = Py_None;
-    const char* density = "noise";
-    unsigned long long seed = d.seed;
-    int bpt = d.blades_per_tile, pb = d.patch_blades, cb = d.chunk_blades, oct = d.noise_octaves;
+    PyObject *image_o = Py_None, *rest;
     int iw = 0, ih = 0;
-    float ts = d.tile_size, ns = d.noise_scale, np = d.noise_persistence, nt = d.noise_threshold,
-          nc = d.noise_contrast;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "|OOfiiiKsfifffOii:meadow_create", names,
-                                     &origin_o, &size_o, &ts, &bpt, &pb, &cb, &seed, &density,
-                                     &ns, &oct, &np, &nt, &nc, &image_o, &iw, &ih))
-        return NULL;
-    if (!parse_floats(origin_o, "origin", d.origin, 3) || !parse_floats(size_o, "size", d.size, 2))
-        return NULL;
-    if (strcmp(density, "uniform") == 0)
-        d.density = TSK_DENSITY_UNIFORM;
-    else if (strcmp(density, "noise") == 0)
-        d.density = TSK_DENSITY_NOISE;
-    else if (strcmp(density, "image") == 0)
-        d.density = TSK_DENSITY_IMAGE;
-    else
-        return tsk_py_raise_arg("density", "must be 'uniform', 'noise' or 'image', got '%s'",
-                                density);
-    d.tile_size = ts;
-    d.blades_per_tile = bpt;
-    d.patch_blades = pb;
-    d.chunk_blades = cb;
-    d.seed = seed;
-    d.noise_scale = ns;
-    d.noise_octaves = oct;
-    d.noise_persistence = np;
-    d.noise_threshold = nt;
-    d.noise_contrast = nc;
+    if (!tsk_py_def_read(&k_meadow_def, kw, &d, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "|$Oii:meadow_create", names,
+                                                   &image_o, &iw, &ih);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
     tsk_py_views v = {.n = 0};
     if (d.density == TSK_DENSITY_IMAGE) {
         if (iw < 1 || ih < 1 || iw > TSK_MEADOW_MAX_IMAGE_SIDE || ih > TSK_MEADOW_MAX_IMAGE_SIDE)
@@ -365,17 +332,16 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
     Py_END_ALLOW_THREADS
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* cap = PyCapsule_New(m, MEADOW_CAPSULE, meadow_capsule_free);
-    if (cap == NULL) tsk_meadow_destroy(m);
-    return cap;
+    return tsk_py_handle_new(&k_meadow, m);
 }
 
 static PyObject* py_meadow_info(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* obj;
     if (!PyArg_ParseTuple(args, "O:meadow_info", &obj)) return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     tsk_meadow_info i;
     tsk_status s = tsk_meadow_get_info(m, &i);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -393,8 +359,9 @@ static PyObject* py_meadow_tiles(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *obj, *c_o, *o_o, *d_o = Py_None;
     if (!PyArg_ParseTuple(args, "OOO|O:meadow_tiles", &obj, &c_o, &o_o, &d_o)) return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     tsk_meadow_info i;
     tsk_meadow_get_info(m, &i);
     const Py_ssize_t T = (Py_ssize_t)i.tile_count;
@@ -408,9 +375,11 @@ static PyObject* py_meadow_tiles(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hm->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_get_tiles(m, counts, offsets, dens);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -421,8 +390,9 @@ static PyObject* py_meadow_instances(PyObject* self, PyObject* args) {
     PyObject *obj, *org_o, *off_o, *cnt_o;
     if (!PyArg_ParseTuple(args, "OOOO:meadow_instances", &obj, &org_o, &off_o, &cnt_o))
         return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     tsk_meadow_info i;
     tsk_meadow_get_info(m, &i);
     const Py_ssize_t T = (Py_ssize_t)i.tile_count;
@@ -436,9 +406,11 @@ static PyObject* py_meadow_instances(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hm->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_instances(m, org, off, cnt);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -449,8 +421,9 @@ static PyObject* py_meadow_chunk_instances(PyObject* self, PyObject* args) {
     PyObject *obj, *org_o, *chunk_o, *tile_o = Py_None;
     if (!PyArg_ParseTuple(args, "OOO|O:meadow_chunk_instances", &obj, &org_o, &chunk_o, &tile_o))
         return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     tsk_meadow_info i;
     tsk_meadow_get_info(m, &i);
     const Py_ssize_t N = (Py_ssize_t)i.chunk_instances;
@@ -464,9 +437,11 @@ static PyObject* py_meadow_chunk_instances(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
+    hm->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_chunk_instances(m, org, chunk, tile);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -477,8 +452,9 @@ static PyObject* py_meadow_blade_count(PyObject* self, PyObject* args) {
     PyObject* obj;
     long long b, e;
     if (!PyArg_ParseTuple(args, "OLL:meadow_blade_count", &obj, &b, &e)) return NULL;
-    tsk_meadow* m = get_meadow(obj);
-    if (m == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
     int64_t n = 0;
     tsk_status s = tsk_meadow_blade_count(m, b, e, &n);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -492,10 +468,12 @@ static PyObject* py_meadow_realise(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OOLLOOOO:meadow_realise", &mo, &po, &b, &e, &xyz_o, &turn_o,
                           &scale_o, &idx_o))
         return NULL;
-    tsk_meadow* m = get_meadow(mo);
-    if (m == NULL) return NULL;
-    tsk_patch* p = get_patch(po);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(mo, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
+    tsk_py_handle* hp = tsk_py_handle_get(po, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     int64_t n = 0;
     tsk_status s = tsk_meadow_blade_count(m, b, e, &n);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -509,9 +487,13 @@ static PyObject* py_meadow_realise(PyObject* self, PyObject* args) {
         tsk_py_views_release(&v);
         return NULL;
     }
+    hm->busy = 1;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_realise(m, p, b, e, xyz, turn, scale, idx);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -524,10 +506,12 @@ static PyObject* py_meadow_realise_knots(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OOLLOOO:meadow_realise_knots", &mo, &po, &b, &e, &k_o, &w_o,
                           &s_o))
         return NULL;
-    tsk_meadow* m = get_meadow(mo);
-    if (m == NULL) return NULL;
-    tsk_patch* p = get_patch(po);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hm = tsk_py_handle_get(mo, &k_meadow);
+    if (hm == NULL) return NULL;
+    tsk_meadow* m = hm->ptr;
+    tsk_py_handle* hp = tsk_py_handle_get(po, &k_patch);
+    if (hp == NULL) return NULL;
+    tsk_patch* p = hp->ptr;
     int64_t n = 0;
     tsk_status s = tsk_meadow_blade_count(m, b, e, &n);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -540,9 +524,13 @@ static PyObject* py_meadow_realise_knots(PyObject* self, PyObject* args) {
         tsk_py_views_release(&v);
         return NULL;
     }
+    hm->busy = 1;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_meadow_realise_knots(m, p, b, e, knots, widths, sides);
     Py_END_ALLOW_THREADS
+    hm->busy = 0;
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -550,58 +538,66 @@ static PyObject* py_meadow_realise_knots(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_meadow_methods[] = {
     {"blade_model_default", py_blade_model_default, METH_VARARGS,
-     "blade_model_default(knot_count, xyz, width): the built-in blade into float32 xyz (3n) "
-     "and width (n)."},
+     "blade_model_default($module, knot_count, xyz, width, /)\n--\n\n"
+     "the built-in blade into float32 xyz (3n) and width (n)."},
     {"patch_create", (PyCFunction)(void (*)(void))py_patch_create, METH_VARARGS | METH_KEYWORDS,
-     "patch_create(knots=None, widths=None, knot_counts=None, weights=None, blade_count=16384, "
-     "scale_min=0.8, scale_max=1.2, seed=1, knot_count=0) -> patch handle. knots float32 "
-     "(3 per knot), widths float32 (1 per knot), knot_counts int32 (1 per model), weights "
-     "float32 (1 per model) or None; no models -> the default blade."},
+     "patch_create($module, *, knots=None, widths=None, knot_counts=None, weights=None, "
+     "blade_count=16384, scale_min=0.8, scale_max=1.2, seed=1, knot_count=0)\n--\n\n"
+     "-> patch handle. knots float32 (3 per knot), widths float32 (1 per knot), knot_counts "
+     "int32 (1 per model), weights float32 (1 per model) or None; no models -> the default "
+     "blade."},
     {"patch_info", py_patch_info, METH_VARARGS,
-     "patch_info(patch) -> dict(blade_count, knot_count, model_count, vertex_count, "
-     "triangle_count)."},
+     "patch_info($module, patch, /)\n--\n\n"
+     "-> dict(blade_count, knot_count, model_count, vertex_count, triangle_count)."},
     {"patch_blades", py_patch_blades, METH_VARARGS,
-     "patch_blades(patch, xy, turn, scale, model): per-blade data (float32 2n, n, n; int32 n); "
-     "None skips."},
+     "patch_blades($module, patch, xy, turn, scale, model, /)\n--\n\n"
+     "per-blade data (float32 2n, n, n; int32 n); None skips."},
     {"patch_model", py_patch_model, METH_VARARGS,
-     "patch_model(patch, index, xyz, width): the resampled rest model (float32 3K, K)."},
+     "patch_model($module, patch, index, xyz, width, /)\n--\n\n"
+     "the resampled rest model (float32 3K, K)."},
     {"patch_expand", py_patch_expand, METH_VARARGS,
-     "patch_expand(patch, tile_size, positions, normals, uvs, tris[, blade_index]): the patch "
-     "as one mesh in tile-local metres; float32 3V, 3V, 2V; int32 3T, V; None skips."},
+     "patch_expand($module, patch, tile_size, positions, normals, uvs, tris, blade_index=None, "
+     "/)\n--\n\n"
+     "the patch as one mesh in tile-local metres; float32 3V, 3V, 2V; int32 3T, V; None skips."},
     {"blades_expand", py_blades_expand, METH_VARARGS,
-     "blades_expand(knots, widths, sides, knot_count, positions, normals, uvs): ribbons of n "
-     "blades of K knots; float32 3Kn, Kn, 3n in; 6Kn, 6Kn, 4Kn out (None skips)."},
+     "blades_expand($module, knots, widths, sides, knot_count, positions, normals, uvs, /)\n--\n\n"
+     "ribbons of n blades of K knots; float32 3Kn, Kn, 3n in; 6Kn, 6Kn, 4Kn out (None skips)."},
     {"blade_indices", py_blade_indices, METH_VARARGS,
-     "blade_indices(knot_count, blade_count, tris): triangle indices of blade_count ribbons "
-     "laid out blade after blade; int32 6(K-1) per blade."},
+     "blade_indices($module, knot_count, blade_count, tris, /)\n--\n\n"
+     "triangle indices of blade_count ribbons laid out blade after blade; int32 6(K-1) per "
+     "blade."},
     {"meadow_create", (PyCFunction)(void (*)(void))py_meadow_create,
      METH_VARARGS | METH_KEYWORDS,
-     "meadow_create(origin=(0,0,0), size=(10,10), tile_size=0.5, blades_per_tile=64, "
+     "meadow_create($module, *, origin=(0,0,0), size=(10,10), tile_size=0.5, blades_per_tile=64, "
      "patch_blades=16384, chunk_blades=1, seed=1, density='noise', noise_scale=8, "
      "noise_octaves=3, noise_persistence=0.5, noise_threshold=0.15, noise_contrast=2.5, "
-     "image=None, image_width=0, "
-     "image_height=0) -> meadow handle. density: 'uniform' | 'noise' | 'image' (float32 "
-     "image of image_width*image_height values in [0,1], row 0 at origin y)."},
+     "image=None, image_width=0, image_height=0)\n--\n\n"
+     "-> meadow handle. density: 'uniform' | 'noise' | 'image' (float32 image of "
+     "image_width*image_height values in [0,1], row 0 at origin y)."},
     {"meadow_info", py_meadow_info, METH_VARARGS,
-     "meadow_info(meadow) -> dict(tiles_x, tiles_y, tile_count, blade_count, nonempty_tiles, "
-     "chunk_instances, patch_blades, chunk_blades, tile_size, origin)."},
+     "meadow_info($module, meadow, /)\n--\n\n"
+     "-> dict(tiles_x, tiles_y, tile_count, blade_count, nonempty_tiles, chunk_instances, "
+     "patch_blades, chunk_blades, tile_size, origin)."},
     {"meadow_tiles", py_meadow_tiles, METH_VARARGS,
-     "meadow_tiles(meadow, counts, offsets[, density]): int32, int32, float32 per tile; None "
-     "skips."},
+     "meadow_tiles($module, meadow, counts, offsets, density=None, /)\n--\n\n"
+     "int32, int32, float32 per tile; None skips."},
     {"meadow_instances", py_meadow_instances, METH_VARARGS,
-     "meadow_instances(meadow, origins, offsets, counts): per tile float32 corner (3), int32 "
-     "patch offset, int32 count; None skips."},
+     "meadow_instances($module, meadow, origins, offsets, counts, /)\n--\n\n"
+     "per tile float32 corner (3), int32 patch offset, int32 count; None skips."},
     {"meadow_chunk_instances", py_meadow_chunk_instances, METH_VARARGS,
-     "meadow_chunk_instances(meadow, origins, chunk[, tile]): per used chunk float32 tile "
-     "corner (3), int32 chunk index into the patch, int32 tile index; chunk_instances of "
-     "them; None skips."},
+     "meadow_chunk_instances($module, meadow, origins, chunk, tile=None, /)\n--\n\n"
+     "per used chunk float32 tile corner (3), int32 chunk index into the patch, int32 tile "
+     "index; chunk_instances of them; None skips."},
     {"meadow_blade_count", py_meadow_blade_count, METH_VARARGS,
-     "meadow_blade_count(meadow, tile_begin, tile_end) -> int."},
+     "meadow_blade_count($module, meadow, tile_begin, tile_end, /)\n--\n\n"
+     "-> int."},
     {"meadow_realise", py_meadow_realise, METH_VARARGS,
-     "meadow_realise(meadow, patch, tile_begin, tile_end, xyz, turn, scale, patch_index): "
+     "meadow_realise($module, meadow, patch, tile_begin, tile_end, xyz, turn, scale, "
+     "patch_index, /)\n--\n\n"
      "explicit blades; float32 3n, n, n; int32 n; None skips."},
     {"meadow_realise_knots", py_meadow_realise_knots, METH_VARARGS,
-     "meadow_realise_knots(meadow, patch, tile_begin, tile_end, knots, widths, sides): rest "
-     "skeletons in world metres; float32 3Kn, Kn, 3n; None skips."},
+     "meadow_realise_knots($module, meadow, patch, tile_begin, tile_end, knots, widths, sides, "
+     "/)\n--\n\n"
+     "rest skeletons in world metres; float32 3Kn, Kn, 3n; None skips."},
     {NULL, NULL, 0, NULL},
 };

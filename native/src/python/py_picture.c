@@ -1,33 +1,21 @@
 /* Binding of the picture module: pictures as PyCapsule handles, layers, GrabCut proposals,
  * frames (warped RGBA and the UV pass for Map UV) into caller-owned numpy float32 buffers.
- * Argument and buffer checks only; a picture must not be used by two threads at once. */
+ * Argument and buffer checks only; a picture in use by one thread is refused to another. */
 #include "binding.h"
 
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "tussock/picture.h"
 
-static const char k_capsule[] = "tussock.picture";
+static void destroy_picture(void* p) { tsk_picture_destroy(p); }
 
-static void capsule_free(PyObject* cap) {
-    tsk_picture_destroy(PyCapsule_GetPointer(cap, k_capsule));
-}
+static const tsk_py_kind k_picture = {"tussock.picture", "picture", "picture",
+                                      "picture_load or picture_create", NULL,
+                                      destroy_picture};
 
-static tsk_picture* get_picture(PyObject* obj) {
-    if (!PyCapsule_IsValid(obj, k_capsule)) {
-        tsk_py_raise_arg("picture", "expected a picture handle from picture_load or "
-                                    "picture_create");
-        return NULL;
-    }
-    return PyCapsule_GetPointer(obj, k_capsule);
-}
-
-static PyObject* wrap(tsk_picture* p) {
-    PyObject* cap = PyCapsule_New(p, k_capsule, capsule_free);
-    if (cap == NULL) tsk_picture_destroy(p);
-    return cap;
-}
+static PyObject* wrap(tsk_picture* p) { return tsk_py_handle_new(&k_picture, p); }
 
 static PyObject* py_picture_load(PyObject* self, PyObject* args) {
     (void)self;
@@ -66,8 +54,9 @@ static PyObject* py_picture_size(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* cap;
     if (!PyArg_ParseTuple(args, "O:picture_size", &cap)) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     int w, h;
     tsk_picture_size(p, &w, &h);
     return Py_BuildValue("(ii)", w, h);
@@ -77,8 +66,9 @@ static PyObject* py_picture_layer_count(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* cap;
     if (!PyArg_ParseTuple(args, "O:picture_layer_count", &cap)) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     return PyLong_FromLong(tsk_picture_layer_count(p));
 }
 
@@ -96,14 +86,16 @@ static PyObject* read_common(PyObject* args, PyObject* kw, int what, const char*
                  : PyArg_ParseTupleAndKeywords(args, kw, fmt, names_plain, &cap, &obj,
                                                &bottom_up);
     if (!ok) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     int w, h;
     tsk_picture_size(p, &w, &h);
     const Py_ssize_t n = (Py_ssize_t)w * h * (what == READ_MATTE ? 1 : 4);
     Py_buffer out;
     if (!tsk_py_buffer(obj, "out", TSK_PY_F32, n, 1, &out)) return NULL;
     tsk_status s = TSK_OK;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     switch (what) {
     case READ_RGBA: s = tsk_picture_read_rgba(p, out.buf, (size_t)n, bottom_up); break;
@@ -112,6 +104,7 @@ static PyObject* read_common(PyObject* args, PyObject* kw, int what, const char*
     case READ_MATTE: s = tsk_picture_read_matte(p, layer, out.buf, (size_t)n, bottom_up); break;
     }
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -134,17 +127,26 @@ static PyObject* py_picture_read_matte(PyObject* self, PyObject* args, PyObject*
     return read_common(args, kw, READ_MATTE, "OiO|p:picture_read_matte");
 }
 
+static const tsk_py_field k_grabcut_fields[] = {
+    {"iterations", TSK_PY_INT, offsetof(tsk_grabcut_def, iterations), NULL, NULL, NULL},
+};
+static const tsk_py_def k_grabcut_def = {"GrabCut setting", TSK_PY_FIELDS(k_grabcut_fields),
+                                         NULL, 0};
+
 static PyObject* py_picture_propose_mask(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"picture", "rect", "out", "strokes", "iterations", NULL};
-    PyObject *cap, *out_obj, *strokes_obj = Py_None;
+    static char* names[] = {"picture", "rect", "out", "strokes", NULL};
+    PyObject *cap, *out_obj, *strokes_obj = Py_None, *rest;
     tsk_grabcut_def g = tsk_default_grabcut_def();
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "O(iiii)O|Oi:picture_propose_mask", names, &cap,
-                                     &g.rect_x, &g.rect_y, &g.rect_width, &g.rect_height,
-                                     &out_obj, &strokes_obj, &g.iterations))
-        return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    if (!tsk_py_def_read(&k_grabcut_def, kw, &g, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(
+        args, rest, "O(iiii)O|O:picture_propose_mask", names, &cap, &g.rect_x, &g.rect_y,
+        &g.rect_width, &g.rect_height, &out_obj, &strokes_obj);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     int w, h;
     tsk_picture_size(p, &w, &h);
     const Py_ssize_t n = (Py_ssize_t)w * h;
@@ -158,9 +160,11 @@ static PyObject* py_picture_propose_mask(PyObject* self, PyObject* args, PyObjec
         return NULL;
     }
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_picture_propose_mask(p, &g, strokes, has_strokes ? (size_t)n : 0, out, (size_t)n);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -170,8 +174,9 @@ static PyObject* py_picture_add_layer(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *cap, *obj;
     if (!PyArg_ParseTuple(args, "OO:picture_add_layer", &cap, &obj)) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     Py_buffer mask;
     int is_float = 1;
     if (!tsk_py_buffer(obj, "mask", TSK_PY_F32, -1, 0, &mask)) {
@@ -185,80 +190,103 @@ static PyObject* py_picture_add_layer(PyObject* self, PyObject* args) {
     }
     int index = -1;
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = is_float ? tsk_picture_add_layer_f32(p, mask.buf, (size_t)tsk_py_count(&mask), &index)
                  : tsk_picture_add_layer_u8(p, mask.buf, (size_t)tsk_py_count(&mask), &index);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     PyBuffer_Release(&mask);
     if (s != TSK_OK) return tsk_py_raise(s);
     return PyLong_FromLong(index);
 }
 
+static const char* const k_methods[] = {"telea", "ns", NULL};
+_Static_assert(TSK_INPAINT_TELEA == 0 && TSK_INPAINT_NS == 1, "k_methods is in enum order");
+_Static_assert(sizeof(tsk_inpaint_method) == sizeof(int), "method is read as an int");
+
+static const tsk_py_field k_layers_fields[] = {
+    {"method", TSK_PY_CHOICE, offsetof(tsk_layers_def, method), k_methods, NULL, NULL},
+    {"radius", TSK_PY_FLOAT, offsetof(tsk_layers_def, inpaint_radius), NULL, NULL, NULL},
+    {"grow", TSK_PY_FLOAT, offsetof(tsk_layers_def, grow), NULL, NULL, NULL},
+    {"feather", TSK_PY_FLOAT, offsetof(tsk_layers_def, feather), NULL, NULL, NULL},
+};
+static const tsk_py_def k_layers_def = {"layer setting", TSK_PY_FIELDS(k_layers_fields), NULL,
+                                        0};
+
 static PyObject* py_picture_build(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"picture", "method", "radius", "grow", "feather", NULL};
-    PyObject* cap;
-    const char* method = "telea";
+    static char* names[] = {"picture", NULL};
+    PyObject *cap, *rest;
     tsk_layers_def d = tsk_default_layers_def();
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "O|sfff:picture_build", names, &cap, &method,
-                                     &d.inpaint_radius, &d.grow, &d.feather))
-        return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
-    if (strcmp(method, "telea") == 0) d.method = TSK_INPAINT_TELEA;
-    else if (strcmp(method, "ns") == 0) d.method = TSK_INPAINT_NS;
-    else return tsk_py_raise_arg("method", "must be 'telea' or 'ns', got '%s'", method);
+    if (!tsk_py_def_read(&k_layers_def, kw, &d, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "O:picture_build", names, &cap);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_picture_build(p, &d);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
 
-/* Keyword arguments of a warp definition shared by picture_layer_frame and warp_corners. */
-typedef struct warp_args {
-    tsk_warp_def def;
-    const char* sampling;
-    const char* root;
-    PyObject* root_y;
-    PyObject* height;
-} warp_args;
+/* The warp definition's keywords, shared by picture_layer_frame and warp_corners (whose
+ * frames are not sampled, so it has no `sampling`). The root line and height are given both
+ * or neither (then found from the mask): finish_warp_def. */
+static const char* const k_roots[] = {"none", "bottom", "top", NULL};
+static const char* const k_samplings[] = {"bilinear", "map_uv", "map_uv_5", NULL};
+_Static_assert(TSK_ROOT_NONE == 0 && TSK_ROOT_BOTTOM == 1 && TSK_ROOT_TOP == 2,
+               "k_roots is in enum order");
+_Static_assert(TSK_SAMPLE_BILINEAR == 0 && TSK_SAMPLE_MAP_UV == 1 && TSK_SAMPLE_MAP_UV_5 == 2,
+               "k_samplings is in enum order");
+_Static_assert(sizeof(tsk_picture_root) == sizeof(int) && sizeof(tsk_warp_sampling) == sizeof(int),
+               "root and sampling are read as ints");
+
+#define F(name, type) {#name, type, offsetof(tsk_warp_def, name), NULL, NULL, NULL}
+static const tsk_py_field k_warp_fields[] = {
+    F(cell_x, TSK_PY_INT),      F(cell_y, TSK_PY_INT), F(lambda_x, TSK_PY_FLOAT),
+    F(lambda_y, TSK_PY_FLOAT),  F(dt, TSK_PY_FLOAT),   F(rigidity, TSK_PY_FLOAT),
+    {"root", TSK_PY_CHOICE, offsetof(tsk_warp_def, root), k_roots, NULL, NULL},
+};
+static const tsk_py_field k_frame_fields[] = {
+    {"sampling", TSK_PY_CHOICE, offsetof(tsk_warp_def, sampling), k_samplings, NULL, NULL},
+};
+#undef F
+static const tsk_py_def k_warp_def = {"warp setting", TSK_PY_FIELDS(k_warp_fields), NULL, 0};
+static const tsk_py_def k_frame_def = {"warp setting", TSK_PY_FIELDS(k_frame_fields), &k_warp_def,
+                                       0};
 
 static int parse_sampling(const char* name, tsk_warp_sampling* out) {
-    if (strcmp(name, "bilinear") == 0) *out = TSK_SAMPLE_BILINEAR;
-    else if (strcmp(name, "map_uv") == 0) *out = TSK_SAMPLE_MAP_UV;
-    else if (strcmp(name, "map_uv_5") == 0) *out = TSK_SAMPLE_MAP_UV_5;
-    else {
-        tsk_py_raise_arg("sampling", "must be 'bilinear', 'map_uv' or 'map_uv_5', got '%s'",
-                         name);
-        return 0;
-    }
-    return 1;
+    for (int i = 0; k_samplings[i] != NULL; ++i)
+        if (strcmp(name, k_samplings[i]) == 0) {
+            *out = (tsk_warp_sampling)i;
+            return 1;
+        }
+    tsk_py_raise_arg("sampling", "must be 'bilinear', 'map_uv' or 'map_uv_5', got '%s'", name);
+    return 0;
 }
 
-static int finish_warp_def(warp_args* a, int allow_auto) {
-    if (!parse_sampling(a->sampling, &a->def.sampling)) return 0;
-    if (strcmp(a->root, "none") == 0) a->def.root = TSK_ROOT_NONE;
-    else if (strcmp(a->root, "bottom") == 0) a->def.root = TSK_ROOT_BOTTOM;
-    else if (strcmp(a->root, "top") == 0) a->def.root = TSK_ROOT_TOP;
-    else {
-        tsk_py_raise_arg("root", "must be 'none', 'bottom' or 'top', got '%s'", a->root);
-        return 0;
-    }
-    const int given_y = a->root_y != Py_None, given_h = a->height != Py_None;
+static int finish_warp_def(tsk_warp_def* def, PyObject* root_y, PyObject* height,
+                           int allow_auto) {
+    const int given_y = root_y != Py_None, given_h = height != Py_None;
     if (given_y != given_h) {
         tsk_py_raise_arg("root_y, height", "give both (pixels) or neither (found from the mask)");
         return 0;
     }
-    if (!given_y && !allow_auto && a->def.root != TSK_ROOT_NONE) {
+    if (!given_y && !allow_auto && def->root != TSK_ROOT_NONE) {
         tsk_py_raise_arg("root_y, height", "are needed when root is not 'none'");
         return 0;
     }
-    a->def.auto_root = !given_y;
+    def->auto_root = !given_y;
     if (given_y) {
-        a->def.root_y = (float)PyFloat_AsDouble(a->root_y);
-        a->def.height = (float)PyFloat_AsDouble(a->height);
+        def->root_y = (float)PyFloat_AsDouble(root_y);
+        def->height = (float)PyFloat_AsDouble(height);
         if (PyErr_Occurred()) return 0;
     }
     return 1;
@@ -267,22 +295,22 @@ static int finish_warp_def(warp_args* a, int allow_auto) {
 static PyObject* py_picture_layer_frame(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
     static char* names[] = {"picture", "layer", "vx", "vy", "field_width", "field_height",
-                            "rgba", "uv", "field_y_up", "uv_bottom_up", "cell_x", "cell_y",
-                            "lambda_x", "lambda_y", "dt", "rigidity", "root", "root_y",
-                            "height", "scale_map", "sampling", NULL};
+                            "rgba", "uv", "field_y_up", "uv_bottom_up", "root_y", "height",
+                            "scale_map", NULL};
     PyObject *cap, *vx_obj, *vy_obj, *rgba_obj = Py_None, *uv_obj = Py_None;
-    PyObject* scale_obj = Py_None;
+    PyObject *scale_obj = Py_None, *root_y = Py_None, *height = Py_None, *rest;
     int layer, fw, fh, y_up = 1, uv_bottom_up = 1;
-    warp_args a = {tsk_default_warp_def(), "bilinear", "bottom", Py_None, Py_None};
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OiOOii|OOppiiffffsOOOs:picture_layer_frame",
-                                     names, &cap, &layer, &vx_obj, &vy_obj, &fw, &fh, &rgba_obj,
-                                     &uv_obj, &y_up, &uv_bottom_up, &a.def.cell_x,
-                                     &a.def.cell_y, &a.def.lambda_x, &a.def.lambda_y, &a.def.dt,
-                                     &a.def.rigidity, &a.root, &a.root_y, &a.height, &scale_obj,
-                                     &a.sampling))
-        return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL || !finish_warp_def(&a, 1)) return NULL;
+    tsk_warp_def def = tsk_default_warp_def();
+    if (!tsk_py_def_read(&k_frame_def, kw, &def, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(
+        args, rest, "OiOOii|OOpp$OOO:picture_layer_frame", names, &cap, &layer, &vx_obj,
+        &vy_obj, &fw, &fh, &rgba_obj, &uv_obj, &y_up, &uv_bottom_up, &root_y, &height,
+        &scale_obj);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL || !finish_warp_def(&def, root_y, height, 1)) return NULL;
+    tsk_picture* p = hp->ptr;
     if (fw < 1 || fh < 1 || fw > 4096 || fh > 4096)
         return tsk_py_raise_arg("field_width, field_height", "must be 1..4096, got %dx%d", fw, fh);
     int w, h;
@@ -303,11 +331,13 @@ static PyObject* py_picture_layer_frame(PyObject* self, PyObject* args, PyObject
     }
     tsk_picture_field f = {vx, vy, fw, fh, y_up};
     tsk_status s;
+    hp->busy = 1;
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_picture_layer_frame(p, layer, &a.def, &f, scale, have_scale ? (size_t)n : 0, rgba,
+    s = tsk_picture_layer_frame(p, layer, &def, &f, scale, have_scale ? (size_t)n : 0, rgba,
                                 have_rgba ? (size_t)(4 * n) : 0, uv,
                                 have_uv ? (size_t)(4 * n) : 0, uv_bottom_up);
     Py_END_ALLOW_THREADS
+    hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -320,8 +350,9 @@ static PyObject* py_picture_composite(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *cap, *seq, *out_obj;
     if (!PyArg_ParseTuple(args, "OOO:picture_composite", &cap, &seq, &out_obj)) return NULL;
-    tsk_picture* p = get_picture(cap);
-    if (p == NULL) return NULL;
+    tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
+    if (hp == NULL) return NULL;
+    tsk_picture* p = hp->ptr;
     int w, h;
     tsk_picture_size(p, &w, &h);
     const Py_ssize_t n4 = (Py_ssize_t)w * h * 4;
@@ -351,9 +382,11 @@ static PyObject* py_picture_composite(PyObject* self, PyObject* args) {
     ok = ok && tsk_py_views_get(&v, out_obj, "out", TSK_PY_F32, n4, 1, 0, (void**)&out);
     tsk_status s = TSK_OK;
     if (ok) {
+        hp->busy = 1;
         Py_BEGIN_ALLOW_THREADS
         s = tsk_picture_composite(p, ptrs, (size_t)count, out, (size_t)n4);
         Py_END_ALLOW_THREADS
+        hp->busy = 0;
     }
     tsk_py_views_release(&v);
     if (!ok) return NULL;
@@ -373,23 +406,23 @@ static PyObject* py_warp_grid_size(PyObject* self, PyObject* args) {
 static PyObject* py_warp_corners(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
     static char* names[] = {"width", "height", "vx", "vy", "field_width", "field_height",
-                            "corner_dx", "corner_dy", "field_y_up", "cell_x", "cell_y",
-                            "lambda_x", "lambda_y", "dt", "rigidity", "root", "root_y",
-                            "height_px", "scale_map", NULL};
+                            "corner_dx", "corner_dy", "field_y_up", "root_y", "height_px",
+                            "scale_map", NULL};
     PyObject *vx_obj, *vy_obj, *dx_obj, *dy_obj, *scale_obj = Py_None;
+    PyObject *root_y = Py_None, *height_px = Py_None, *rest;
     int w, h, fw, fh, y_up = 1;
-    warp_args a = {tsk_default_warp_def(), "bilinear", "bottom", Py_None, Py_None};
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "iiOOiiOO|piiffffsOOO:warp_corners", names, &w,
-                                     &h, &vx_obj, &vy_obj, &fw, &fh, &dx_obj, &dy_obj, &y_up,
-                                     &a.def.cell_x, &a.def.cell_y, &a.def.lambda_x,
-                                     &a.def.lambda_y, &a.def.dt, &a.def.rigidity, &a.root,
-                                     &a.root_y, &a.height, &scale_obj))
-        return NULL;
-    if (!finish_warp_def(&a, 0)) return NULL;
+    tsk_warp_def def = tsk_default_warp_def();
+    if (!tsk_py_def_read(&k_warp_def, kw, &def, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(
+        args, rest, "iiOOiiOO|p$OOO:warp_corners", names, &w, &h, &vx_obj, &vy_obj, &fw, &fh,
+        &dx_obj, &dy_obj, &y_up, &root_y, &height_px, &scale_obj);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
+    if (!finish_warp_def(&def, root_y, height_px, 0)) return NULL;
     if (fw < 1 || fh < 1 || fw > 4096 || fh > 4096)
         return tsk_py_raise_arg("field_width, field_height", "must be 1..4096, got %dx%d", fw, fh);
     int cx, cy;
-    tsk_status s = tsk_warp_grid_size(w, h, a.def.cell_x, a.def.cell_y, &cx, &cy);
+    tsk_status s = tsk_warp_grid_size(w, h, def.cell_x, def.cell_y, &cx, &cy);
     if (s != TSK_OK) return tsk_py_raise(s);
     const Py_ssize_t nc = (Py_ssize_t)cx * cy;
     tsk_py_views v = {.n = 0};
@@ -407,7 +440,7 @@ static PyObject* py_warp_corners(PyObject* self, PyObject* args, PyObject* kw) {
     }
     tsk_picture_field f = {vx, vy, fw, fh, y_up};
     Py_BEGIN_ALLOW_THREADS
-    s = tsk_warp_corners(&a.def, w, h, &f, scale, have_scale ? (size_t)w * h : 0, dx, dy,
+    s = tsk_warp_corners(&def, w, h, &f, scale, have_scale ? (size_t)w * h : 0, dx, dy,
                          (size_t)nc);
     Py_END_ALLOW_THREADS
     tsk_py_views_release(&v);
@@ -459,53 +492,63 @@ static PyObject* py_warp_apply(PyObject* self, PyObject* args, PyObject* kw) {
 
 PyMethodDef tsk_py_picture_methods[] = {
     {"picture_load", py_picture_load, METH_VARARGS,
-     "picture_load(path) -> picture: PNG/JPEG/EXR as straight float RGBA (size limit 16384 "
-     "per side, 64 Mpx)."},
+     "picture_load($module, path, /)\n--\n\n"
+     "-> picture: PNG/JPEG/EXR as straight float RGBA (size limit 16384 per side, 64 Mpx)."},
     {"picture_create", KW py_picture_create, METH_VARARGS | METH_KEYWORDS,
-     "picture_create(width, height, rgba, bottom_up=False) -> picture; rgba float32 4*W*H "
-     "straight (bottom_up=True for Image.pixels)."},
-    {"picture_size", py_picture_size, METH_VARARGS, "picture_size(picture) -> (width, height)."},
+     "picture_create($module, width, height, rgba, bottom_up=False)\n--\n\n"
+     "-> picture; rgba float32 4*W*H straight (bottom_up=True for Image.pixels)."},
+    {"picture_size", py_picture_size, METH_VARARGS, "picture_size($module, picture, /)\n--\n\n"
+     "-> (width, height)."},
     {"picture_layer_count", py_picture_layer_count, METH_VARARGS,
-     "picture_layer_count(picture) -> int."},
+     "picture_layer_count($module, picture, /)\n--\n\n"
+     "-> int."},
     {"picture_read_rgba", KW py_picture_read_rgba, METH_VARARGS | METH_KEYWORDS,
-     "picture_read_rgba(picture, out, bottom_up=False): straight RGBA as loaded; out float32 "
-     "4*W*H."},
+     "picture_read_rgba($module, picture, out, bottom_up=False)\n--\n\n"
+     "straight RGBA as loaded; out float32 4*W*H."},
     {"picture_read_background", KW py_picture_read_background, METH_VARARGS | METH_KEYWORDS,
-     "picture_read_background(picture, out, bottom_up=False): inpainted plate, premultiplied."},
+     "picture_read_background($module, picture, out, bottom_up=False)\n--\n\n"
+     "inpainted plate, premultiplied."},
     {"picture_read_layer", KW py_picture_read_layer, METH_VARARGS | METH_KEYWORDS,
-     "picture_read_layer(picture, layer, out, bottom_up=False): layer at rest, premultiplied."},
+     "picture_read_layer($module, picture, layer, out, bottom_up=False)\n--\n\n"
+     "layer at rest, premultiplied."},
     {"picture_read_matte", KW py_picture_read_matte, METH_VARARGS | METH_KEYWORDS,
-     "picture_read_matte(picture, layer, out, bottom_up=False): matte, float32 W*H."},
+     "picture_read_matte($module, picture, layer, out, bottom_up=False)\n--\n\n"
+     "matte, float32 W*H."},
     {"picture_propose_mask", KW py_picture_propose_mask, METH_VARARGS | METH_KEYWORDS,
-     "picture_propose_mask(picture, (x, y, w, h), out, strokes=None, iterations=5): GrabCut; "
-     "out uint8 W*H (255 vegetation); strokes uint8 W*H (0 none, 1 fg, 2 bg); top-first rows."},
+     "picture_propose_mask($module, picture, rect, out, strokes=None, *, iterations=5)\n--\n\n"
+     "GrabCut; out uint8 W*H (255 vegetation); strokes uint8 W*H (0 none, 1 fg, 2 bg); top-"
+     "first rows."},
     {"picture_add_layer", py_picture_add_layer, METH_VARARGS,
-     "picture_add_layer(picture, mask) -> index; mask uint8 (>= 128) or float32 (>= 0.5), "
-     "W*H, top-first; layers go back to front."},
+     "picture_add_layer($module, picture, mask, /)\n--\n\n"
+     "-> index; mask uint8 (>= 128) or float32 (>= 0.5), W*H, top-first; layers go back to "
+     "front."},
     {"picture_build", KW py_picture_build, METH_VARARGS | METH_KEYWORDS,
-     "picture_build(picture, method='telea'|'ns', radius=5, grow=3, feather=4): inpaint the "
-     "background, matte the layers."},
+     "picture_build($module, picture, *, method='telea', radius=5, grow=3, feather=4)\n--\n\n"
+     "inpaint the background, matte the layers."},
     {"picture_layer_frame", KW py_picture_layer_frame, METH_VARARGS | METH_KEYWORDS,
-     "picture_layer_frame(picture, layer, vx, vy, field_width, field_height, rgba=None, "
-     "uv=None, field_y_up=True, uv_bottom_up=True, cell_x=16, cell_y=16, lambda_x=4, "
-     "lambda_y=4, dt=1/24, rigidity=1, root='bottom'|'top'|'none', root_y=None, height=None, "
-     "scale_map=None, sampling='bilinear'|'map_uv'|'map_uv_5'): one frame; rgba "
-     "(premultiplied, top-first) and/or uv (u, v, 1, 1 for Map UV), float32 4*W*H. "
-     "'map_uv' samples as Blender 3.x/4.x's Map UV node, 'map_uv_5' as Blender 5.x's "
+     "picture_layer_frame($module, picture, layer, vx, vy, field_width, field_height, rgba=None, "
+     "uv=None, field_y_up=True, uv_bottom_up=True, *, cell_x=16, cell_y=16, lambda_x=4, "
+     "lambda_y=4, dt=0.0416667, rigidity=1, root='bottom', root_y=None, height=None, "
+     "scale_map=None, sampling='bilinear')\n--\n\n"
+     "one frame; rgba (premultiplied, top-first) and/or uv (u, v, 1, 1 for Map UV), float32 "
+     "4*W*H. 'map_uv' samples as Blender 3.x/4.x's Map UV node, 'map_uv_5' as Blender 5.x's "
      "(Interpolation 'Anisotropic', CPU compositor)."},
     {"picture_composite", py_picture_composite, METH_VARARGS,
-     "picture_composite(picture, layers, out): layers back to front (warped frames or None "
-     "for at rest) over the background; premultiplied over."},
+     "picture_composite($module, picture, layers, out, /)\n--\n\n"
+     "layers back to front (warped frames or None for at rest) over the background; "
+     "premultiplied over."},
     {"warp_grid_size", py_warp_grid_size, METH_VARARGS,
-     "warp_grid_size(width, height, cell_x, cell_y) -> (corners_x, corners_y)."},
+     "warp_grid_size($module, width, height, cell_x, cell_y, /)\n--\n\n"
+     "-> (corners_x, corners_y)."},
     {"warp_corners", KW py_warp_corners, METH_VARARGS | METH_KEYWORDS,
-     "warp_corners(width, height, vx, vy, field_width, field_height, corner_dx, corner_dy, "
-     "field_y_up=True, cell_x=16, cell_y=16, lambda_x=4, lambda_y=4, dt=1/24, rigidity=1, "
-     "root='bottom', root_y=None, height_px=None, scale_map=None): eq. 5-7 corner "
-     "displacements in pixels."},
+     "warp_corners($module, width, height, vx, vy, field_width, field_height, corner_dx, "
+     "corner_dy, field_y_up=True, *, cell_x=16, cell_y=16, lambda_x=4, lambda_y=4, dt=0.0416667, "
+     "rigidity=1, root='bottom', root_y=None, height_px=None, scale_map=None)\n--\n\n"
+     "eq. 5-7 corner displacements in pixels."},
     {"warp_apply", KW py_warp_apply, METH_VARARGS | METH_KEYWORDS,
-     "warp_apply(width, height, src, cell_x, cell_y, corner_dx, corner_dy, dst=None, uv=None, "
-     "uv_bottom_up=True, sampling='bilinear'|'map_uv'|'map_uv_5'): eq. 8 inverse warp of "
-     "premultiplied RGBA and/or the UV pass; sampling as in picture_layer_frame."},
+     "warp_apply($module, width, height, src, cell_x, cell_y, corner_dx, corner_dy, dst=None, "
+     "uv=None, uv_bottom_up=True, sampling='bilinear')\n--\n\n"
+     "eq. 8 inverse warp of premultiplied RGBA and/or the UV pass; sampling as in "
+     "picture_layer_frame."},
     {NULL, NULL, 0, NULL},
 };

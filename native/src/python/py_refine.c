@@ -3,6 +3,8 @@
 #include "binding.h"
 #include "tussock/refine.h"
 
+#include <stddef.h>
+
 /* Number of knots of the float32 xyz buffer acquired last into `v` (its length must be a
  * multiple of 3). */
 static int xyz_count(const tsk_py_views* v, const char* name, Py_ssize_t* count) {
@@ -198,24 +200,42 @@ static PyObject* py_refine_resample(PyObject* self, PyObject* args) {
     Py_RETURN_NONE;
 }
 
+#define F(name, member, type) {name, type, offsetof(tsk_refine_bend_def, member), NULL, NULL, NULL}
+static const tsk_py_field k_bend_fields[] = {
+    F("youngs_modulus", youngs_modulus, TSK_PY_FLOAT),
+    F("thickness", thickness, TSK_PY_FLOAT),
+    F("density", density, TSK_PY_FLOAT),
+    F("min_width_ratio", min_width_ratio, TSK_PY_FLOAT),
+    F("gravity_x", gravity[0], TSK_PY_FLOAT),
+    F("gravity_y", gravity[1], TSK_PY_FLOAT),
+    F("gravity_z", gravity[2], TSK_PY_FLOAT),
+    F("gravity_prestress", gravity_prestress, TSK_PY_BOOL),
+    F("air_density", air_density, TSK_PY_FLOAT),
+    F("drag_coefficient", drag_coefficient, TSK_PY_FLOAT),
+    F("damping", damping, TSK_PY_FLOAT),
+    F("wind_speed", wind_speed, TSK_PY_FLOAT),
+    F("wind_x", wind_direction[0], TSK_PY_FLOAT),
+    F("wind_y", wind_direction[1], TSK_PY_FLOAT),
+    F("wind_z", wind_direction[2], TSK_PY_FLOAT),
+    F("gust", gust, TSK_PY_FLOAT),
+    F("fps", fps, TSK_PY_FLOAT),
+    F("warmup", warmup, TSK_PY_FLOAT),
+    F("time_step", time_step, TSK_PY_FLOAT),
+};
+#undef F
+static const tsk_py_def k_bend_def = {"bending setting", TSK_PY_FIELDS(k_bend_fields), NULL, 0};
+
 static PyObject* py_refine_simulate(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"knots", "widths", "frame_count", "out_trajectories",
-                            "youngs_modulus", "thickness", "density", "min_width_ratio",
-                            "gravity_x", "gravity_y", "gravity_z", "gravity_prestress",
-                            "air_density", "drag_coefficient", "damping", "wind_speed",
-                            "wind_x", "wind_y", "wind_z", "gust", "fps", "warmup", "time_step",
-                            NULL};
+    static char* names[] = {"knots", "widths", "frame_count", "out_trajectories", NULL};
     tsk_refine_bend_def d = tsk_default_refine_bend_def();
-    PyObject *ko, *wo, *oto;
+    PyObject *ko, *wo, *oto, *rest;
     Py_ssize_t frames;
-    if (!PyArg_ParseTupleAndKeywords(
-            args, kw, "OOnO|$ffffffffpffffffffffff:refine_simulate", names, &ko, &wo, &frames, &oto,
-            &d.youngs_modulus, &d.thickness, &d.density, &d.min_width_ratio, &d.gravity[0],
-            &d.gravity[1], &d.gravity[2], &d.gravity_prestress, &d.air_density,
-            &d.drag_coefficient, &d.damping, &d.wind_speed, &d.wind_direction[0],
-            &d.wind_direction[1], &d.wind_direction[2], &d.gust, &d.fps, &d.warmup, &d.time_step))
-        return NULL;
+    if (!tsk_py_def_read(&k_bend_def, kw, &d, NULL, names, &rest)) return NULL;
+    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "OOnO:refine_simulate", names, &ko,
+                                                   &wo, &frames, &oto);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
     if (frames < 1) return tsk_py_raise_arg("frame_count", "must be at least 1, got %zd", frames);
     tsk_py_views v = {.n = 0};
     const float *k, *w;
@@ -240,29 +260,33 @@ static PyObject* py_refine_simulate(PyObject* self, PyObject* args, PyObject* kw
 
 PyMethodDef tsk_py_refine_methods[] = {
     {"refine_blade", (PyCFunction)(void (*)(void))py_refine_blade, METH_VARARGS | METH_KEYWORDS,
-     "refine_blade(knots, widths, trajectories, frame_count, target_knots, mu, out_knots, "
-     "out_widths, out_ranges, out_trajectories=None): seed 000 Algorithm 1. knots float32 "
-     "(3K), widths (K), trajectories (frame_count*K*3, frame-major); out_knots (3m), out_widths "
-     "(m), out_ranges int32 (2m: first source knot, count), out_trajectories (frame_count*m*3)."},
+     "refine_blade($module, knots, widths, trajectories, frame_count, target_knots, mu, "
+     "out_knots, out_widths, out_ranges, out_trajectories=None)\n--\n\n"
+     "seed 000 Algorithm 1. knots float32 (3K), widths (K), trajectories (frame_count*K*3, "
+     "frame-major); out_knots (3m), out_widths (m), out_ranges int32 (2m: first source knot, "
+     "count), out_trajectories (frame_count*m*3)."},
     {"refine_blades", (PyCFunction)(void (*)(void))py_refine_blades,
      METH_VARARGS | METH_KEYWORDS,
-     "refine_blades(knots, widths, trajectories, blade_count, frame_count, target_knots, mu, "
-     "out_knots, out_widths, out_ranges, out_trajectories=None): many blades of equal knot "
-     "count K, in parallel; arrays are refine_blade's stacked per blade "
-     "(trajectories [blade][frame][K][3])."},
+     "refine_blades($module, knots, widths, trajectories, blade_count, frame_count, "
+     "target_knots, mu, out_knots, out_widths, out_ranges, out_trajectories=None)\n--\n\n"
+     "many blades of equal knot count K, in parallel; arrays are refine_blade's stacked per "
+     "blade (trajectories [blade][frame][K][3])."},
     {"refine_track", py_refine_track, METH_VARARGS,
-     "refine_track(ref_knots, frame_knots, frame_offsets, out_trajectories): trajectories of "
-     "the reference knots through captured skeletons (frame f = frame_knots[offsets[f]:"
-     "offsets[f+1]] knots), matched by normalised arc length. frame_offsets int32 (F+1)."},
+     "refine_track($module, ref_knots, frame_knots, frame_offsets, out_trajectories, /)\n--\n\n"
+     "trajectories of the reference knots through captured skeletons (frame f = "
+     "frame_knots[offsets[f]:offsets[f+1]] knots), matched by normalised arc length. "
+     "frame_offsets int32 (F+1)."},
     {"refine_resample", py_refine_resample, METH_VARARGS,
-     "refine_resample(knots, widths, out_knots, out_widths): uniform arc-length resampling "
-     "to len(out_widths) knots."},
+     "refine_resample($module, knots, widths, out_knots, out_widths, /)\n--\n\n"
+     "uniform arc-length resampling to len(out_widths) knots."},
     {"refine_simulate", (PyCFunction)(void (*)(void))py_refine_simulate,
      METH_VARARGS | METH_KEYWORDS,
-     "refine_simulate(knots, widths, frame_count, out_trajectories, *, youngs_modulus=3e9, "
-     "thickness=4e-4, density=900, min_width_ratio=0.05, gravity_x/y/z=(0,0,-9.81), "
-     "gravity_prestress=True, air_density=1.2, drag_coefficient=1.2, damping=2, wind_speed=3, "
-     "wind_x/y/z=(1,0,0), gust=0.5, fps=24, warmup=1, time_step=0): bending simulation of a "
-     "still blade under the standard wind; out_trajectories (frame_count*K*3)."},
+     "refine_simulate($module, knots, widths, frame_count, out_trajectories, *, "
+     "youngs_modulus=3e9, thickness=4e-4, density=900, min_width_ratio=0.05, gravity_x=0, "
+     "gravity_y=0, gravity_z=-9.81, gravity_prestress=True, air_density=1.2, "
+     "drag_coefficient=1.2, damping=2, wind_speed=3, wind_x=1, wind_y=0, wind_z=0, gust=0.5, "
+     "fps=24, warmup=1, time_step=0)\n--\n\n"
+     "bending simulation of a still blade under the standard wind; out_trajectories "
+     "(frame_count*K*3)."},
     {NULL, NULL, 0, NULL},
 };

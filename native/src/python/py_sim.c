@@ -8,138 +8,60 @@
 
 #include "tussock/sim.h"
 
-#define SIM_CAPSULE "tussock.blade_sim"
+static void destroy_sim(void* sim) { tsk_blade_sim_destroy(sim); }
 
-static void sim_capsule_free(PyObject* capsule) {
-    tsk_blade_sim_destroy(PyCapsule_GetPointer(capsule, SIM_CAPSULE));
+static const tsk_py_kind k_sim = {"tussock.blade_sim", "sim", "blade simulation",
+                                  "blade_sim_create", NULL, destroy_sim};
+
+/* The simulation behind handle `obj` and its handle in *h (NULL, with the exception set, when
+ * it is none, closed or busy). */
+static tsk_blade_sim* get_sim(PyObject* obj, tsk_py_handle** h) {
+    *h = tsk_py_handle_get(obj, &k_sim);
+    return *h ? (*h)->ptr : NULL;
 }
 
-static tsk_blade_sim* get_sim(PyObject* obj) {
-    if (!PyCapsule_IsValid(obj, SIM_CAPSULE)) {
-        tsk_py_raise_arg("sim", "expected a blade simulation handle from blade_sim_create");
-        return NULL;
-    }
-    return PyCapsule_GetPointer(obj, SIM_CAPSULE);
-}
-
-/* The simulation behind handle `obj` (NULL, with the exception set, when it is none) and its
- * current info. */
-static tsk_blade_sim* get_sim_info(PyObject* obj, tsk_blade_sim_info* info) {
-    tsk_blade_sim* sim = get_sim(obj);
+/* ... and its current info. */
+static tsk_blade_sim* get_sim_info(PyObject* obj, tsk_py_handle** h, tsk_blade_sim_info* info) {
+    tsk_blade_sim* sim = get_sim(obj, h);
     if (sim) tsk_blade_sim_get_info(sim, info);
     return sim;
 }
 
-/* The definition's fields by name, for keyword arguments and the defaults dict. */
-typedef enum { F_FLOAT, F_INT, F_VEC3 } field_kind;
-typedef struct field {
-    const char* name;
-    field_kind kind;
-    size_t offset;
-} field;
-
-#define FLD(name, kind) {#name, kind, offsetof(tsk_blade_sim_def, name)}
-static const field k_fields[] = {
-    FLD(origin, F_VEC3),
-    FLD(tile_size, F_FLOAT),
-    FLD(tiles_x, F_INT),
-    FLD(tiles_y, F_INT),
-    FLD(knot_count, F_INT),
-    FLD(gravity, F_VEC3),
-    FLD(gravity_preload, F_FLOAT),
-    FLD(damping, F_FLOAT),
-    FLD(wind_drag, F_FLOAT),
-    FLD(linear_density, F_FLOAT),
-    FLD(global_stiffness_root, F_FLOAT),
-    FLD(global_stiffness_tip, F_FLOAT),
-    FLD(local_stiffness, F_FLOAT),
-    FLD(iterations, F_INT),
-    FLD(ground_height, F_FLOAT),
-    FLD(collision_margin, F_FLOAT),
-    FLD(activation_margin, F_FLOAT),
-    FLD(max_blade_height, F_FLOAT),
-    FLD(rest_distance, F_FLOAT),
-    FLD(rest_speed, F_FLOAT),
-    FLD(rest_frames, F_INT),
-    FLD(blend_frames, F_INT),
-    FLD(settle_frames, F_INT),
-    FLD(settle_blend_frames, F_INT),
+#define FLD(name, type) {#name, type, offsetof(tsk_blade_sim_def, name), NULL, NULL, NULL}
+static const tsk_py_field k_fields[] = {
+    FLD(origin, TSK_PY_VEC3),
+    FLD(tile_size, TSK_PY_FLOAT),
+    FLD(tiles_x, TSK_PY_INT),
+    FLD(tiles_y, TSK_PY_INT),
+    FLD(knot_count, TSK_PY_INT),
+    FLD(gravity, TSK_PY_VEC3),
+    FLD(gravity_preload, TSK_PY_FLOAT),
+    FLD(damping, TSK_PY_FLOAT),
+    FLD(wind_drag, TSK_PY_FLOAT),
+    FLD(linear_density, TSK_PY_FLOAT),
+    FLD(global_stiffness_root, TSK_PY_FLOAT),
+    FLD(global_stiffness_tip, TSK_PY_FLOAT),
+    FLD(local_stiffness, TSK_PY_FLOAT),
+    FLD(iterations, TSK_PY_INT),
+    FLD(ground_height, TSK_PY_FLOAT),
+    FLD(collision_margin, TSK_PY_FLOAT),
+    FLD(activation_margin, TSK_PY_FLOAT),
+    FLD(max_blade_height, TSK_PY_FLOAT),
+    FLD(rest_distance, TSK_PY_FLOAT),
+    FLD(rest_speed, TSK_PY_FLOAT),
+    FLD(rest_frames, TSK_PY_INT),
+    FLD(blend_frames, TSK_PY_INT),
+    FLD(settle_frames, TSK_PY_INT),
+    FLD(settle_blend_frames, TSK_PY_INT),
 };
-#define N_FIELDS (sizeof k_fields / sizeof k_fields[0])
-
-static int set_field(tsk_blade_sim_def* def, const field* f, PyObject* value) {
-    char* base = (char*)def + f->offset;
-    if (f->kind == F_INT) {
-        long v = PyLong_AsLong(value);
-        if (v == -1 && PyErr_Occurred()) {
-            PyErr_Clear();
-            tsk_py_raise_arg(f->name, "expected an int");
-            return 0;
-        }
-        if (v < INT32_MIN || v > INT32_MAX) {
-            tsk_py_raise_arg(f->name, "out of range");
-            return 0;
-        }
-        *(int32_t*)base = (int32_t)v;
-        return 1;
-    }
-    if (f->kind == F_FLOAT) {
-        double v = PyFloat_AsDouble(value);
-        if (v == -1.0 && PyErr_Occurred()) {
-            PyErr_Clear();
-            tsk_py_raise_arg(f->name, "expected a number");
-            return 0;
-        }
-        *(float*)base = (float)v;
-        return 1;
-    }
-    if (!PySequence_Check(value) || PySequence_Size(value) != 3) {
-        PyErr_Clear();
-        tsk_py_raise_arg(f->name, "expected a sequence of 3 numbers");
-        return 0;
-    }
-    for (Py_ssize_t c = 0; c < 3; ++c) {
-        PyObject* item = PySequence_GetItem(value, c);
-        double v = item ? PyFloat_AsDouble(item) : -1.0;
-        Py_XDECREF(item);
-        if (v == -1.0 && PyErr_Occurred()) {
-            PyErr_Clear();
-            tsk_py_raise_arg(f->name, "expected a sequence of 3 numbers");
-            return 0;
-        }
-        ((float*)base)[c] = (float)v;
-    }
-    return 1;
-}
-
-static PyObject* def_to_dict(const tsk_blade_sim_def* def) {
-    PyObject* d = PyDict_New();
-    if (!d) return NULL;
-    for (size_t i = 0; i < N_FIELDS; ++i) {
-        const field* f = &k_fields[i];
-        const char* base = (const char*)def + f->offset;
-        PyObject* v;
-        if (f->kind == F_INT) v = PyLong_FromLong(*(const int32_t*)base);
-        else if (f->kind == F_FLOAT) v = PyFloat_FromDouble(*(const float*)base);
-        else {
-            const float* x = (const float*)base;
-            v = Py_BuildValue("(ddd)", (double)x[0], (double)x[1], (double)x[2]);
-        }
-        if (!v || PyDict_SetItemString(d, f->name, v) != 0) {
-            Py_XDECREF(v);
-            Py_DECREF(d);
-            return NULL;
-        }
-        Py_DECREF(v);
-    }
-    return d;
-}
+#undef FLD
+static const tsk_py_def k_def = {"setting", TSK_PY_FIELDS(k_fields), NULL, 0};
 
 static PyObject* py_default_def(PyObject* self, PyObject* args) {
     (void)self;
     (void)args;
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
-    return def_to_dict(&def);
+    return tsk_py_def_dict(&k_def, &def);
 }
 
 static PyObject* py_create(PyObject* self, PyObject* args, PyObject* kw) {
@@ -147,49 +69,33 @@ static PyObject* py_create(PyObject* self, PyObject* args, PyObject* kw) {
     if (args && PyTuple_Size(args) != 0)
         return tsk_py_raise_arg("blade_sim_create", "takes keyword arguments only");
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
-    if (kw) {
-        Py_ssize_t pos = 0;
-        PyObject *key, *value;
-        while (PyDict_Next(kw, &pos, &key, &value)) {
-            const char* name = PyUnicode_AsUTF8AndSize(key, NULL);
-            if (!name) return NULL;
-            size_t i = 0;
-            for (; i < N_FIELDS; ++i)
-                if (strcmp(k_fields[i].name, name) == 0) break;
-            if (i == N_FIELDS) return tsk_py_raise_arg(name, "unknown setting");
-            if (!set_field(&def, &k_fields[i], value)) return NULL;
-        }
-    }
+    if (!tsk_py_def_read(&k_def, kw, &def, NULL, NULL, NULL)) return NULL;
     tsk_blade_sim* sim = NULL;
     tsk_status s = tsk_blade_sim_create(&def, &sim);
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* cap = PyCapsule_New(sim, SIM_CAPSULE, sim_capsule_free);
-    if (!cap) tsk_blade_sim_destroy(sim);
-    return cap;
+    return tsk_py_handle_new(&k_sim, sim);
 }
 
 static PyObject* py_clone(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* sim_obj;
     if (!PyArg_ParseTuple(args, "O:blade_sim_clone", &sim_obj)) return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim(sim_obj, &h);
     if (!sim) return NULL;
     tsk_blade_sim* copy = NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blade_sim_clone(sim, &copy);
-    Py_END_ALLOW_THREADS
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_clone(sim, &copy));
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* cap = PyCapsule_New(copy, SIM_CAPSULE, sim_capsule_free);
-    if (!cap) tsk_blade_sim_destroy(copy);
-    return cap;
+    return tsk_py_handle_new(&k_sim, copy);
 }
 
 static PyObject* py_set_colliders(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *sim_obj, *col_obj;
     if (!PyArg_ParseTuple(args, "OO:blade_sim_set_colliders", &sim_obj, &col_obj)) return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim(sim_obj, &h);
     if (!sim) return NULL;
     Py_buffer cb;
     if (!tsk_py_buffer(col_obj, "colliders", TSK_PY_F32, -1, 0, &cb)) return NULL;
@@ -226,9 +132,7 @@ static PyObject* py_set_colliders(PyObject* self, PyObject* args) {
     }
     PyBuffer_Release(&cb);
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blade_sim_set_colliders(sim, cols, (int32_t)count);
-    Py_END_ALLOW_THREADS
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_set_colliders(sim, cols, (int32_t)count));
     PyMem_Free(cols);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -239,7 +143,8 @@ static PyObject* py_activate_tile(PyObject* self, PyObject* args) {
     PyObject* sim_obj;
     int tile;
     if (!PyArg_ParseTuple(args, "Oi:blade_sim_activate_tile", &sim_obj, &tile)) return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim(sim_obj, &h);
     if (!sim) return NULL;
     tsk_status s = tsk_blade_sim_activate_tile(sim, tile);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -250,7 +155,8 @@ static PyObject* py_pending(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *sim_obj, *out_obj = NULL;
     if (!PyArg_ParseTuple(args, "O|O:blade_sim_pending", &sim_obj, &out_obj)) return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim(sim_obj, &h);
     if (!sim) return NULL;
     const int32_t n = tsk_blade_sim_pending_count(sim);
     if (out_obj && out_obj != Py_None) {
@@ -271,7 +177,8 @@ static PyObject* py_provide_tile(PyObject* self, PyObject* args) {
                           &widths_obj, &sides_obj))
         return NULL;
     tsk_blade_sim_info info;
-    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &h, &info);
     if (!sim) return NULL;
     const Py_ssize_t K = info.knot_count;
     tsk_py_views v = {.n = 0};
@@ -296,9 +203,8 @@ static PyObject* py_provide_tile(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blade_sim_provide_tile(sim, tile, (int32_t)blades, knots, widths, sides);
-    Py_END_ALLOW_THREADS
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_provide_tile(sim, tile, (int32_t)blades, knots, widths,
+                                                      sides));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -311,7 +217,8 @@ static PyObject* py_step(PyObject* self, PyObject* args) {
     int layout = TSK_WIND_NONE;
     if (!PyArg_ParseTuple(args, "Of|Oi:blade_sim_step", &sim_obj, &dt, &wind_obj, &layout))
         return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim(sim_obj, &h);
     if (!sim) return NULL;
     if (layout < TSK_WIND_NONE || layout > TSK_WIND_PER_KNOT)
         return tsk_py_raise_arg("layout", "must be 0 (none), 1 (uniform), 2 (per blade) or "
@@ -330,9 +237,7 @@ static PyObject* py_step(PyObject* self, PyObject* args) {
         wp = wind.buf;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blade_sim_step(sim, dt, wp, (tsk_wind_layout)layout);
-    Py_END_ALLOW_THREADS
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_step(sim, dt, wp, (tsk_wind_layout)layout));
     if (wp) PyBuffer_Release(&wind);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -342,7 +247,8 @@ static PyObject* py_info(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* sim_obj;
     if (!PyArg_ParseTuple(args, "O:blade_sim_info", &sim_obj)) return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim(sim_obj, &h);
     if (!sim) return NULL;
     tsk_blade_sim_info info;
     tsk_status s = tsk_blade_sim_get_info(sim, &info);
@@ -360,7 +266,8 @@ static PyObject* py_get_active(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OOO:blade_sim_get_active", &sim_obj, &tiles_obj, &counts_obj))
         return NULL;
     tsk_blade_sim_info info;
-    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &h, &info);
     if (!sim) return NULL;
     tsk_py_views v = {.n = 0};
     int32_t *tiles, *counts;
@@ -382,16 +289,15 @@ static PyObject* py_get_knots(PyObject* self, PyObject* args) {
     PyObject *sim_obj, *out_obj;
     if (!PyArg_ParseTuple(args, "OO:blade_sim_get_knots", &sim_obj, &out_obj)) return NULL;
     tsk_blade_sim_info info;
-    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &h, &info);
     if (!sim) return NULL;
     Py_buffer out;
     if (!tsk_py_buffer(out_obj, "knots", TSK_PY_F32,
                        3 * (Py_ssize_t)info.active_blades * info.knot_count, 1, &out))
         return NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blade_sim_get_knots(sim, out.buf);
-    Py_END_ALLOW_THREADS
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_get_knots(sim, out.buf));
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -405,7 +311,8 @@ static PyObject* py_get_ribbons(PyObject* self, PyObject* args) {
                           &out_o))
         return NULL;
     tsk_blade_sim_info info;
-    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &h, &info);
     if (!sim) return NULL;
     const Py_ssize_t K = info.knot_count;
     tsk_py_views v = {.n = 0};
@@ -418,9 +325,8 @@ static PyObject* py_get_ribbons(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blade_sim_get_ribbons(sim, (int64_t)first, (int64_t)n, widths, sides, out);
-    Py_END_ALLOW_THREADS
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_get_ribbons(sim, (int64_t)first, (int64_t)n, widths, sides,
+                                                     out));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -433,7 +339,8 @@ static PyObject* py_get_ribbon_runs(PyObject* self, PyObject* args) {
                           &widths_o, &sides_o, &out_o))
         return NULL;
     tsk_blade_sim_info info;
-    tsk_blade_sim* sim = get_sim_info(sim_obj, &info);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim_info(sim_obj, &h, &info);
     if (!sim) return NULL;
     const Py_ssize_t K = info.knot_count;
     tsk_py_views v = {.n = 0};
@@ -471,9 +378,8 @@ static PyObject* py_get_ribbon_runs(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blade_sim_get_ribbon_runs(sim, starts, counts, (int64_t)runs, widths, sides, out);
-    Py_END_ALLOW_THREADS
+    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_get_ribbon_runs(sim, starts, counts, (int64_t)runs, widths,
+                                                         sides, out));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -484,46 +390,59 @@ static PyObject* py_tile_state(PyObject* self, PyObject* args) {
     PyObject* sim_obj;
     int tile;
     if (!PyArg_ParseTuple(args, "Oi:blade_sim_tile_state", &sim_obj, &tile)) return NULL;
-    tsk_blade_sim* sim = get_sim(sim_obj);
+    tsk_py_handle* h;
+    tsk_blade_sim* sim = get_sim(sim_obj, &h);
     if (!sim) return NULL;
     return PyLong_FromLong(tsk_blade_sim_tile_state(sim, tile));
 }
 
 PyMethodDef tsk_py_sim_methods[] = {
     {"default_blade_sim_def", py_default_def, METH_NOARGS,
-     "default_blade_sim_def() -> dict: every blade-simulation setting and its default."},
+     "default_blade_sim_def($module, /)\n--\n\n"
+     "-> dict: every blade-simulation setting and its default."},
     {"blade_sim_create", (PyCFunction)(void (*)(void))py_create, METH_VARARGS | METH_KEYWORDS,
-     "blade_sim_create(**settings) -> handle. Settings as default_blade_sim_def()."},
+     "blade_sim_create($module, **settings)\n--\n\n"
+     "-> handle. Settings as default_blade_sim_def()."},
     {"blade_sim_clone", py_clone, METH_VARARGS,
-     "blade_sim_clone(sim) -> handle: an independent deep copy of the whole state (a snapshot to "
-     "resume from; stepping both the same way gives the same bytes)."},
+     "blade_sim_clone($module, sim, /)\n--\n\n"
+     "-> handle: an independent deep copy of the whole state (a snapshot to resume from; "
+     "stepping both the same way gives the same bytes)."},
     {"blade_sim_set_colliders", py_set_colliders, METH_VARARGS,
-     "blade_sim_set_colliders(sim, colliders): float32 (n, 8) rows kind (0 sphere, 1 capsule), "
-     "radius, ax, ay, az, bx, by, bz; updates which tiles are touched and pending."},
+     "blade_sim_set_colliders($module, sim, colliders, /)\n--\n\n"
+     "float32 (n, 8) rows kind (0 sphere, 1 capsule), radius, ax, ay, az, bx, by, bz; updates "
+     "which tiles are touched and pending."},
     {"blade_sim_activate_tile", py_activate_tile, METH_VARARGS,
-     "blade_sim_activate_tile(sim, tile): make a tile pending (or keep it active) without a collider."},
+     "blade_sim_activate_tile($module, sim, tile, /)\n--\n\n"
+     "make a tile pending (or keep it active) without a collider."},
     {"blade_sim_pending", py_pending, METH_VARARGS,
-     "blade_sim_pending(sim, tiles=None) -> count; fills int32 tiles (count) when given."},
+     "blade_sim_pending($module, sim, tiles=None, /)\n--\n\n"
+     "-> count; fills int32 tiles (count) when given."},
     {"blade_sim_provide_tile", py_provide_tile, METH_VARARGS,
-     "blade_sim_provide_tile(sim, tile, knots, widths, sides=None): rest blades of a tile, float32 "
-     "knots (n*K*3), widths (n*K), sides (n*3)."},
+     "blade_sim_provide_tile($module, sim, tile, knots, widths, sides=None, /)\n--\n\n"
+     "rest blades of a tile, float32 knots (n*K*3), widths (n*K), sides (n*3)."},
     {"blade_sim_step", py_step, METH_VARARGS,
-     "blade_sim_step(sim, dt, wind=None, layout=0): advance dt seconds; wind float32 for layout "
-     "1 uniform (3), 2 per active blade (3n), 3 per knot (3nK)."},
-    {"blade_sim_info", py_info, METH_VARARGS, "blade_sim_info(sim) -> dict."},
+     "blade_sim_step($module, sim, dt, wind=None, layout=0, /)\n--\n\n"
+     "advance dt seconds; wind float32 for layout 1 uniform (3), 2 per active blade (3n), 3 "
+     "per knot (3nK)."},
+    {"blade_sim_info", py_info, METH_VARARGS, "blade_sim_info($module, sim, /)\n--\n\n"
+     "-> dict."},
     {"blade_sim_get_active", py_get_active, METH_VARARGS,
-     "blade_sim_get_active(sim, tiles, blade_counts): int32 arrays of info['active_tiles']."},
+     "blade_sim_get_active($module, sim, tiles, blade_counts, /)\n--\n\n"
+     "int32 arrays of info['active_tiles']."},
     {"blade_sim_ribbons", py_get_ribbons, METH_VARARGS,
-     "blade_sim_ribbons(sim, first, widths, sides, positions): ribbon vertices of n active blades "
-     "from `first` on (n = len(sides) / 3; widths n*K, positions n*2K*3 float32), the bytes "
-     "blades_expand gives on their knots."},
+     "blade_sim_ribbons($module, sim, first, widths, sides, positions, /)\n--\n\n"
+     "ribbon vertices of n active blades from `first` on (n = len(sides) / 3; widths n*K, "
+     "positions n*2K*3 float32), the bytes blades_expand gives on their knots."},
     {"blade_sim_ribbon_runs", py_get_ribbon_runs, METH_VARARGS,
-     "blade_sim_ribbon_runs(sim, starts, counts, widths, sides, positions): ribbon vertices, as "
-     "blade_sim_ribbons makes them, of the runs of active blades counts[r] long from starts[r] "
-     "(int64 arrays), one run after another in widths, sides and positions."},
+     "blade_sim_ribbon_runs($module, sim, starts, counts, widths, sides, positions, /)\n--\n\n"
+     "ribbon vertices, as blade_sim_ribbons makes them, of the runs of active blades counts[r]"
+     " long from starts[r] (int64 arrays), one run after another in widths, sides and "
+     "positions."},
     {"blade_sim_get_knots", py_get_knots, METH_VARARGS,
-     "blade_sim_get_knots(sim, out): float32 out of info['active_blades'] * K * 3."},
+     "blade_sim_get_knots($module, sim, out, /)\n--\n\n"
+     "float32 out of info['active_blades'] * K * 3."},
     {"blade_sim_tile_state", py_tile_state, METH_VARARGS,
-     "blade_sim_tile_state(sim, tile) -> 1 active, 2 pending, 0 neither, -1 out of range."},
+     "blade_sim_tile_state($module, sim, tile, /)\n--\n\n"
+     "-> 1 active, 2 pending, 0 neither, -1 out of range."},
     {NULL, NULL, 0, NULL},
 };

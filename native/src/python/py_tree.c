@@ -8,205 +8,88 @@
 #include "binding.h"
 #include "tussock/tree.h"
 
-#define TREE_CAPSULE "tussock.tree"
-#define SUBDIV_CAPSULE "tussock.subdiv"
-
 /* ---- definition <-> dict ---------------------------------------------------------------- */
 
-typedef enum { F_FLOAT, F_INT, F_U32, F_U64 } field_type;
-typedef struct field {
-    const char* name;
-    size_t offset;
-    field_type type;
-} field;
-
-#define FD(n, t) {#n, offsetof(tsk_tree_def, n), t}
-static const field g_fields[] = {
-    FD(seed, F_U64),          FD(shape, F_INT),          FD(base_size, F_FLOAT),
-    FD(scale, F_FLOAT),       FD(scale_v, F_FLOAT),      FD(z_scale, F_FLOAT),
-    FD(z_scale_v, F_FLOAT),   FD(levels, F_INT),         FD(ratio, F_FLOAT),
-    FD(ratio_power, F_FLOAT), FD(lobes, F_INT),          FD(lobe_depth, F_FLOAT),
-    FD(flare, F_FLOAT),       FD(scale0, F_FLOAT),       FD(scale0_v, F_FLOAT),
-    FD(base_splits, F_INT),   FD(leaves, F_INT),         FD(leaf_shape, F_INT),
-    FD(leaf_scale, F_FLOAT),  FD(leaf_scale_x, F_FLOAT), FD(attraction_up, F_FLOAT),
-    FD(prune_ratio, F_FLOAT), FD(prune_width, F_FLOAT),  FD(prune_width_peak, F_FLOAT),
-    FD(prune_power_low, F_FLOAT), FD(prune_power_high, F_FLOAT), FD(taper_power, F_FLOAT),
-    FD(lobe_fade, F_FLOAT),   FD(bulges, F_INT),         FD(bulge_depth, F_FLOAT),
-    FD(max_branches, F_U32),  FD(max_leaves, F_U32),
+#define FD(n, t) {#n, t, offsetof(tsk_tree_def, n), NULL, NULL, NULL}
+#define LD(n, t) {#n, t, offsetof(tsk_tree_level_def, n), NULL, NULL, NULL}
+static const tsk_py_field k_level_fields[] = {
+    LD(length, TSK_PY_FLOAT),     LD(length_v, TSK_PY_FLOAT),    LD(taper, TSK_PY_FLOAT),
+    LD(seg_splits, TSK_PY_FLOAT), LD(split_angle, TSK_PY_FLOAT), LD(split_angle_v, TSK_PY_FLOAT),
+    LD(curve_res, TSK_PY_INT),    LD(curve, TSK_PY_FLOAT),       LD(curve_back, TSK_PY_FLOAT),
+    LD(curve_v, TSK_PY_FLOAT),    LD(down_angle, TSK_PY_FLOAT),  LD(down_angle_v, TSK_PY_FLOAT),
+    LD(rotate, TSK_PY_FLOAT),     LD(rotate_v, TSK_PY_FLOAT),    LD(branches, TSK_PY_INT),
 };
-#undef FD
-#define LD(n, t) {#n, offsetof(tsk_tree_level_def, n), t}
-static const field g_level_fields[] = {
-    LD(length, F_FLOAT),       LD(length_v, F_FLOAT),   LD(taper, F_FLOAT),
-    LD(seg_splits, F_FLOAT),   LD(split_angle, F_FLOAT), LD(split_angle_v, F_FLOAT),
-    LD(curve_res, F_INT),      LD(curve, F_FLOAT),      LD(curve_back, F_FLOAT),
-    LD(curve_v, F_FLOAT),      LD(down_angle, F_FLOAT), LD(down_angle_v, F_FLOAT),
-    LD(rotate, F_FLOAT),       LD(rotate_v, F_FLOAT),   LD(branches, F_INT),
-};
-#undef LD
-#define NFIELDS(a) (sizeof a / sizeof a[0])
+static const tsk_py_def k_level_def = {"parameter", TSK_PY_FIELDS(k_level_fields), NULL, 0};
 
-static int set_field_obj(PyObject* d, const field* f, const void* base) {
-    const char* p = (const char*)base + f->offset;
-    PyObject* v = NULL;
-    switch (f->type) {
-    case F_FLOAT: v = PyFloat_FromDouble(*(const float*)p); break;
-    case F_INT: v = PyLong_FromLong(*(const int*)p); break;
-    case F_U32: v = PyLong_FromUnsignedLong(*(const uint32_t*)p); break;
-    case F_U64: v = PyLong_FromUnsignedLongLong(*(const uint64_t*)p); break;
+/* 'level': a list of at most TSK_TREE_MAX_LEVELS dicts of k_level_def. */
+static int read_levels(PyObject* levels, void* def) {
+    tsk_tree_def* d = def;
+    if (!PyList_Check(levels) || PyList_Size(levels) > TSK_TREE_MAX_LEVELS) {
+        tsk_py_raise_arg("level", "must be a list of at most %d dicts", TSK_TREE_MAX_LEVELS);
+        return 0;
     }
-    if (v == NULL) return 0;
-    int r = PyDict_SetItemString(d, f->name, v);
-    Py_DECREF(v);
-    return r == 0;
-}
-
-static PyObject* def_to_dict(const tsk_tree_def* def) {
-    PyObject* d = PyDict_New();
-    if (d == NULL) return NULL;
-    for (size_t i = 0; i < NFIELDS(g_fields); ++i)
-        if (!set_field_obj(d, &g_fields[i], def)) goto fail;
-    PyObject* levels = PyList_New(TSK_TREE_MAX_LEVELS);
-    if (levels == NULL) goto fail;
-    for (int l = 0; l < TSK_TREE_MAX_LEVELS; ++l) {
-        PyObject* ld = PyDict_New();
-        if (ld == NULL) {
-            Py_DECREF(levels);
-            goto fail;
-        }
-        PyList_SetItem(levels, l, ld); /* steals */
-        for (size_t i = 0; i < NFIELDS(g_level_fields); ++i)
-            if (!set_field_obj(ld, &g_level_fields[i], &def->level[l])) {
-                Py_DECREF(levels);
-                goto fail;
-            }
-    }
-    if (PyDict_SetItemString(d, "level", levels) != 0) {
-        Py_DECREF(levels);
-        goto fail;
-    }
-    Py_DECREF(levels);
-    return d;
-fail:
-    Py_DECREF(d);
-    return NULL;
-}
-
-/* Reads known keys of dict d into base; unknown keys are an error (typos must not pass). */
-static int read_fields(PyObject* d, const field* fields, size_t count, void* base,
-                       const char* prefix, int allow_level) {
-    PyObject *key, *value;
-    Py_ssize_t pos = 0;
-    while (PyDict_Next(d, &pos, &key, &value)) {
-        const char* k = PyUnicode_Check(key) ? PyUnicode_AsUTF8AndSize(key, NULL) : NULL;
-        if (k == NULL) {
-            PyErr_Clear();
-            tsk_py_raise_arg("def", "keys must be strings");
+    for (Py_ssize_t l = 0; l < PyList_Size(levels); ++l) {
+        char name[16];
+        snprintf(name, sizeof name, "level[%d]", (int)l);
+        if (!tsk_py_def_read(&k_level_def, PyList_GetItem(levels, l), &d->level[l], name, NULL,
+                             NULL))
             return 0;
-        }
-        if (allow_level && strcmp(k, "level") == 0) continue;
-        const field* f = NULL;
-        for (size_t i = 0; i < count; ++i)
-            if (strcmp(fields[i].name, k) == 0) f = &fields[i];
-        if (f == NULL) {
-            tsk_py_raise_arg(prefix, "unknown parameter '%s'", k);
-            return 0;
-        }
-        char* p = (char*)base + f->offset;
-        if (f->type == F_FLOAT) {
-            double x = PyFloat_AsDouble(value);
-            if (x == -1.0 && PyErr_Occurred()) {
-                PyErr_Clear();
-                tsk_py_raise_arg(k, "must be a number");
-                return 0;
-            }
-            *(float*)p = (float)x;
-        } else {
-            if (!PyLong_Check(value)) {
-                tsk_py_raise_arg(k, "must be an integer");
-                return 0;
-            }
-            if (f->type == F_U64) {
-                unsigned long long x = PyLong_AsUnsignedLongLongMask(value);
-                if (PyErr_Occurred()) return 0;
-                *(uint64_t*)p = (uint64_t)x;
-            } else {
-                long long x = PyLong_AsLongLong(value);
-                if (x == -1 && PyErr_Occurred()) {
-                    PyErr_Clear();
-                    tsk_py_raise_arg(k, "integer out of range");
-                    return 0;
-                }
-                if (f->type == F_U32) {
-                    if (x < 0 || x > 0xFFFFFFFFll) {
-                        tsk_py_raise_arg(k, "must be 0..4294967295");
-                        return 0;
-                    }
-                    *(uint32_t*)p = (uint32_t)x;
-                } else {
-                    if (x < -2147483647ll || x > 2147483647ll) {
-                        tsk_py_raise_arg(k, "integer out of range");
-                        return 0;
-                    }
-                    *(int*)p = (int)x;
-                }
-            }
-        }
     }
     return 1;
 }
 
-/* dict -> def, starting from the defaults (missing keys keep their default). */
+static PyObject* write_levels(const void* def) {
+    const tsk_tree_def* d = def;
+    PyObject* levels = PyList_New(TSK_TREE_MAX_LEVELS);
+    for (int l = 0; levels != NULL && l < TSK_TREE_MAX_LEVELS; ++l) {
+        PyObject* ld = tsk_py_def_dict(&k_level_def, &d->level[l]);
+        if (ld == NULL) Py_CLEAR(levels);
+        else PyList_SetItem(levels, l, ld); /* steals */
+    }
+    return levels;
+}
+
+static const tsk_py_field k_tree_fields[] = {
+    FD(seed, TSK_PY_U64),          FD(shape, TSK_PY_INT),          FD(base_size, TSK_PY_FLOAT),
+    FD(scale, TSK_PY_FLOAT),       FD(scale_v, TSK_PY_FLOAT),      FD(z_scale, TSK_PY_FLOAT),
+    FD(z_scale_v, TSK_PY_FLOAT),   FD(levels, TSK_PY_INT),         FD(ratio, TSK_PY_FLOAT),
+    FD(ratio_power, TSK_PY_FLOAT), FD(lobes, TSK_PY_INT),          FD(lobe_depth, TSK_PY_FLOAT),
+    FD(flare, TSK_PY_FLOAT),       FD(scale0, TSK_PY_FLOAT),       FD(scale0_v, TSK_PY_FLOAT),
+    FD(base_splits, TSK_PY_INT),   FD(leaves, TSK_PY_INT),         FD(leaf_shape, TSK_PY_INT),
+    FD(leaf_scale, TSK_PY_FLOAT),  FD(leaf_scale_x, TSK_PY_FLOAT), FD(attraction_up, TSK_PY_FLOAT),
+    FD(prune_ratio, TSK_PY_FLOAT), FD(prune_width, TSK_PY_FLOAT),
+    FD(prune_width_peak, TSK_PY_FLOAT), FD(prune_power_low, TSK_PY_FLOAT),
+    FD(prune_power_high, TSK_PY_FLOAT), FD(taper_power, TSK_PY_FLOAT),
+    FD(lobe_fade, TSK_PY_FLOAT),   FD(bulges, TSK_PY_INT),         FD(bulge_depth, TSK_PY_FLOAT),
+    FD(max_branches, TSK_PY_U32),  FD(max_leaves, TSK_PY_U32),
+    {"level", TSK_PY_CUSTOM, 0, NULL, read_levels, write_levels},
+};
+#undef FD
+#undef LD
+static const tsk_py_def k_tree_def = {"parameter", TSK_PY_FIELDS(k_tree_fields), NULL, 0};
+
+/* dict -> def, starting from the defaults (missing keys keep their default; unknown keys are
+ * an error: typos must not pass). */
 static int dict_to_def(PyObject* d, tsk_tree_def* def) {
     *def = tsk_default_tree_def();
     if (!PyDict_Check(d)) {
         tsk_py_raise_arg("def", "must be a dict (see tree_default_def())");
         return 0;
     }
-    if (!read_fields(d, g_fields, NFIELDS(g_fields), def, "def", 1)) return 0;
-    PyObject* levels = PyDict_GetItemString(d, "level"); /* borrowed */
-    if (levels != NULL) {
-        if (!PyList_Check(levels) || PyList_Size(levels) > TSK_TREE_MAX_LEVELS) {
-            tsk_py_raise_arg("level", "must be a list of at most %d dicts", TSK_TREE_MAX_LEVELS);
-            return 0;
-        }
-        for (Py_ssize_t l = 0; l < PyList_Size(levels); ++l) {
-            PyObject* ld = PyList_GetItem(levels, l);
-            char name[16];
-            snprintf(name, sizeof name, "level[%d]", (int)l);
-            if (!PyDict_Check(ld)) {
-                tsk_py_raise_arg(name, "must be a dict");
-                return 0;
-            }
-            if (!read_fields(ld, g_level_fields, NFIELDS(g_level_fields), &def->level[l], name, 0))
-                return 0;
-        }
-    }
-    return 1;
+    return tsk_py_def_read(&k_tree_def, d, def, "def", NULL, NULL);
 }
+
+static PyObject* def_to_dict(const tsk_tree_def* def) { return tsk_py_def_dict(&k_tree_def, def); }
 
 /* ---- handles ----------------------------------------------------------------------------- */
 
-static void tree_capsule_free(PyObject* cap) {
-    tsk_tree_destroy(PyCapsule_GetPointer(cap, TREE_CAPSULE));
-}
-static void subdiv_capsule_free(PyObject* cap) {
-    tsk_subdiv_destroy(PyCapsule_GetPointer(cap, SUBDIV_CAPSULE));
-}
+static void destroy_tree(void* t) { tsk_tree_destroy(t); }
+static void destroy_subdiv(void* s) { tsk_subdiv_destroy(s); }
 
-static tsk_tree* get_tree(PyObject* cap) {
-    tsk_tree* t = PyCapsule_IsValid(cap, TREE_CAPSULE) ? PyCapsule_GetPointer(cap, TREE_CAPSULE)
-                                                       : NULL;
-    if (t == NULL) tsk_py_raise_arg("tree", "expected a handle from tree_create()");
-    return t;
-}
-static tsk_subdiv* get_subdiv(PyObject* cap) {
-    tsk_subdiv* s = PyCapsule_IsValid(cap, SUBDIV_CAPSULE)
-                        ? PyCapsule_GetPointer(cap, SUBDIV_CAPSULE)
-                        : NULL;
-    if (s == NULL) tsk_py_raise_arg("subdiv", "expected a handle from subdiv_create()");
-    return s;
-}
+static const tsk_py_kind k_tree = {"tussock.tree", "tree", "tree", "tree_create()", NULL,
+                                 destroy_tree};
+static const tsk_py_kind k_subdiv = {"tussock.subdiv", "subdiv", "subdivision",
+                                     "subdiv_create()", NULL, destroy_subdiv};
 
 /* ---- functions ----------------------------------------------------------------------------- */
 
@@ -254,17 +137,16 @@ static PyObject* py_tree_create(PyObject* self, PyObject* args) {
     s = tsk_tree_create(&def, &t);
     Py_END_ALLOW_THREADS
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* cap = PyCapsule_New(t, TREE_CAPSULE, tree_capsule_free);
-    if (cap == NULL) tsk_tree_destroy(t);
-    return cap;
+    return tsk_py_handle_new(&k_tree, t);
 }
 
 static PyObject* py_tree_counts(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* cap;
     if (!PyArg_ParseTuple(args, "O:tree_counts", &cap)) return NULL;
-    tsk_tree* t = get_tree(cap);
-    if (t == NULL) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_tree);
+    if (h == NULL) return NULL;
+    tsk_tree* t = h->ptr;
     return Py_BuildValue("{s:n,s:n,s:(nnnn)}", "branches", (Py_ssize_t)tsk_tree_branch_count(t),
                          "leaves", (Py_ssize_t)tsk_tree_leaf_count(t), "levels",
                          (Py_ssize_t)tsk_tree_level_branch_count(t, 0),
@@ -282,8 +164,9 @@ static PyObject* py_tree_branches(PyObject* self, PyObject* args, PyObject* kw) 
     if (!PyArg_ParseTupleAndKeywords(args, kw, "O|OOOOOOOOO:tree_branches", kwlist, &cap, &o[0],
                                      &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8]))
         return NULL;
-    tsk_tree* t = get_tree(cap);
-    if (t == NULL) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_tree);
+    if (h == NULL) return NULL;
+    tsk_tree* t = h->ptr;
     const Py_ssize_t n = (Py_ssize_t)tsk_tree_branch_count(t);
     static const char* names[9] = {"parent", "level", "points", "rest", "attach",
                                    "radius", "length", "orient", "depth"};
@@ -298,9 +181,11 @@ static PyObject* py_tree_branches(PyObject* self, PyObject* args, PyObject* kw) 
     if (ok) {
         tsk_tree_branches out = {p[0], p[1], p[8], p[2], p[3], p[4], p[5], p[6], p[7]};
         tsk_status s;
+        h->busy = 1;
         Py_BEGIN_ALLOW_THREADS
         s = tsk_tree_get_branches(t, &out);
         Py_END_ALLOW_THREADS
+        h->busy = 0;
         if (s != TSK_OK) ok = 0, tsk_py_raise(s);
     }
     tsk_py_views_release(&v);
@@ -315,8 +200,9 @@ static PyObject* py_tree_leaves(PyObject* self, PyObject* args, PyObject* kw) {
     if (!PyArg_ParseTupleAndKeywords(args, kw, "O|OOOOO:tree_leaves", kwlist, &cap, &o[0], &o[1],
                                      &o[2], &o[3], &o[4]))
         return NULL;
-    tsk_tree* t = get_tree(cap);
-    if (t == NULL) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_tree);
+    if (h == NULL) return NULL;
+    tsk_tree* t = h->ptr;
     const Py_ssize_t m = (Py_ssize_t)tsk_tree_leaf_count(t);
     static const char* names[5] = {"position", "direction", "normal", "size", "parent"};
     const tsk_py_dtype types[5] = {TSK_PY_F32, TSK_PY_F32, TSK_PY_F32, TSK_PY_F32, TSK_PY_I32};
@@ -328,9 +214,11 @@ static PyObject* py_tree_leaves(PyObject* self, PyObject* args, PyObject* kw) {
         ok = tsk_py_views_get(&v, o[i], names[i], types[i], per[i] * m, 1, 1, &p[i]);
     if (ok) {
         tsk_status s;
+        h->busy = 1;
         Py_BEGIN_ALLOW_THREADS
         s = tsk_tree_get_leaves(t, p[0], p[1], p[2], p[3], p[4]);
         Py_END_ALLOW_THREADS
+        h->busy = 0;
         if (s != TSK_OK) ok = 0, tsk_py_raise(s);
     }
     tsk_py_views_release(&v);
@@ -342,38 +230,56 @@ static PyObject* py_tree_tips(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *cap, *out_obj;
     if (!PyArg_ParseTuple(args, "OO:tree_tips", &cap, &out_obj)) return NULL;
-    tsk_tree* t = get_tree(cap);
-    if (t == NULL) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_tree);
+    if (h == NULL) return NULL;
+    tsk_tree* t = h->ptr;
     Py_buffer out;
     if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, 3 * (Py_ssize_t)tsk_tree_branch_count(t), 1, &out))
         return NULL;
     tsk_status s;
+    h->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_tree_tip_positions(t, out.buf);
     Py_END_ALLOW_THREADS
+    h->busy = 0;
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
 
+#define W(name) {#name, TSK_PY_FLOAT, offsetof(tsk_tree_wind_def, name), NULL, NULL, NULL}
+static const tsk_py_field k_wind_fields[] = {
+    {"mode", TSK_PY_INT, offsetof(tsk_tree_wind_def, mode), NULL, NULL, NULL},
+    W(strength),
+    W(bend_power),
+    W(length_power),
+};
+#undef W
+static const tsk_py_def k_wind_def = {"tree wind setting", TSK_PY_FIELDS(k_wind_fields), NULL, 0};
+
 static PyObject* py_tree_wind_step(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* kwlist[] = {"tree", "force", "mode", "strength", "bend_power", "length_power", NULL};
-    PyObject *cap, *force_obj;
+    static char* kwlist[] = {"tree", "force", NULL};
+    PyObject *cap, *force_obj, *rest;
     tsk_tree_wind_def w = tsk_default_tree_wind_def();
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OO|ifff:tree_wind_step", kwlist, &cap, &force_obj,
-                                     &w.mode, &w.strength, &w.bend_power, &w.length_power))
-        return NULL;
-    tsk_tree* t = get_tree(cap);
-    if (t == NULL) return NULL;
+    if (!tsk_py_def_read(&k_wind_def, kw, &w, NULL, kwlist, &rest)) return NULL;
+    const int parsed =
+        PyArg_ParseTupleAndKeywords(args, rest, "OO:tree_wind_step", kwlist, &cap, &force_obj);
+    Py_XDECREF(rest);
+    if (!parsed) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_tree);
+    if (h == NULL) return NULL;
+    tsk_tree* t = h->ptr;
     Py_buffer f;
     if (!tsk_py_buffer(force_obj, "force", TSK_PY_F32, 3 * (Py_ssize_t)tsk_tree_branch_count(t), 0,
                        &f))
         return NULL;
     tsk_status s;
+    h->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_tree_wind_step(t, f.buf, &w);
     Py_END_ALLOW_THREADS
+    h->busy = 0;
     PyBuffer_Release(&f);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -383,8 +289,9 @@ static PyObject* py_tree_reset(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* cap;
     if (!PyArg_ParseTuple(args, "O:tree_reset", &cap)) return NULL;
-    tsk_tree* t = get_tree(cap);
-    if (t == NULL) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_tree);
+    if (h == NULL) return NULL;
+    tsk_tree* t = h->ptr;
     tsk_tree_reset_pose(t);
     Py_RETURN_NONE;
 }
@@ -393,8 +300,9 @@ static PyObject* py_tree_attachment_gap(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* cap;
     if (!PyArg_ParseTuple(args, "O:tree_attachment_gap", &cap)) return NULL;
-    tsk_tree* t = get_tree(cap);
-    if (t == NULL) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_tree);
+    if (h == NULL) return NULL;
+    tsk_tree* t = h->ptr;
     double g = 0, m = 0;
     tsk_status s = tsk_tree_attachment_gap(t, &g, &m);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -439,9 +347,10 @@ static int parse_mesh(PyObject* along, PyObject* around, int leaves, tsk_tree_me
 /* The tree and mesh settings of a tree_mesh_* call and the mesh's sizes; NULL with a Python
  * error set. */
 static tsk_tree* mesh_call(PyObject* cap, PyObject* along, PyObject* around, int leaves,
-                           tsk_tree_mesh_def* m, size_t* nv, size_t* nf) {
-    tsk_tree* t = get_tree(cap);
-    if (t == NULL || !parse_mesh(along, around, leaves, m)) return NULL;
+                           tsk_tree_mesh_def* m, size_t* nv, size_t* nf, tsk_py_handle** h) {
+    *h = tsk_py_handle_get(cap, &k_tree);
+    if (*h == NULL || !parse_mesh(along, around, leaves, m)) return NULL;
+    tsk_tree* t = (*h)->ptr;
     tsk_status s = tsk_tree_mesh_count(t, m, nv, nf);
     if (s != TSK_OK) {
         tsk_py_raise(s);
@@ -460,7 +369,8 @@ static PyObject* py_tree_mesh_count(PyObject* self, PyObject* args, PyObject* kw
         return NULL;
     tsk_tree_mesh_def m;
     size_t nv = 0, nf = 0;
-    if (mesh_call(cap, along, around, leaves, &m, &nv, &nf) == NULL) return NULL;
+    tsk_py_handle* h;
+    if (mesh_call(cap, along, around, leaves, &m, &nv, &nf, &h) == NULL) return NULL;
     return Py_BuildValue("(nn)", (Py_ssize_t)nv, (Py_ssize_t)nf);
 }
 
@@ -496,7 +406,8 @@ static PyObject* tree_mesh_arrays(PyObject* args, PyObject* kw, const mesh_op* o
         return NULL;
     tsk_tree_mesh_def m;
     size_t nv = 0, nf = 0, count = 0;
-    tsk_tree* t = mesh_call(cap, along, around, leaves, &m, &nv, &nf);
+    tsk_py_handle* h;
+    tsk_tree* t = mesh_call(cap, along, around, leaves, &m, &nv, &nf, &h);
     if (t == NULL) return NULL;
     tsk_py_views v = {.n = 0};
     void* a[2];
@@ -509,13 +420,14 @@ static PyObject* tree_mesh_arrays(PyObject* args, PyObject* kw, const mesh_op* o
         }
     }
     tsk_status s;
+    h->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     switch (op->kind) {
     case MESH_TOPOLOGY: s = tsk_tree_mesh_topology(t, &m, a[0], a[1]); break;
     case MESH_EDGES: s = tsk_tree_mesh_edges(t, &m, a[0], a[1], &count); break;
     default: s = tsk_tree_mesh_deform(t, &m, a[0], a[1]); break;
-    }
-    Py_END_ALLOW_THREADS
+    }    Py_END_ALLOW_THREADS
+    h->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     if (op->kind == MESH_EDGES) return PyLong_FromSize_t(count);
@@ -558,17 +470,16 @@ static PyObject* py_subdiv_create(PyObject* self, PyObject* args) {
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&faces);
     if (s != TSK_OK) return tsk_py_raise(s);
-    PyObject* cap = PyCapsule_New(sd, SUBDIV_CAPSULE, subdiv_capsule_free);
-    if (cap == NULL) tsk_subdiv_destroy(sd);
-    return cap;
+    return tsk_py_handle_new(&k_subdiv, sd);
 }
 
 static PyObject* py_subdiv_counts(PyObject* self, PyObject* args) {
     (void)self;
     PyObject* cap;
     if (!PyArg_ParseTuple(args, "O:subdiv_counts", &cap)) return NULL;
-    tsk_subdiv* sd = get_subdiv(cap);
-    if (sd == NULL) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_subdiv);
+    if (h == NULL) return NULL;
+    tsk_subdiv* sd = h->ptr;
     return Py_BuildValue("(nn)", (Py_ssize_t)tsk_subdiv_vertex_count(sd),
                          (Py_ssize_t)tsk_subdiv_face_count(sd));
 }
@@ -577,8 +488,9 @@ static PyObject* py_subdiv_faces(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *cap, *out_obj;
     if (!PyArg_ParseTuple(args, "OO:subdiv_faces", &cap, &out_obj)) return NULL;
-    tsk_subdiv* sd = get_subdiv(cap);
-    if (sd == NULL) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_subdiv);
+    if (h == NULL) return NULL;
+    tsk_subdiv* sd = h->ptr;
     Py_buffer out;
     if (!tsk_py_buffer(out_obj, "out", TSK_PY_I32, 4 * (Py_ssize_t)tsk_subdiv_face_count(sd), 1, &out))
         return NULL;
@@ -592,8 +504,9 @@ static PyObject* py_subdiv_apply(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *cap, *cage_obj, *out_obj;
     if (!PyArg_ParseTuple(args, "OOO:subdiv_apply", &cap, &cage_obj, &out_obj)) return NULL;
-    tsk_subdiv* sd = get_subdiv(cap);
-    if (sd == NULL) return NULL;
+    tsk_py_handle* h = tsk_py_handle_get(cap, &k_subdiv);
+    if (h == NULL) return NULL;
+    tsk_subdiv* sd = h->ptr;
     Py_buffer cage, out;
     if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, 3 * (Py_ssize_t)tsk_subdiv_vertex_count(sd), 1,
                        &out))
@@ -604,9 +517,11 @@ static PyObject* py_subdiv_apply(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s = TSK_OK;
+    h->busy = 1;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_subdiv_apply(sd, cage.buf, out.buf);
     Py_END_ALLOW_THREADS
+    h->busy = 0;
     PyBuffer_Release(&cage);
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -648,53 +563,72 @@ static PyObject* py_quad_normals(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_tree_methods[] = {
     {"tree_default_def", py_tree_default_def, METH_NOARGS,
-     "tree_default_def() -> dict: every Weber-Penn parameter with its default; 'level' is a "
-     "list of 4 per-level dicts."},
-    {"tree_presets", py_tree_presets, METH_NOARGS, "tree_presets() -> list of preset names."},
-    {"tree_preset", py_tree_preset, METH_VARARGS, "tree_preset(name) -> dict of that preset."},
+     "tree_default_def($module, /)\n--\n\n"
+     "-> dict: every Weber-Penn parameter with its default; 'level' is a list of 4 per-level "
+     "dicts."},
+    {"tree_presets", py_tree_presets, METH_NOARGS, "tree_presets($module, /)\n--\n\n"
+     "-> list of preset names."},
+    {"tree_preset", py_tree_preset, METH_VARARGS, "tree_preset($module, name, /)\n--\n\n"
+     "-> dict of that preset."},
     {"tree_create", py_tree_create, METH_VARARGS,
-     "tree_create(def: dict) -> tree handle. Missing keys keep their defaults; unknown keys "
-     "and bad values raise tussock.Error naming the parameter."},
+     "tree_create($module, definition, /)\n--\n\n"
+     "-> tree handle. Missing keys keep their defaults; unknown keys and bad values raise "
+     "tussock.Error naming the parameter."},
     {"tree_counts", py_tree_counts, METH_VARARGS,
-     "tree_counts(tree) -> {'branches', 'leaves', 'levels': (n0, n1, n2, n3)}."},
+     "tree_counts($module, tree, /)\n--\n\n"
+     "-> {'branches', 'leaves', 'levels': (n0, n1, n2, n3)}."},
     {"tree_branches", (PyCFunction)(void (*)(void))py_tree_branches, METH_VARARGS | METH_KEYWORDS,
-     "tree_branches(tree, parent=None, level=None, points=None, rest=None, attach=None, "
-     "radius=None, length=None, orient=None, depth=None): fills the given buffers (int32 n, "
-     "int32 n, float32 12n, 12n, 3n, 2n, n, 3n, int32 n)."},
+     "tree_branches($module, tree, parent=None, level=None, points=None, rest=None, attach=None, "
+     "radius=None, length=None, orient=None, depth=None)\n--\n\n"
+     "fills the given buffers (int32 n, int32 n, float32 12n, 12n, 3n, 2n, n, 3n, int32 n)."},
     {"tree_leaves", (PyCFunction)(void (*)(void))py_tree_leaves, METH_VARARGS | METH_KEYWORDS,
-     "tree_leaves(tree, position=None, direction=None, normal=None, size=None, parent=None): "
+     "tree_leaves($module, tree, position=None, direction=None, normal=None, size=None, "
+     "parent=None)\n--\n\n"
      "float32 3m, 3m, 3m, 2m, int32 m."},
     {"tree_tips", py_tree_tips, METH_VARARGS,
-     "tree_tips(tree, out): branch tips, float32 3n (where to sample the wind)."},
+     "tree_tips($module, tree, out, /)\n--\n\n"
+     "branch tips, float32 3n (where to sample the wind)."},
     {"tree_wind_step", (PyCFunction)(void (*)(void))py_tree_wind_step, METH_VARARGS | METH_KEYWORDS,
-     "tree_wind_step(tree, force, mode=0, strength=1.0, bend_power=1.8, length_power=1.0): "
+     "tree_wind_step($module, tree, force, *, mode=0, strength=1.0, bend_power=1.8, "
+     "length_power=1.0)\n--\n\n"
      "force float32 3n at the tips; mode 0 = lagged (seed), 1 = exact."},
-    {"tree_reset", py_tree_reset, METH_VARARGS, "tree_reset(tree): back to the rest pose."},
+    {"tree_reset", py_tree_reset, METH_VARARGS, "tree_reset($module, tree, /)\n--\n\n"
+     "back to the rest pose."},
     {"tree_attachment_gap", py_tree_attachment_gap, METH_VARARGS,
-     "tree_attachment_gap(tree) -> (largest child gap / parent radius, largest gap in m)."},
+     "tree_attachment_gap($module, tree, /)\n--\n\n"
+     "-> (largest child gap / parent radius, largest gap in m)."},
     {"tree_mesh_count", (PyCFunction)(void (*)(void))py_tree_mesh_count,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_count(tree, along=None, around=None, leaves=True) -> (vertices, quads)."},
+     "tree_mesh_count($module, tree, along=None, around=None, leaves=True)\n--\n\n"
+     "-> (vertices, quads)."},
     {"tree_mesh_topology", (PyCFunction)(void (*)(void))py_tree_mesh_topology,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_topology(tree, faces, uvs=None, along=None, around=None, leaves=True): faces "
-     "int32 4q, uvs float32 8q (per corner)."},
+     "tree_mesh_topology($module, tree, faces, uvs=None, along=None, around=None, "
+     "leaves=True)\n--\n\n"
+     "faces int32 4q, uvs float32 8q (per corner)."},
     {"tree_mesh_edges", (PyCFunction)(void (*)(void))py_tree_mesh_edges,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_edges(tree, edges, corner_edges, along=None, around=None, leaves=True) -> "
-     "edge count: edges int32 8q (2 per edge, the first 2 * count written), corner_edges "
+     "tree_mesh_edges($module, tree, edges, corner_edges, along=None, around=None, "
+     "leaves=True)\n--\n\n"
+     "-> edge count: edges int32 8q (2 per edge, the first 2 * count written), corner_edges "
      "int32 4q; the edges of tree_mesh_topology's faces in closed form."},
     {"tree_mesh_deform", (PyCFunction)(void (*)(void))py_tree_mesh_deform,
      METH_VARARGS | METH_KEYWORDS,
-     "tree_mesh_deform(tree, positions, normals=None, along=None, around=None, leaves=True): "
+     "tree_mesh_deform($module, tree, positions, normals=None, along=None, around=None, "
+     "leaves=True)\n--\n\n"
      "float32 3v each, for the current pose."},
     {"subdiv_create", py_subdiv_create, METH_VARARGS,
-     "subdiv_create(faces, vertex_count, levels) -> handle (OpenSubdiv stencils, built once)."},
-    {"subdiv_counts", py_subdiv_counts, METH_VARARGS, "subdiv_counts(h) -> (vertices, quads)."},
-    {"subdiv_faces", py_subdiv_faces, METH_VARARGS, "subdiv_faces(h, out): int32 4q."},
+     "subdiv_create($module, faces, vertex_count, levels, /)\n--\n\n"
+     "-> handle (OpenSubdiv stencils, built once)."},
+    {"subdiv_counts", py_subdiv_counts, METH_VARARGS, "subdiv_counts($module, h, /)\n--\n\n"
+     "-> (vertices, quads)."},
+    {"subdiv_faces", py_subdiv_faces, METH_VARARGS, "subdiv_faces($module, h, out, /)\n--\n\n"
+     "int32 4q."},
     {"subdiv_apply", py_subdiv_apply, METH_VARARGS,
-     "subdiv_apply(h, cage, out): cage float32 3*cage_vertices, out float32 3*vertices."},
+     "subdiv_apply($module, h, cage, out, /)\n--\n\n"
+     "cage float32 3*cage_vertices, out float32 3*vertices."},
     {"quad_normals", py_quad_normals, METH_VARARGS,
-     "quad_normals(positions, faces, out): area-weighted vertex normals."},
+     "quad_normals($module, positions, faces, out, /)\n--\n\n"
+     "area-weighted vertex normals."},
     {NULL, NULL, 0, NULL},
 };

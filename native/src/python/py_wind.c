@@ -3,86 +3,24 @@
  * Argument and buffer checks only; the C library validates every value. */
 #include "binding.h"
 
+#include <stddef.h>
 #include <string.h>
 
 #include "tussock/wind.h"
 
-static const char* CAPSULE_NAME = "tussock.wind";
+static void destroy_wind(void* wind) { tsk_wind_destroy(wind); }
 
-/* The capsule holds this box, so that wind_destroy can free the wind before Python drops
- * the capsule, and a call that runs without the GIL marks the handle busy. */
-typedef struct wind_box {
-    tsk_wind* wind;
-    int busy;
-} wind_box;
-
-static void capsule_free(PyObject* capsule) {
-    wind_box* box = PyCapsule_GetPointer(capsule, CAPSULE_NAME);
-    if (box == NULL) {
-        PyErr_Clear();
-        return;
-    }
-    tsk_wind_destroy(box->wind);
-    PyMem_Free(box);
-}
-
-/* Returns the box of a live, idle handle (and marks it busy), or NULL with an error set. */
-static wind_box* acquire(PyObject* capsule) {
-    wind_box* box = PyCapsule_IsValid(capsule, CAPSULE_NAME)
-                        ? PyCapsule_GetPointer(capsule, CAPSULE_NAME)
-                        : NULL;
-    if (box == NULL) {
-        PyErr_Clear();
-        tsk_py_raise_arg("wind", "expected a wind handle from wind_create");
-        return NULL;
-    }
-    if (box->wind == NULL) {
-        tsk_py_raise_arg("wind", "this wind was destroyed");
-        return NULL;
-    }
-    if (box->busy) {
-        tsk_py_raise_arg("wind", "this wind is in use by another thread");
-        return NULL;
-    }
-    box->busy = 1;
-    return box;
-}
-
-static void release(wind_box* box) { box->busy = 0; }
+static const tsk_py_kind k_wind = {"tussock.wind", "wind", "wind", "wind_create",
+                                   "wind_destroy", destroy_wind};
 
 /* ---- keyword parameters -> definition ---------------------------------------------- */
 
 enum { WAVE_FIELDS = 7, SOURCE_FIELDS = 8 };
 
-static int get_float(PyObject* value, const char* key, float* out) {
-    double d = PyFloat_AsDouble(value);
-    if (d == -1.0 && PyErr_Occurred()) {
-        PyErr_Clear();
-        tsk_py_raise_arg(key, "must be a number");
-        return 0;
-    }
-    *out = (float)d;
-    return 1;
-}
-
-static int get_int(PyObject* value, const char* key, int* out) {
-    long v = PyLong_AsLong(value);
-    if (v == -1 && PyErr_Occurred()) {
-        PyErr_Clear();
-        tsk_py_raise_arg(key, "must be an integer");
-        return 0;
-    }
-    if (v < -2147483647L || v > 2147483647L) {
-        tsk_py_raise_arg(key, "is out of range");
-        return 0;
-    }
-    *out = (int)v;
-    return 1;
-}
-
 /* waves: float32 buffer of 7 * n values (amplitude, dir_x, dir_y, wavelength, speed,
  * phase, power) per wave, n <= 8 */
-static int get_waves(PyObject* value, tsk_wind_sines_def* s) {
+static int read_waves(PyObject* value, void* def) {
+    tsk_wind_sines_def* s = def;
     Py_buffer view;
     if (!tsk_py_buffer(value, "waves", TSK_PY_F32, -1, 0, &view)) return 0;
     const Py_ssize_t n = tsk_py_count(&view);
@@ -109,86 +47,44 @@ static int get_waves(PyObject* value, tsk_wind_sines_def* s) {
     return 1;
 }
 
-/* Sets one sines field; returns 1 if handled, 0 on error, -1 if the key is not a sines key. */
-static int set_sines_key(tsk_wind_sines_def* s, const char* key, PyObject* value) {
-    struct {
-        const char* name;
-        float* field;
-    } floats[] = {{"base_x", &s->base_x},
-                  {"base_y", &s->base_y},
-                  {"gust_strength", &s->gust.strength},
-                  {"gust_interval", &s->gust.interval},
-                  {"gust_duration", &s->gust.duration},
-                  {"gust_dir_x", &s->gust.dir_x},
-                  {"gust_dir_y", &s->gust.dir_y},
-                  {"gust_front_speed", &s->gust.front_speed}};
-    for (size_t i = 0; i < sizeof floats / sizeof floats[0]; ++i)
-        if (strcmp(key, floats[i].name) == 0) return get_float(value, key, floats[i].field);
-    if (strcmp(key, "waves") == 0) return get_waves(value, s);
-    if (strcmp(key, "seed") == 0) {
-        unsigned long long v = PyLong_AsUnsignedLongLongMask(value);
-        if (PyErr_Occurred()) {
-            PyErr_Clear();
-            tsk_py_raise_arg(key, "must be an integer");
-            return 0;
-        }
-        s->gust.seed = v;
-        return 1;
-    }
-    return -1;
-}
+#define F(name, member, type) {name, type, offsetof(tsk_wind_sines_def, member), NULL, NULL, NULL}
+static const tsk_py_field k_sines_fields[] = {
+    F("base_x", base_x, TSK_PY_FLOAT),
+    F("base_y", base_y, TSK_PY_FLOAT),
+    {"waves", TSK_PY_CUSTOM, 0, NULL, read_waves, NULL},
+    F("gust_strength", gust.strength, TSK_PY_FLOAT),
+    F("gust_interval", gust.interval, TSK_PY_FLOAT),
+    F("gust_duration", gust.duration, TSK_PY_FLOAT),
+    F("gust_dir_x", gust.dir_x, TSK_PY_FLOAT),
+    F("gust_dir_y", gust.dir_y, TSK_PY_FLOAT),
+    F("gust_front_speed", gust.front_speed, TSK_PY_FLOAT),
+    F("seed", gust.seed, TSK_PY_U64),
+};
+#undef F
+static const tsk_py_def k_sines_def = {"wind parameter", TSK_PY_FIELDS(k_sines_fields), NULL, 0};
 
-static int set_def_key(tsk_wind_def* d, const char* key, PyObject* value) {
-    int r = set_sines_key(&d->sines, key, value);
-    if (r >= 0) return r;
-    tsk_wind_fluid_def* f = &d->fluid;
-    tsk_wind_continuum_def* c = &d->continuum;
-    struct {
-        const char* name;
-        float* field;
-    } floats[] = {{"origin_x", &f->origin_x},   {"origin_y", &f->origin_y},
-                  {"cell_size", &f->cell_size}, {"dt", &f->dt},
-                  {"speed", &f->speed},         {"viscosity", &f->viscosity},
-                  {"decay", &f->decay},         {"pressure_tolerance", &f->pressure_tolerance},
-                  {"c", &c->c},                 {"gamma", &c->gamma},
-                  {"drive", &c->drive}};
-    for (size_t i = 0; i < sizeof floats / sizeof floats[0]; ++i)
-        if (strcmp(key, floats[i].name) == 0) return get_float(value, key, floats[i].field);
-    struct {
-        const char* name;
-        int* field;
-    } ints[] = {{"nx", &f->nx},
-                {"ny", &f->ny},
-                {"pressure_iterations", &f->pressure_iterations},
-                {"diffusion_iterations", &f->diffusion_iterations}};
-    for (size_t i = 0; i < sizeof ints / sizeof ints[0]; ++i)
-        if (strcmp(key, ints[i].name) == 0) return get_int(value, key, ints[i].field);
-    if (strcmp(key, "continuum") == 0) {
-        int t = PyObject_IsTrue(value);
-        if (t < 0) return 0;
-        c->enabled = t;
-        return 1;
-    }
-    return -1;
-}
-
-/* Applies every keyword; unknown keywords are an error naming them. */
-static int apply_kwargs(PyObject* kwargs, void* target, int sines_only) {
-    if (kwargs == NULL) return 1;
-    PyObject *key, *value;
-    Py_ssize_t pos = 0;
-    while (PyDict_Next(kwargs, &pos, &key, &value)) {
-        const char* k = PyUnicode_AsUTF8AndSize(key, NULL);
-        if (k == NULL) return 0;
-        int r = sines_only ? set_sines_key(target, k, value) : set_def_key(target, k, value);
-        if (r == 0) return 0;
-        if (r < 0) {
-            tsk_py_raise_arg(k, "is not a wind parameter");
-            return 0;
-        }
-    }
-    return 1;
-}
+#define F(name, member, type) {name, type, offsetof(tsk_wind_def, member), NULL, NULL, NULL}
+static const tsk_py_field k_wind_fields[] = {
+    F("nx", fluid.nx, TSK_PY_INT),
+    F("ny", fluid.ny, TSK_PY_INT),
+    F("origin_x", fluid.origin_x, TSK_PY_FLOAT),
+    F("origin_y", fluid.origin_y, TSK_PY_FLOAT),
+    F("cell_size", fluid.cell_size, TSK_PY_FLOAT),
+    F("dt", fluid.dt, TSK_PY_FLOAT),
+    F("speed", fluid.speed, TSK_PY_FLOAT),
+    F("viscosity", fluid.viscosity, TSK_PY_FLOAT),
+    F("decay", fluid.decay, TSK_PY_FLOAT),
+    F("pressure_iterations", fluid.pressure_iterations, TSK_PY_INT),
+    F("pressure_tolerance", fluid.pressure_tolerance, TSK_PY_FLOAT),
+    F("diffusion_iterations", fluid.diffusion_iterations, TSK_PY_INT),
+    F("continuum", continuum.enabled, TSK_PY_BOOL),
+    F("c", continuum.c, TSK_PY_FLOAT),
+    F("gamma", continuum.gamma, TSK_PY_FLOAT),
+    F("drive", continuum.drive, TSK_PY_FLOAT),
+};
+#undef F
+static const tsk_py_def k_wind_def = {"wind parameter", TSK_PY_FIELDS(k_wind_fields),
+                                      &k_sines_def, offsetof(tsk_wind_def, sines)};
 
 /* ---- functions ------------------------------------------------------------------------ */
 
@@ -197,35 +93,19 @@ static PyObject* py_wind_create(PyObject* self, PyObject* args, PyObject* kwargs
     if (PyTuple_Size(args) != 0)
         return tsk_py_raise_arg("wind_create", "takes keyword arguments only");
     tsk_wind_def def = tsk_default_wind_def();
-    if (!apply_kwargs(kwargs, &def, 0)) return NULL;
+    if (!tsk_py_def_read(&k_wind_def, kwargs, &def, NULL, NULL, NULL)) return NULL;
     tsk_wind* w = NULL;
     tsk_status s;
     Py_BEGIN_ALLOW_THREADS
     s = tsk_wind_create(&def, &w);
     Py_END_ALLOW_THREADS
     if (s != TSK_OK) return tsk_py_raise(s);
-    wind_box* box = PyMem_Malloc(sizeof *box);
-    if (box == NULL) {
-        tsk_wind_destroy(w);
-        return PyErr_NoMemory();
-    }
-    box->wind = w;
-    box->busy = 0;
-    PyObject* cap = PyCapsule_New(box, CAPSULE_NAME, capsule_free);
-    if (cap == NULL) {
-        tsk_wind_destroy(w);
-        PyMem_Free(box);
-    }
-    return cap;
+    return tsk_py_handle_new(&k_wind, w);
 }
 
 static PyObject* py_wind_destroy(PyObject* self, PyObject* capsule) {
     (void)self;
-    wind_box* box = acquire(capsule);
-    if (box == NULL) return NULL;
-    tsk_wind_destroy(box->wind);
-    box->wind = NULL;
-    release(box);
+    if (!tsk_py_handle_close(capsule, &k_wind)) return NULL;
     Py_RETURN_NONE;
 }
 
@@ -235,11 +115,10 @@ static PyObject* py_wind_set_sines(PyObject* self, PyObject* args, PyObject* kwa
     double start, blend;
     if (!PyArg_ParseTuple(args, "Odd:wind_set_sines", &capsule, &start, &blend)) return NULL;
     tsk_wind_sines_def sd = tsk_default_wind_sines_def();
-    if (!apply_kwargs(kwargs, &sd, 1)) return NULL;
-    wind_box* box = acquire(capsule);
+    if (!tsk_py_def_read(&k_sines_def, kwargs, &sd, NULL, NULL, NULL)) return NULL;
+    tsk_py_handle* box = tsk_py_handle_get(capsule, &k_wind);
     if (box == NULL) return NULL;
-    tsk_status s = tsk_wind_set_sines(box->wind, &sd, start, blend);
-    release(box);
+    tsk_status s = tsk_wind_set_sines(box->ptr, &sd, start, blend);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -278,10 +157,9 @@ static PyObject* py_wind_set_sources(PyObject* self, PyObject* args) {
         src[i].start = q[7];
     }
     PyBuffer_Release(&view);
-    wind_box* box = acquire(capsule);
+    tsk_py_handle* box = tsk_py_handle_get(capsule, &k_wind);
     if (box == NULL) return NULL;
-    tsk_status s = tsk_wind_set_sources(box->wind, src, count);
-    release(box);
+    tsk_status s = tsk_wind_set_sources(box->ptr, src, count);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -291,33 +169,28 @@ static PyObject* py_wind_step(PyObject* self, PyObject* args) {
     PyObject* capsule;
     int steps;
     if (!PyArg_ParseTuple(args, "Oi:wind_step", &capsule, &steps)) return NULL;
-    wind_box* box = acquire(capsule);
+    tsk_py_handle* box = tsk_py_handle_get(capsule, &k_wind);
     if (box == NULL) return NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_wind_step(box->wind, steps);
-    Py_END_ALLOW_THREADS
-    release(box);
+    TSK_PY_UNLOCKED(box, s = tsk_wind_step(box->ptr, steps));
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
 
 static PyObject* py_wind_time(PyObject* self, PyObject* capsule) {
     (void)self;
-    wind_box* box = acquire(capsule);
+    tsk_py_handle* box = tsk_py_handle_get(capsule, &k_wind);
     if (box == NULL) return NULL;
-    const double t = tsk_wind_time(box->wind);
-    release(box);
+    const double t = tsk_wind_time(box->ptr);
     return PyFloat_FromDouble(t);
 }
 
 static PyObject* py_wind_grid_size(PyObject* self, PyObject* capsule) {
     (void)self;
-    wind_box* box = acquire(capsule);
+    tsk_py_handle* box = tsk_py_handle_get(capsule, &k_wind);
     if (box == NULL) return NULL;
     int nx, ny;
-    tsk_wind_grid_size(box->wind, &nx, &ny);
-    release(box);
+    tsk_wind_grid_size(box->ptr, &nx, &ny);
     return Py_BuildValue("(ii)", nx, ny);
 }
 
@@ -340,13 +213,11 @@ static PyObject* py_wind_sample(PyObject* self, PyObject* args) {
                     tsk_py_views_get(&v, vyo, "vy", TSK_PY_F32, n, 1, 0, (void**)&vy) &&
                     tsk_py_views_get(&v, sxo, "sway_x", TSK_PY_F32, n, 1, 1, (void**)&sx) &&
                     tsk_py_views_get(&v, syo, "sway_y", TSK_PY_F32, n, 1, 1, (void**)&sy);
-    wind_box* box = got ? acquire(capsule) : NULL;
+    tsk_py_handle* box = got ? tsk_py_handle_get(capsule, &k_wind) : NULL;
     tsk_status s = TSK_OK;
     if (box != NULL) {
-        Py_BEGIN_ALLOW_THREADS
-        s = tsk_wind_sample(box->wind, t, (size_t)n, x, y, vx, vy, sx, sy);
-        Py_END_ALLOW_THREADS
-        release(box);
+        TSK_PY_UNLOCKED(box,
+                        s = tsk_wind_sample(box->ptr, t, (size_t)n, x, y, vx, vy, sx, sy));
     }
     tsk_py_views_release(&v);
     if (box == NULL) return NULL;
@@ -370,13 +241,11 @@ static PyObject* py_wind_sample_xyz(PyObject* self, PyObject* args) {
     }
     const int got = tsk_py_views_get(&v, vo, "vel_xyz", TSK_PY_F32, n3, 1, 0, (void**)&vel) &&
                     tsk_py_views_get(&v, so, "sway_xyz", TSK_PY_F32, n3, 1, 1, (void**)&sw);
-    wind_box* box = got ? acquire(capsule) : NULL;
+    tsk_py_handle* box = got ? tsk_py_handle_get(capsule, &k_wind) : NULL;
     tsk_status s = TSK_OK;
     if (box != NULL) {
-        Py_BEGIN_ALLOW_THREADS
-        s = tsk_wind_sample_xyz(box->wind, t, (size_t)(n3 / 3), p, vel, sw);
-        Py_END_ALLOW_THREADS
-        release(box);
+        TSK_PY_UNLOCKED(box,
+                        s = tsk_wind_sample_xyz(box->ptr, t, (size_t)(n3 / 3), p, vel, sw));
     }
     tsk_py_views_release(&v);
     if (box == NULL) return NULL;
@@ -387,25 +256,21 @@ static PyObject* py_wind_sample_xyz(PyObject* self, PyObject* args) {
 static PyObject* read_grid(PyObject* args, const char* fmt, int continuum) {
     PyObject *capsule, *ao, *bo;
     if (!PyArg_ParseTuple(args, fmt, &capsule, &ao, &bo)) return NULL;
-    wind_box* box = acquire(capsule);
+    tsk_py_handle* box = tsk_py_handle_get(capsule, &k_wind);
     if (box == NULL) return NULL;
     int nx, ny;
-    tsk_wind_grid_size(box->wind, &nx, &ny);
+    tsk_wind_grid_size(box->ptr, &nx, &ny);
     const Py_ssize_t n = (Py_ssize_t)nx * ny;
     tsk_py_views v = {.n = 0};
     float *a, *b;
     if (!tsk_py_views_get(&v, ao, continuum ? "px" : "vx", TSK_PY_F32, n, 1, 0, (void**)&a) ||
         !tsk_py_views_get(&v, bo, continuum ? "py" : "vy", TSK_PY_F32, n, 1, 0, (void**)&b)) {
         tsk_py_views_release(&v);
-        release(box);
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = continuum ? tsk_wind_read_continuum(box->wind, a, b, (size_t)n)
-                  : tsk_wind_read_fluid(box->wind, a, b, (size_t)n);
-    Py_END_ALLOW_THREADS
-    release(box);
+    TSK_PY_UNLOCKED(box, s = continuum ? tsk_wind_read_continuum(box->ptr, a, b, (size_t)n)
+                  : tsk_wind_read_fluid(box->ptr, a, b, (size_t)n));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -423,25 +288,20 @@ static PyObject* py_wind_read_continuum(PyObject* self, PyObject* args) {
 
 static PyObject* py_wind_save_state(PyObject* self, PyObject* capsule) {
     (void)self;
-    wind_box* box = acquire(capsule);
+    tsk_py_handle* box = tsk_py_handle_get(capsule, &k_wind);
     if (box == NULL) return NULL;
-    const size_t n = tsk_wind_state_size(box->wind);
+    const size_t n = tsk_wind_state_size(box->ptr);
     PyObject* out = PyBytes_FromStringAndSize(NULL, (Py_ssize_t)n);
     if (out == NULL) {
-        release(box);
         return NULL;
     }
     char* buf = PyBytes_AsString(out);
     if (buf == NULL) {
-        release(box);
         Py_DECREF(out);
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_wind_save_state(box->wind, buf, n);
-    Py_END_ALLOW_THREADS
-    release(box);
+    TSK_PY_UNLOCKED(box, s = tsk_wind_save_state(box->ptr, buf, n));
     if (s != TSK_OK) {
         Py_DECREF(out);
         return tsk_py_raise(s);
@@ -455,16 +315,13 @@ static PyObject* py_wind_load_state(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "OO:wind_load_state", &capsule, &obj)) return NULL;
     Py_buffer view;
     if (!tsk_py_buffer(obj, "state", TSK_PY_U8, -1, 0, &view)) return NULL;
-    wind_box* box = acquire(capsule);
+    tsk_py_handle* box = tsk_py_handle_get(capsule, &k_wind);
     if (box == NULL) {
         PyBuffer_Release(&view);
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_wind_load_state(box->wind, view.buf, (size_t)view.len);
-    Py_END_ALLOW_THREADS
-    release(box);
+    TSK_PY_UNLOCKED(box, s = tsk_wind_load_state(box->ptr, view.buf, (size_t)view.len));
     PyBuffer_Release(&view);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -472,37 +329,48 @@ static PyObject* py_wind_load_state(PyObject* self, PyObject* args) {
 
 PyMethodDef tsk_py_wind_methods[] = {
     {"wind_create", (PyCFunction)(void (*)(void))py_wind_create, METH_VARARGS | METH_KEYWORDS,
-     "wind_create(**params) -> handle. Keywords (defaults from tsk_default_wind_def): base_x, "
-     "base_y, waves (float32, 7 per wave: amplitude, dir_x, dir_y, wavelength, speed, phase, "
-     "power), gust_strength, gust_interval, gust_duration, gust_dir_x, gust_dir_y, "
-     "gust_front_speed, seed; nx, ny (0, 0 = no grid), origin_x, origin_y, cell_size, dt, speed, "
-     "viscosity, decay, pressure_iterations, pressure_tolerance, diffusion_iterations; "
-     "continuum (bool), c, gamma, drive."},
-    {"wind_destroy", py_wind_destroy, METH_O, "wind_destroy(handle): frees the wind now."},
+     "wind_create($module, **params)\n--\n\n"
+     "-> handle. Keywords (defaults from tsk_default_wind_def): base_x, base_y, waves "
+     "(float32, 7 per wave: amplitude, dir_x, dir_y, wavelength, speed, phase, power), "
+     "gust_strength, gust_interval, gust_duration, gust_dir_x, gust_dir_y, gust_front_speed, "
+     "seed; nx, ny (0, 0 = no grid), origin_x, origin_y, cell_size, dt, speed, viscosity, "
+     "decay, pressure_iterations, pressure_tolerance, diffusion_iterations; continuum (bool), "
+     "c, gamma, drive."},
+    {"wind_destroy", py_wind_destroy, METH_O, "wind_destroy($module, handle, /)\n--\n\n"
+     "frees the wind now."},
     {"wind_set_sines", (PyCFunction)(void (*)(void))py_wind_set_sines,
      METH_VARARGS | METH_KEYWORDS,
-     "wind_set_sines(handle, start_time, blend_time, **sines): cross-fades to new breeze, waves "
-     "and gusts (same keywords as wind_create; unset ones take the defaults)."},
+     "wind_set_sines($module, handle, start_time, blend_time, /, **sines)\n--\n\n"
+     "cross-fades to new breeze, waves and gusts (same keywords as wind_create; unset ones "
+     "take the defaults)."},
     {"wind_set_sources", py_wind_set_sources, METH_VARARGS,
-     "wind_set_sources(handle, sources): float32, 8 per source: x, y, dir_x, dir_y, strength, "
-     "radius, interval, start."},
-    {"wind_step", py_wind_step, METH_VARARGS, "wind_step(handle, steps): advances fluid+continuum."},
-    {"wind_time", py_wind_time, METH_O, "wind_time(handle) -> float: simulation time, s."},
+     "wind_set_sources($module, handle, sources, /)\n--\n\n"
+     "float32, 8 per source: x, y, dir_x, dir_y, strength, radius, interval, start."},
+    {"wind_step", py_wind_step, METH_VARARGS, "wind_step($module, handle, steps, /)\n--\n\n"
+     "advances fluid+continuum."},
+    {"wind_time", py_wind_time, METH_O, "wind_time($module, handle, /)\n--\n\n"
+     "-> float: simulation time, s."},
     {"wind_save_state", py_wind_save_state, METH_O,
-     "wind_save_state(handle) -> bytes: the wind's state (clock, sines, sources, fluid, "
-     "continuum), about 28 bytes per grid cell."},
+     "wind_save_state($module, handle, /)\n--\n\n"
+     "-> bytes: the wind's state (clock, sines, sources, fluid, continuum), about 28 bytes per"
+     " grid cell."},
     {"wind_load_state", py_wind_load_state, METH_VARARGS,
-     "wind_load_state(handle, state): restores a state saved from a wind of the same fluid and "
-     "continuum settings; it then steps and samples bit for bit as the saving wind did."},
-    {"wind_grid_size", py_wind_grid_size, METH_O, "wind_grid_size(handle) -> (nx, ny)."},
+     "wind_load_state($module, handle, state, /)\n--\n\n"
+     "restores a state saved from a wind of the same fluid and continuum settings; it then "
+     "steps and samples bit for bit as the saving wind did."},
+    {"wind_grid_size", py_wind_grid_size, METH_O, "wind_grid_size($module, handle, /)\n--\n\n"
+     "-> (nx, ny)."},
     {"wind_sample", py_wind_sample, METH_VARARGS,
-     "wind_sample(handle, t, x, y, vx, vy[, sway_x, sway_y]): float32 arrays of one length; "
-     "writes the wind (m/s) and optionally the continuum sway."},
+     "wind_sample($module, handle, t, x, y, vx, vy, sway_x=None, sway_y=None, /)\n--\n\n"
+     "float32 arrays of one length; writes the wind (m/s) and optionally the continuum sway."},
     {"wind_sample_xyz", py_wind_sample_xyz, METH_VARARGS,
-     "wind_sample_xyz(handle, t, xyz, vel_xyz[, sway_xyz]): float32, 3 per point."},
+     "wind_sample_xyz($module, handle, t, xyz, vel_xyz, sway_xyz=None, /)\n--\n\n"
+     "float32, 3 per point."},
     {"wind_read_fluid", py_wind_read_fluid, METH_VARARGS,
-     "wind_read_fluid(handle, vx, vy): float32 nx*ny each, normalised fluid velocity at centres."},
+     "wind_read_fluid($module, handle, vx, vy, /)\n--\n\n"
+     "float32 nx*ny each, normalised fluid velocity at centres."},
     {"wind_read_continuum", py_wind_read_continuum, METH_VARARGS,
-     "wind_read_continuum(handle, px, py): float32 nx*ny each, continuum Vp at centres."},
+     "wind_read_continuum($module, handle, px, py, /)\n--\n\n"
+     "float32 nx*ny each, continuum Vp at centres."},
     {NULL, NULL, 0, NULL},
 };
