@@ -450,30 +450,30 @@ TEST(test_sim_wind_per_blade_equals_wind_per_knot) {
     CHECK_MSG(moved > 1e-3, "the wind moved the knots by only %g m", moved);
 }
 
-/* The AVX-512, AVX2 and portable kernels (those the CPU has) give the same bytes: only IEEE
- * operations (fused multiply-adds written out, each rounded once) and exact conversions. */
+/* The AVX-512, AVX2 and portable kernels (those the CPU has; the portable one alone in a
+ * TSK_NO_SIMD build), with 1 and 2 threads, give one fixed set of bytes: only IEEE operations
+ * (fused multiply-adds written out, each rounded once) and exact conversions. */
 /* run_scene's knots (see tsk_test_fnv): after 60 steps, or the 20 of sanitizer builds */
 static const uint64_t SIM_GOLDEN = SLOW ? 0x1c223f70f1fc435aull : 0x66035a88af18230dull;
 
 TEST(test_sim_kernel_paths_give_identical_bytes) {
     const size_t n = (size_t)36 * 40 * K16 * 3;
     float* a = malloc(sizeof(float) * n);
-    float* b = malloc(sizeof(float) * n);
-    size_t na = 0, nb = 0;
-    run_scene(2, a, &na); /* the best kernel */
-    const uint64_t h = tsk_test_fnv(a, sizeof(float) * na, TSK_TEST_FNV_START);
-    CHECK_MSG(h == SIM_GOLDEN, "the solver's bytes changed: hash %#018llx", (unsigned long long)h);
-    for (int path = 1; path <= 2; ++path) {
-        tsk_sim_kernel_path = path; /* 1 portable, 2 at most AVX2 */
-        run_scene(2, b, &nb);
-        tsk_sim_kernel_path = 0;
-        CHECK(na == n && nb == n);
-        size_t differ = 0;
-        for (size_t i = 0; i < n; ++i) differ += memcmp(a + i, b + i, sizeof(float)) != 0;
-        CHECK_MSG(differ == 0, "path %d: %zu of %zu floats differ", path, differ, n);
+    static const int paths[] = {TSK_SIMD_BEST, TSK_SIMD_PORTABLE, TSK_SIMD_AT_MOST_AVX2};
+    static const char* names[] = {"best", "portable", "at most AVX2"};
+    for (int p = 0; p < 3; ++p) {
+        tsk_simd_force(paths[p]);
+        for (int threads = 1; threads <= 2; ++threads) {
+            size_t na = 0;
+            run_scene(threads, a, &na);
+            CHECK(na == n);
+            const uint64_t h = tsk_test_fnv(a, sizeof(float) * na, TSK_TEST_FNV_START);
+            CHECK_MSG(h == SIM_GOLDEN, "%s kernel (%d), %d threads: the solver's bytes changed: hash %#018llx",
+                      names[p], tsk_simd_isa(), threads, (unsigned long long)h);
+        }
     }
+    tsk_simd_force(TSK_SIMD_BEST);
     free(a);
-    free(b);
 }
 
 /* Rest blades of tile t in a grid with the given def: n blades inside the tile square. */
@@ -718,7 +718,7 @@ TEST(test_sim_ribbons_are_the_expanded_knots) {
     const int64_t ranges[][2] = {{0, NA}, {3, 70}, {69, 2}, {70, 1}, {100, 35}, {134, 1}, {31, 34}};
     size_t moved = 0;
     for (int path = 0; path <= 2; ++path) {
-        tsk_sim_kernel_path = path; /* 0 the best, 1 portable, 2 at most AVX2 */
+        tsk_simd_force(path); /* 0 the best, 1 portable, 2 at most AVX2 */
         for (size_t r = 0; r < sizeof ranges / sizeof ranges[0]; ++r) {
             const int64_t f = ranges[r][0], n = ranges[r][1];
             CHECK(tsk_blades_expand(all + f * K16 * 3, w + f * K16, sd + 3 * f, (size_t)n, K16,
@@ -735,7 +735,7 @@ TEST(test_sim_ribbons_are_the_expanded_knots) {
             }
         }
     }
-    tsk_sim_kernel_path = 0;
+    tsk_simd_force(TSK_SIMD_BEST);
     for (int i = 0; i < NA * K16 * 3; ++i) moved += all[i] != rest[i];
     CHECK_MSG(moved > NA * K16, "only %zu knot coordinates moved", moved);
     { /* runs in any order, across blocks and tiles, empty ones and one blade twice: run by run

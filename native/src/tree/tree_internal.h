@@ -265,8 +265,8 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
     *O_out = v3_scale(side, -1.0f);
 }
 
-/* Tests set these to 1 to run the wind step / the deformer through the scalar path only;
- * tree_wind_force_scalar = 2 keeps the wind step on the 4-wide SSE path (no AVX2). */
+/* Tests set these to 1 to run the wind step / the deformer one branch (one vertex) at a time;
+ * which vector kernel runs otherwise is tsk_simd_force's (core/simd.h). */
 extern int tree_wind_force_scalar;
 extern int tree_mesh_force_scalar;
 
