@@ -408,6 +408,7 @@ static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx
             }
 #else
             const int stream = 0;
+            (void)row_buf; /* only the streaming path samples into it */
 #endif
             sample_row(c, sxs, sys, dst_row, stream);
         }
