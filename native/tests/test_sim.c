@@ -23,6 +23,22 @@
 
 #define K16 16
 
+/* Every step of these tests is followed by a check of the simulation's tile lists and active
+ * tiles (tsk_sim_lists_problem): a step that leaves them inconsistent fails the test that made
+ * it. */
+static int validated_steps;
+static tsk_status step_and_validate(tsk_blade_sim* sim, float dt, const float* wind,
+                                    tsk_wind_layout layout) {
+    const tsk_status s = (tsk_blade_sim_step)(sim, dt, wind, layout);
+    if (sim) {
+        const char* problem = tsk_sim_lists_problem(sim);
+        CHECK_MSG(problem == NULL, "after a step: %s", problem);
+        ++validated_steps;
+    }
+    return s;
+}
+#define tsk_blade_sim_step step_and_validate
+
 /* An analytic blade (the meadow's default shape): with t = k/(K-1), height H, lean e,
  * turned by `turn` about +z:  local (e H t^2, 0, H t), width W (1 - t^3). */
 static void make_blade(int K, const float root[3], float H, float lean, float turn, float* knots,
@@ -678,6 +694,72 @@ TEST(test_sim_all_knots_are_the_tiles_knots_in_order) {
  * tsk_blade_sim_get_knots gives, for any range of the active blades (tiles of 70, 1 and 64
  * blades: ranges that start and end inside blocks and tiles), with every kernel; bad widths
  * and sides are reported for the first bad blade, ranges beyond the active blades refused. */
+/* tsk_sim_validate accepts the lists a meadow's steps leave (active, forced, pending and touched
+ * tiles, a collider moving across the grid) and names each list that is corrupted: out of order,
+ * outside the grid, an active tile still pending, blocks that do not match the blades. */
+TEST(test_sim_validate_finds_corrupt_tile_lists) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.tiles_x = def.tiles_y = 6;
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    if (!sim) return;
+    enum { NB = 40 };
+    static float knots[NB * K16 * 3], widths[NB * K16], sides[NB * 3];
+    const int32_t want[] = {1, 2, 7, 20, 33};
+    for (int i = 0; i < 5; ++i) CHECK(tsk_blade_sim_activate_tile(sim, want[i]) == TSK_OK);
+    for (int i = 0; i < 3; ++i) { /* 20 and 33 stay forced and pending */
+        tile_blades(&def, want[i], NB - 7 * i, knots, widths, sides);
+        CHECK(tsk_blade_sim_provide_tile(sim, want[i], NB - 7 * i, knots, widths, sides) == TSK_OK);
+    }
+    const int before = validated_steps;
+    const float wind[3] = {2.0f, 0.5f, 0.0f};
+    for (int s = 0; s < 8; ++s) { /* a capsule rolling over tiles 12.. 16 */
+        tsk_blade_collider c = {TSK_COLLIDER_CAPSULE, 0.2f, {0.2f + 0.25f * (float)s, 1.2f, 0.1f},
+                                {0.6f + 0.25f * (float)s, 1.3f, 0.1f}};
+        CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    }
+    CHECK_MSG(validated_steps == before + 8, "%d steps validated", validated_steps - before);
+    CHECK_MSG(sim->tile_count == 3 && sim->forced_count == 2 && sim->touched_count >= 2 &&
+                  sim->pending_count >= 4,
+              "scene: %d active, %d forced, %d touched, %d pending", sim->tile_count,
+              sim->forced_count, sim->touched_count, sim->pending_count);
+    CHECK(tsk_sim_validate(sim) == TSK_OK);
+    if (sim->tile_count < 2 || sim->forced_count < 2 || sim->touched_count < 2 || sim->pending_count < 2) {
+        tsk_blade_sim_destroy(sim);
+        return;
+    }
+    int32_t* lists[3] = {sim->pending, sim->forced, sim->touched};
+    const char* names[3] = {"pending", "forced", "touched"};
+    for (int l = 0; l < 3; ++l) {
+        int32_t* v = lists[l];
+        const int32_t a = v[0], b = v[1];
+        v[0] = b, v[1] = a; /* out of order */
+        CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, names[l]);
+        v[0] = b, v[1] = b; /* a tile twice */
+        CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "ascend");
+        v[0] = -1, v[1] = b; /* outside the grid */
+        CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "outside");
+        v[0] = a, v[1] = b;
+        CHECK(tsk_sim_validate(sim) == TSK_OK);
+    }
+    sim_tile* t = sim->tiles;
+    const int32_t i0 = t[0].index, i1 = t[1].index;
+    t[0].index = i1, t[1].index = i0;
+    CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "active tiles");
+    t[0].index = i0, t[1].index = i1;
+    t[1].block_count += 1;
+    CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "block count");
+    t[1].block_count -= 1;
+    const int32_t p0 = sim->pending[0], np = sim->pending_count;
+    sim->pending[0] = i0, sim->pending_count = 1; /* an active tile pending */
+    CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "active tile is pending");
+    sim->pending[0] = p0, sim->pending_count = np;
+    CHECK(tsk_sim_validate(sim) == TSK_OK);
+    CHECK_STATUS(tsk_sim_validate(NULL), TSK_ERR_INTERNAL, "no simulation");
+    tsk_blade_sim_destroy(sim);
+}
+
 TEST(test_sim_ribbons_are_the_expanded_knots) {
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
     def.tiles_x = def.tiles_y = 4;
@@ -1158,6 +1240,7 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_ground_never_penetrated),
           TEST_ENTRY(test_sim_identical_bytes_with_1_and_2_threads),
           TEST_ENTRY(test_sim_kernel_paths_give_identical_bytes),
+          TEST_ENTRY(test_sim_validate_finds_corrupt_tile_lists),
           TEST_ENTRY(test_sim_wind_per_blade_equals_wind_per_knot),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),

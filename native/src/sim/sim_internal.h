@@ -75,6 +75,34 @@ typedef struct sim_tile {
     size_t bytes;         /* bytes held by blocks + bounds */
 } sim_tile;
 
+/* The simulation (tiles.c). Its four tile lists ascend strictly, and pending is
+ * (touched U forced) minus the active tiles (tsk_sim_lists_problem checks them). */
+struct tsk_blade_sim {
+    tsk_blade_sim_def def;
+    int32_t K;
+    sim_tile* tiles; /* active tiles, ascending index; tile_cap allocated */
+    int32_t tile_count, tile_cap;
+    int32_t* pending; /* ascending */
+    int32_t pending_count;
+    int32_t* forced; /* activate_tile requests not yet provided, ascending */
+    int32_t forced_count;
+    int32_t* touched; /* tiles touched by the current colliders, ascending */
+    int32_t touched_count;
+    sim_collider* cols;
+    int32_t collider_count;
+    float bin_pad; /* how far any active tile's reach box extends beyond its square, metres */
+};
+
+/* NULL when the tile lists and the active tiles' records are consistent, else what is wrong
+ * (for TSK_ASSERT and the tests): every list ascends strictly within [0, tiles_x tiles_y), a
+ * list with entries is allocated, no tile is both active and pending or forced, every pending
+ * tile is touched or forced, and each active tile's blocks match its blade count. After an
+ * allocation failure pending may lack tiles, so that direction is not checked. */
+const char* tsk_sim_lists_problem(const tsk_blade_sim* sim);
+
+/* TSK_OK, or TSK_ERR_INTERNAL with tsk_sim_lists_problem's answer as the message. */
+tsk_status tsk_sim_validate(const tsk_blade_sim* sim);
+
 /* What the kernel needs from a step, the same for every block. */
 typedef struct sim_step_params {
     int32_t K;
