@@ -9,11 +9,11 @@
  *
  * The includer defines SIM_KFN(name) (the name with its instruction set's suffix) and, before
  * its first include, one of TSK_SIMD_KERNEL_AVX512 (16 lanes per vector), TSK_SIMD_KERNEL_AVX2
- * (8) or neither (portable, 4): core/simd.h decides. Every value is a vector of LN lanes (GCC/Clang vector extensions of the machine's own width, so
- * comparisons and selects stay vector instructions); a block is worked in SIM_W / LN slices,
- * two at a time, so that the serial root-to-tip chains of the two overlap (one slice alone
- * leaves the vector units waiting on the chain's latency; wider values make GCC keep them in
- * memory), and all of them at once in the length iterations of a block with no collider near.
+ * (8) or neither (portable, 4): core/simd.h decides. Every value is a vector of LN lanes
+ * (GCC/Clang vector extensions of the machine's own width, so comparisons and selects stay
+ * vector instructions); a block is worked in SIM_W / LN slices, two at a time, so that the
+ * serial root-to-tip chains of the two overlap (one slice alone leaves the vector units waiting
+ * on the chain's latency; wider values make GCC keep them in memory), and all of them at once in the length iterations of a block with no collider near.
  * Only IEEE add, sub, mul, div, sqrt, fused multiply-add (written out: fmadd, fnmadd, fmsub),
  * comparisons, min/max as (a > b ? a : b) and exact conversions are used, and -ffp-contract=off
  * keeps the compiler from fusing anything else, so every instruction set computes the same bits

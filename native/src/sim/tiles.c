@@ -120,21 +120,26 @@ const char* tsk_sim_lists_problem(const tsk_blade_sim* sim) {
         return snprintf(msg, sizeof msg, "the forced list %s", p), msg;
     if ((p = list_problem(sim->touched, sim->touched_count, tiles)))
         return snprintf(msg, sizeof msg, "the touched list %s", p), msg;
-    if (sim->tile_count < 0 || sim->tile_count > sim->tile_cap || (sim->tile_count > 0 && !sim->tiles))
+    if (sim->tile_count < 0 || sim->tile_count > sim->tile_cap ||
+        (sim->tile_count > 0 && !sim->tiles))
         return "active tiles: count beyond the array";
     const size_t bf = SIM_BLOCK_FLOATS(sim->K);
     for (int32_t i = 0; i < sim->tile_count; ++i) {
         const sim_tile* t = &sim->tiles[i];
         if (t->index < 0 || t->index >= tiles) return "active tiles: a tile outside the grid";
-        if (i > 0 && t->index <= sim->tiles[i - 1].index) return "active tiles: not ascending strictly";
+        if (i > 0 && t->index <= sim->tiles[i - 1].index)
+            return "active tiles: not ascending strictly";
         if (t->blade_count < 0 || t->block_count != (t->blade_count + SIM_W - 1) / SIM_W)
             return "active tiles: block count does not match the blade count";
-        if ((t->block_count > 0) != (t->blocks != NULL) || (t->block_count > 0) != (t->bounds != NULL))
+        const int has_blocks = t->block_count > 0;
+        if (has_blocks != (t->blocks != NULL) || has_blocks != (t->bounds != NULL))
             return "active tiles: blocks allocated without blades, or blades without blocks";
         if (t->bytes != (size_t)t->block_count * (bf + 6) * sizeof(float))
             return "active tiles: bytes held do not match the blocks";
-        if (find_i32(sim->forced, sim->forced_count, t->index) >= 0) return "an active tile is forced";
-        if (find_i32(sim->pending, sim->pending_count, t->index) >= 0) return "an active tile is pending";
+        if (find_i32(sim->forced, sim->forced_count, t->index) >= 0)
+            return "an active tile is forced";
+        if (find_i32(sim->pending, sim->pending_count, t->index) >= 0)
+            return "an active tile is pending";
     }
     for (int32_t i = 0; i < sim->pending_count; ++i)
         if (find_i32(sim->touched, sim->touched_count, sim->pending[i]) < 0 &&

@@ -162,7 +162,8 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
                            wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k + 1)),
                            wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k + 2))};
         for (int k = 0; k < 3; ++k) {
-            S[k] = (wk_v3){wk_gather(fr, pi, 18, (size_t)(3 * k)), wk_gather(fr, pi, 18, (size_t)(3 * k + 1)),
+            S[k] = (wk_v3){wk_gather(fr, pi, 18, (size_t)(3 * k)),
+                           wk_gather(fr, pi, 18, (size_t)(3 * k + 1)),
                            wk_gather(fr, pi, 18, (size_t)(3 * k + 2))};
             T[k] = (wk_v3){wk_gather(fr, pi, 18, (size_t)(9 + 3 * k)),
                            wk_gather(fr, pi, 18, (size_t)(9 + 3 * k + 1)),
