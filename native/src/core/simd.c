@@ -9,7 +9,7 @@
 static atomic_int g_path = -1; /* -1: TSK_SIMD not read yet */
 
 void tsk_simd_force(int path) {
-    atomic_store_explicit(&g_path, path, memory_order_relaxed);
+    atomic_store_explicit(&g_path, path < 0 ? -1 : path, memory_order_relaxed);
 }
 
 static int forced_path(void) {

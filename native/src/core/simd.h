@@ -62,6 +62,7 @@ enum { TSK_ISA_PORTABLE = 0, TSK_ISA_AVX2 = 1, TSK_ISA_AVX512 = 2 };
  * one, TSK_SIMD_AT_MOST_AVX2 AVX2 where the CPU has it. Tests set it to run every path; the
  * environment variable TSK_SIMD (best, portable, avx2) sets it when the library first asks. */
 enum { TSK_SIMD_BEST = 0, TSK_SIMD_PORTABLE = 1, TSK_SIMD_AT_MOST_AVX2 = 2 };
+/* Forces a path; a negative one makes the next call read TSK_SIMD again. */
 void tsk_simd_force(int path);
 
 /* The kernel unit to run now (TSK_ISA_*): what the CPU has, within the forced path. */
