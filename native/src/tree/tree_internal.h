@@ -161,8 +161,9 @@ static inline void tree_store3(float* a, size_t i, v3 v) {
     a[3 * i + 2] = v.z;
 }
 
-/* m^e for m > 0 through exp2(e log2 m), with series that the SSE path of the wind step
- * repeats operation for operation (so both give the same bytes); relative error < 1e-5.
+/* m^e for m > 0 through exp2(e log2 m), with series that the wind step's block kernel
+ * (wind_kernel_impl.h) repeats operation for operation (so both give the same bytes); relative
+ * error < 1e-5.
  * Used for the bend factor of seed 001, eq. 16, where powf was a third of the step. */
 static inline float bend_pow(float m, float e) {
     union { float f; uint32_t u; } b = {m};
