@@ -89,6 +89,13 @@ build_asan() {
   quiet cmake --build "$BUILD/asan" || die "sanitizer build failed"
 }
 
+# The library and its tests with TSK_NO_SIMD (native/src/core/simd.h): only the portable
+# kernels and branches, which other targets run and an x86-64 build otherwise never compiles.
+build_nosimd() {
+  configure "$BUILD/nosimd" -DCMAKE_BUILD_TYPE=Release -DTSK_NO_SIMD=ON -DTSK_PYTHON=OFF
+  quiet cmake --build "$BUILD/nosimd" || die "no-SIMD build failed"
+}
+
 # libFuzzer targets (native/fuzz/fuzz_*.c) in their own build dir: ASan + UBSan + coverage.
 build_fuzz() {
   configure "$BUILD/fuzz" -DCMAKE_BUILD_TYPE=Debug -DTSK_FUZZ=ON \
@@ -279,8 +286,8 @@ parse_blenders() { # default list, args...
   for m in "${MAJORS[@]}"; do suite_of "$m" >/dev/null; done
 }
 
-# ./build.sh test: the native suites (release, ASan+UBSan, valgrind, a short fuzz) and the
-# Blender suite in Blenders 3.4, 4.3 and 5.x. With --blender N[,N...] only the Blender suite
+# ./build.sh test: the native suites (release, ASan+UBSan, no-SIMD, valgrind, a short fuzz) and
+# the Blender suite in Blenders 3.4, 4.3 and 5.x. With --blender N[,N...] only the Blender suite
 # in those Blenders (quick work on one version).
 cmd_test() {
   local t0 t1 m prep_log="" prep_pid=""
@@ -308,6 +315,8 @@ cmd_test() {
     run_native_tests "$BUILD/release" native
     run_native_tests "$BUILD/asan" asan+ubsan
     unset ASAN_OPTIONS UBSAN_OPTIONS
+    build_nosimd
+    run_native_tests "$BUILD/nosimd" nosimd
     # valgrind memcheck (TSK_VALGRIND=0 skips)
     if [ "${TSK_VALGRIND:-1}" != 0 ]; then
       run_valgrind_tests "$BUILD/release"

@@ -5,6 +5,7 @@
 #include "test.h"
 #include "tussock/core.h"
 #include "core/exr_header.h"
+#include "core/simd.h"
 #include "core/file.h"
 
 #include <stdint.h>
@@ -610,6 +611,43 @@ TEST(test_fopen_regular_refuses_what_would_block_or_never_end) {
     if (f != NULL) fclose(f);
 }
 
+/* TSK_SIMD in the environment narrows the kernel units the library runs (core/simd.h):
+ * "portable" the portable one, "avx2" at most AVX2; unset or not understood, the widest the CPU
+ * has; tsk_simd_force wins over it. */
+TEST(test_simd_variable_forces_the_kernel_path) {
+    const char* outer = getenv("TSK_SIMD"); /* a run that narrows every test keeps its choice */
+    char saved[32] = "";
+    if (outer) snprintf(saved, sizeof saved, "%s", outer);
+    CHECK(unsetenv("TSK_SIMD") == 0);
+    tsk_simd_force(-1);
+    const int best = tsk_simd_isa();
+    static const struct {
+        const char* value;
+        int most;
+    } cases[] = {{"portable", TSK_ISA_PORTABLE}, {"avx2", TSK_ISA_AVX2}, {"avx-9000", TSK_ISA_AVX512}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        CHECK(setenv("TSK_SIMD", cases[i].value, 1) == 0);
+        tsk_simd_force(-1); /* read the variable again */
+        const int want = best < cases[i].most ? best : cases[i].most;
+        CHECK_MSG(tsk_simd_isa() == want, "TSK_SIMD=%s: kernel %d, expected %d", cases[i].value,
+                  tsk_simd_isa(), want);
+    }
+    tsk_simd_force(TSK_SIMD_BEST);
+    CHECK(tsk_simd_isa() == best);
+    CHECK(unsetenv("TSK_SIMD") == 0);
+    tsk_simd_force(-1);
+    CHECK(tsk_simd_isa() == best);
+#if TSK_SIMD_X86_PATHS
+    CHECK(best == (__builtin_cpu_supports("x86-64-v4")   ? TSK_ISA_AVX512
+                   : __builtin_cpu_supports("x86-64-v3") ? TSK_ISA_AVX2
+                                                         : TSK_ISA_PORTABLE));
+#else
+    CHECK(best == TSK_ISA_PORTABLE);
+#endif
+    if (outer) CHECK(setenv("TSK_SIMD", saved, 1) == 0);
+    tsk_simd_force(-1);
+}
+
 TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_more),
           TEST_ENTRY(test_mesh_edges_match_the_reference_and_count_a_tube),
           TEST_ENTRY(test_error_names_argument), TEST_ENTRY(test_error_long_message_truncates),
@@ -625,4 +663,5 @@ TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_m
           TEST_ENTRY(test_vec3_bounds_of_many_points), TEST_ENTRY(test_vec3_bounds_every_position),
           TEST_ENTRY(test_version_is_semver),
           TEST_ENTRY(test_exr_header_is_read_as_openexr_reads_it),
-          TEST_ENTRY(test_fopen_regular_refuses_what_would_block_or_never_end))
+          TEST_ENTRY(test_fopen_regular_refuses_what_would_block_or_never_end),
+          TEST_ENTRY(test_simd_variable_forces_the_kernel_path))

@@ -23,6 +23,22 @@
 
 #define K16 16
 
+/* Every step of these tests is followed by a check of the simulation's tile lists and active
+ * tiles (tsk_sim_lists_problem): a step that leaves them inconsistent fails the test that made
+ * it. */
+static int validated_steps;
+static tsk_status step_and_validate(tsk_blade_sim* sim, float dt, const float* wind,
+                                    tsk_wind_layout layout) {
+    const tsk_status s = (tsk_blade_sim_step)(sim, dt, wind, layout);
+    if (sim) {
+        const char* problem = tsk_sim_lists_problem(sim);
+        CHECK_MSG(problem == NULL, "after a step: %s", problem);
+        ++validated_steps;
+    }
+    return s;
+}
+#define tsk_blade_sim_step step_and_validate
+
 /* An analytic blade (the meadow's default shape): with t = k/(K-1), height H, lean e,
  * turned by `turn` about +z:  local (e H t^2, 0, H t), width W (1 - t^3). */
 static void make_blade(int K, const float root[3], float H, float lean, float turn, float* knots,
@@ -450,30 +466,30 @@ TEST(test_sim_wind_per_blade_equals_wind_per_knot) {
     CHECK_MSG(moved > 1e-3, "the wind moved the knots by only %g m", moved);
 }
 
-/* The AVX-512, AVX2 and portable kernels (those the CPU has) give the same bytes: only IEEE
- * operations (fused multiply-adds written out, each rounded once) and exact conversions. */
+/* The AVX-512, AVX2 and portable kernels (those the CPU has; the portable one alone in a
+ * TSK_NO_SIMD build), with 1 and 2 threads, give one fixed set of bytes: only IEEE operations
+ * (fused multiply-adds written out, each rounded once) and exact conversions. */
 /* run_scene's knots (see tsk_test_fnv): after 60 steps, or the 20 of sanitizer builds */
 static const uint64_t SIM_GOLDEN = SLOW ? 0x1c223f70f1fc435aull : 0x66035a88af18230dull;
 
 TEST(test_sim_kernel_paths_give_identical_bytes) {
     const size_t n = (size_t)36 * 40 * K16 * 3;
     float* a = malloc(sizeof(float) * n);
-    float* b = malloc(sizeof(float) * n);
-    size_t na = 0, nb = 0;
-    run_scene(2, a, &na); /* the best kernel */
-    const uint64_t h = tsk_test_fnv(a, sizeof(float) * na, TSK_TEST_FNV_START);
-    CHECK_MSG(h == SIM_GOLDEN, "the solver's bytes changed: hash %#018llx", (unsigned long long)h);
-    for (int path = 1; path <= 2; ++path) {
-        tsk_sim_kernel_path = path; /* 1 portable, 2 at most AVX2 */
-        run_scene(2, b, &nb);
-        tsk_sim_kernel_path = 0;
-        CHECK(na == n && nb == n);
-        size_t differ = 0;
-        for (size_t i = 0; i < n; ++i) differ += memcmp(a + i, b + i, sizeof(float)) != 0;
-        CHECK_MSG(differ == 0, "path %d: %zu of %zu floats differ", path, differ, n);
+    static const int paths[] = {TSK_SIMD_BEST, TSK_SIMD_PORTABLE, TSK_SIMD_AT_MOST_AVX2};
+    static const char* names[] = {"best", "portable", "at most AVX2"};
+    for (int p = 0; p < 3; ++p) {
+        tsk_simd_force(paths[p]);
+        for (int threads = 1; threads <= 2; ++threads) {
+            size_t na = 0;
+            run_scene(threads, a, &na);
+            CHECK(na == n);
+            const uint64_t h = tsk_test_fnv(a, sizeof(float) * na, TSK_TEST_FNV_START);
+            CHECK_MSG(h == SIM_GOLDEN, "%s kernel (%d), %d threads: the solver's bytes changed: hash %#018llx",
+                      names[p], tsk_simd_isa(), threads, (unsigned long long)h);
+        }
     }
+    tsk_simd_force(TSK_SIMD_BEST);
     free(a);
-    free(b);
 }
 
 /* Rest blades of tile t in a grid with the given def: n blades inside the tile square. */
@@ -678,6 +694,72 @@ TEST(test_sim_all_knots_are_the_tiles_knots_in_order) {
  * tsk_blade_sim_get_knots gives, for any range of the active blades (tiles of 70, 1 and 64
  * blades: ranges that start and end inside blocks and tiles), with every kernel; bad widths
  * and sides are reported for the first bad blade, ranges beyond the active blades refused. */
+/* tsk_sim_validate accepts the lists a meadow's steps leave (active, forced, pending and touched
+ * tiles, a collider moving across the grid) and names each list that is corrupted: out of order,
+ * outside the grid, an active tile still pending, blocks that do not match the blades. */
+TEST(test_sim_validate_finds_corrupt_tile_lists) {
+    tsk_blade_sim_def def = tsk_default_blade_sim_def();
+    def.tiles_x = def.tiles_y = 6;
+    tsk_blade_sim* sim = NULL;
+    CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
+    if (!sim) return;
+    enum { NB = 40 };
+    static float knots[NB * K16 * 3], widths[NB * K16], sides[NB * 3];
+    const int32_t want[] = {1, 2, 7, 20, 33};
+    for (int i = 0; i < 5; ++i) CHECK(tsk_blade_sim_activate_tile(sim, want[i]) == TSK_OK);
+    for (int i = 0; i < 3; ++i) { /* 20 and 33 stay forced and pending */
+        tile_blades(&def, want[i], NB - 7 * i, knots, widths, sides);
+        CHECK(tsk_blade_sim_provide_tile(sim, want[i], NB - 7 * i, knots, widths, sides) == TSK_OK);
+    }
+    const int before = validated_steps;
+    const float wind[3] = {2.0f, 0.5f, 0.0f};
+    for (int s = 0; s < 8; ++s) { /* a capsule rolling over tiles 12.. 16 */
+        tsk_blade_collider c = {TSK_COLLIDER_CAPSULE, 0.2f, {0.2f + 0.25f * (float)s, 1.2f, 0.1f},
+                                {0.6f + 0.25f * (float)s, 1.3f, 0.1f}};
+        CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    }
+    CHECK_MSG(validated_steps == before + 8, "%d steps validated", validated_steps - before);
+    CHECK_MSG(sim->tile_count == 3 && sim->forced_count == 2 && sim->touched_count >= 2 &&
+                  sim->pending_count >= 4,
+              "scene: %d active, %d forced, %d touched, %d pending", sim->tile_count,
+              sim->forced_count, sim->touched_count, sim->pending_count);
+    CHECK(tsk_sim_validate(sim) == TSK_OK);
+    if (sim->tile_count < 2 || sim->forced_count < 2 || sim->touched_count < 2 || sim->pending_count < 2) {
+        tsk_blade_sim_destroy(sim);
+        return;
+    }
+    int32_t* lists[3] = {sim->pending, sim->forced, sim->touched};
+    const char* names[3] = {"pending", "forced", "touched"};
+    for (int l = 0; l < 3; ++l) {
+        int32_t* v = lists[l];
+        const int32_t a = v[0], b = v[1];
+        v[0] = b, v[1] = a; /* out of order */
+        CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, names[l]);
+        v[0] = b, v[1] = b; /* a tile twice */
+        CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "ascend");
+        v[0] = -1, v[1] = b; /* outside the grid */
+        CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "outside");
+        v[0] = a, v[1] = b;
+        CHECK(tsk_sim_validate(sim) == TSK_OK);
+    }
+    sim_tile* t = sim->tiles;
+    const int32_t i0 = t[0].index, i1 = t[1].index;
+    t[0].index = i1, t[1].index = i0;
+    CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "active tiles");
+    t[0].index = i0, t[1].index = i1;
+    t[1].block_count += 1;
+    CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "block count");
+    t[1].block_count -= 1;
+    const int32_t p0 = sim->pending[0], np = sim->pending_count;
+    sim->pending[0] = i0, sim->pending_count = 1; /* an active tile pending */
+    CHECK_STATUS(tsk_sim_validate(sim), TSK_ERR_INTERNAL, "active tile is pending");
+    sim->pending[0] = p0, sim->pending_count = np;
+    CHECK(tsk_sim_validate(sim) == TSK_OK);
+    CHECK_STATUS(tsk_sim_validate(NULL), TSK_ERR_INTERNAL, "no simulation");
+    tsk_blade_sim_destroy(sim);
+}
+
 TEST(test_sim_ribbons_are_the_expanded_knots) {
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
     def.tiles_x = def.tiles_y = 4;
@@ -718,7 +800,7 @@ TEST(test_sim_ribbons_are_the_expanded_knots) {
     const int64_t ranges[][2] = {{0, NA}, {3, 70}, {69, 2}, {70, 1}, {100, 35}, {134, 1}, {31, 34}};
     size_t moved = 0;
     for (int path = 0; path <= 2; ++path) {
-        tsk_sim_kernel_path = path; /* 0 the best, 1 portable, 2 at most AVX2 */
+        tsk_simd_force(path); /* 0 the best, 1 portable, 2 at most AVX2 */
         for (size_t r = 0; r < sizeof ranges / sizeof ranges[0]; ++r) {
             const int64_t f = ranges[r][0], n = ranges[r][1];
             CHECK(tsk_blades_expand(all + f * K16 * 3, w + f * K16, sd + 3 * f, (size_t)n, K16,
@@ -735,7 +817,7 @@ TEST(test_sim_ribbons_are_the_expanded_knots) {
             }
         }
     }
-    tsk_sim_kernel_path = 0;
+    tsk_simd_force(TSK_SIMD_BEST);
     for (int i = 0; i < NA * K16 * 3; ++i) moved += all[i] != rest[i];
     CHECK_MSG(moved > NA * K16, "only %zu knot coordinates moved", moved);
     { /* runs in any order, across blocks and tiles, empty ones and one blade twice: run by run
@@ -1158,6 +1240,7 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_ground_never_penetrated),
           TEST_ENTRY(test_sim_identical_bytes_with_1_and_2_threads),
           TEST_ENTRY(test_sim_kernel_paths_give_identical_bytes),
+          TEST_ENTRY(test_sim_validate_finds_corrupt_tile_lists),
           TEST_ENTRY(test_sim_wind_per_blade_equals_wind_per_knot),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),

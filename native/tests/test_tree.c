@@ -3,6 +3,7 @@
  * ground truth written here, OpenSubdiv refinement, and refusal of bad parameters. */
 #include "test.h"
 #include "tussock/tree.h"
+#include "core/simd.h"
 #include "tree/tree_internal.h"
 
 #include <stdint.h>
@@ -862,15 +863,27 @@ TEST(test_wind_children_stay_attached) {
     tsk_tree_destroy(lag), tsk_tree_destroy(ex);
 }
 
+/* The wind step's paths: 0 one branch at a time, 1 the portable kernel, 2 at most AVX2, 3 the
+ * widest the CPU has (core/simd.h). */
+enum { WIND_PATHS = 4 };
+static const char* const WIND_PATH_NAMES[WIND_PATHS] = {"one branch", "portable", "at most AVX2",
+                                                         "best"};
+static void set_wind_path(int path) {
+    static const int simd[WIND_PATHS] = {TSK_SIMD_BEST, TSK_SIMD_PORTABLE, TSK_SIMD_AT_MOST_AVX2,
+                                         TSK_SIMD_BEST};
+    tree_wind_force_scalar = path == 0;
+    tsk_simd_force(simd[path]);
+}
+
 /* The strongest wind the step accepts (|F| 1e6, strength 1e6, bend power 4, length power 3)
- * on every path (AVX2, SSE, one branch at a time), and a force on a branch only a micrometre
- * long: every point stays finite and each moved segment keeps its rest length (found by
+ * on every path (each kernel the CPU has, one branch at a time), and a force on a branch only
+ * a micrometre long: every point stays finite and each moved segment keeps its rest length (found by
  * fuzz_tree: the bend vector overflowed to infinity and its normalisation gave NaN). */
 TEST(test_wind_at_the_limits_stays_finite) {
     const tsk_tree_def def = small_tupelo();
-    for (int path = 0; path < 3; ++path)
+    for (int path = 0; path < WIND_PATHS; ++path)
         for (int mode = 0; mode < 2; ++mode) {
-            tree_wind_force_scalar = path;
+            set_wind_path(path);
             tsk_tree* t = NULL;
             CHECK(tsk_tree_create(&def, &t) == TSK_OK);
             if (!t) continue;
@@ -901,7 +914,7 @@ TEST(test_wind_at_the_limits_stays_finite) {
             free(force);
             tsk_tree_destroy(t);
         }
-    tree_wind_force_scalar = 0;
+    set_wind_path(3);
 }
 
 /* A reset skips its work when the tree is already at rest (new, or reset since its last
@@ -949,45 +962,45 @@ TEST(test_wind_reset_of_a_resting_tree_changes_nothing) {
     tsk_tree_destroy(t);
 }
 
-/* The 8-wide AVX2 path (where the CPU has it), the 4-wide SSE path and the one-branch path
- * give the same bytes, for both modes. */
-/* The pose's golden hash per wind mode (see tsk_test_fnv): every path must give these bytes. */
+/* Every path of the wind step (the AVX-512, AVX2 and portable kernels the CPU has, one branch
+ * at a time), with 1 and 2 threads, gives one fixed set of bytes per mode. */
+/* The pose's golden hash per wind mode (see tsk_test_fnv). */
 static const uint64_t WIND_GOLDEN[2] = {0x4d387d2a14ca50c5ull, 0x5b17205c23ce72daull};
 
 TEST(test_wind_simd_path_equals_scalar_path) {
     tsk_tree_def def;
     CHECK(tsk_tree_preset("black_tupelo", &def) == TSK_OK);
     def.level[2].branches = 7, def.level[3].branches = 5;
-    for (int mode = 0; mode < 2; ++mode) {
-        uint64_t h[3] = {0, 0, 0};
-        for (int path = 0; path < 3; ++path) {
-            tree_wind_force_scalar = path; /* 0 best (AVX2), 1 scalar, 2 SSE */
-            tsk_tree* t = NULL;
-            CHECK(tsk_tree_create(&def, &t) == TSK_OK);
-            if (!t) continue;
-            const size_t n = tsk_tree_branch_count(t);
-            float* tips = malloc(3 * n * sizeof(float));
-            float* force = malloc(3 * n * sizeof(float));
-            tsk_tree_wind_def w = tsk_default_tree_wind_def();
-            w.mode = mode;
-            for (int s = 0; s < 4; ++s) {
-                CHECK(tsk_tree_tip_positions(t, tips) == TSK_OK);
-                sines_force(tips, n, 0.25 * s, force);
-                if (s == 2) for (size_t i = 0; i < 3 * n; i += 7) force[i] = 0; /* mixed lanes */
-                CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
+    for (int mode = 0; mode < 2; ++mode)
+        for (int path = 0; path < WIND_PATHS; ++path)
+            for (int threads = 1; threads <= 2; ++threads) {
+                set_wind_path(path);
+                CHECK(tsk_set_threads(threads) == TSK_OK);
+                tsk_tree* t = NULL;
+                CHECK(tsk_tree_create(&def, &t) == TSK_OK);
+                if (!t) continue;
+                const size_t n = tsk_tree_branch_count(t);
+                float* tips = malloc(3 * n * sizeof(float));
+                float* force = malloc(3 * n * sizeof(float));
+                tsk_tree_wind_def w = tsk_default_tree_wind_def();
+                w.mode = mode;
+                for (int s = 0; s < 4; ++s) {
+                    CHECK(tsk_tree_tip_positions(t, tips) == TSK_OK);
+                    sines_force(tips, n, 0.25 * s, force);
+                    if (s == 2) for (size_t i = 0; i < 3 * n; i += 7) force[i] = 0; /* mixed lanes */
+                    CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
+                }
+                tree_data d = read_tree(t);
+                const uint64_t h = fnv(d.points, 48 * n, fnv(d.orient, 12 * n, FNV_START));
+                CHECK_MSG(h == WIND_GOLDEN[mode],
+                          "mode %d, %s path (kernel %d), %d threads: the wind's bytes changed: hash %#018llx",
+                          mode, WIND_PATH_NAMES[path], tsk_simd_isa(), threads, (unsigned long long)h);
+                free_tree_data(&d);
+                free(tips), free(force);
+                tsk_tree_destroy(t);
             }
-            tree_data d = read_tree(t);
-            h[path] = fnv(d.points, 48 * n, fnv(d.orient, 12 * n, FNV_START));
-            free_tree_data(&d);
-            free(tips), free(force);
-            tsk_tree_destroy(t);
-        }
-        CHECK_MSG(h[0] == h[1], "mode %d: best SIMD and scalar paths differ", mode);
-        CHECK_MSG(h[2] == h[1], "mode %d: SSE and scalar paths differ", mode);
-        CHECK_MSG(h[1] == WIND_GOLDEN[mode], "mode %d: the wind's bytes changed: hash %#018llx",
-                  mode, (unsigned long long)h[1]);
-    }
-    tree_wind_force_scalar = 0;
+    set_wind_path(3);
+    tsk_set_threads(0);
 }
 
 TEST(test_wind_rejects_bad_force) {

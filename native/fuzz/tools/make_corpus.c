@@ -2,7 +2,7 @@
  * repository root after a release build):
  *   cc -O1 -Inative/include -Inative/tests native/fuzz/tools/make_corpus.c \
  *      build/release/libtussock.a $(pkg-config --libs opencv4 libopenni2) -losdCPU \
- *      -lstdc++ -fopenmp -lm -o /tmp/make_corpus && /tmp/make_corpus
+ *      -lstdc++ -lm -o /tmp/make_corpus && /tmp/make_corpus
  * Small valid depth images (PNG16, EXR), a two-frame .oni recording, small pictures, bake
  * caches (a frame file and a .pc2 made by the library's writers, prefixed by the byte that
  * picks fuzz_bake's mode, and seeds for its structured modes), and

@@ -7,12 +7,13 @@
  * spinning waiters took the cores from Blender's own threads: on 2 cores a tree's deform
  * took 20 ms with 2 threads against 6 ms with 1, and Blender's depsgraph slowed down as
  * well (docs/performance.md). These workers sleep on a condition variable between loops. */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE /* sched_getaffinity */
 #include "tussock/core.h"
 
-#include <omp.h>
 #include <pthread.h>
+#include <sched.h>
 #include <stdatomic.h>
+#include <unistd.h>
 
 enum { MAX_WORKERS = 255 };
 
@@ -48,7 +49,13 @@ tsk_status tsk_set_threads(int count) {
 
 int tsk_get_threads(void) {
     if (g_threads > 0) return g_threads;
-    int n = omp_get_num_procs(); /* the CPUs this process may run on */
+    /* the CPUs this process may run on (taskset, cgroups' cpusets), else those online */
+    int n = 0;
+#if defined(__linux__)
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof set, &set) == 0) n = CPU_COUNT(&set);
+#endif
+    if (n <= 0) n = (int)sysconf(_SC_NPROCESSORS_ONLN);
     return n > 0 ? n : 1;
 }
 

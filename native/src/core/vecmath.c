@@ -1,10 +1,12 @@
 /* Small array math shared by modules and exercised through the Python binding. */
 #include "tussock/core.h"
 
+#include "core/simd.h"
+
 #include <math.h>
 #include <string.h>
 
-#if defined(__SSE2__)
+#if TSK_SIMD_SSE2
 #include <emmintrin.h>
 #endif
 
@@ -53,7 +55,7 @@ static void bounds_range(size_t begin, size_t end, size_t chunk, void* vctx) {
     const bounds_ctx* c = vctx;
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     size_t i = begin;
-#if defined(__SSE2__)
+#if TSK_SIMD_SSE2
     /* four points (twelve floats) a step, in three registers whose lanes hold
      * x y z x | y z x y | z x y z. A non-finite value turns v * 0 into NaN, which the sum
      * `odd` keeps; then the scalar pass below finds the first such point. */

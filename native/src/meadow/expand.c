@@ -1,11 +1,12 @@
 /* Blade expansion (seed 000 §4.5, Fig. 7-8): each skeleton knot becomes two vertices half a
  * width either side of the blade, so the skeleton the simulation moves is rendered as a
  * ribbon of triangles; and the whole patch expanded into one mesh for instancing. */
+#include "core/simd.h"
 #include "meadow_internal.h"
 #include "ribbon_input.h"
 
 #include <math.h>
-#if defined(__SSE2__)
+#if TSK_SIMD_SSE2
 #include <emmintrin.h>
 #endif
 
@@ -51,7 +52,7 @@ static void blade_frames(const float* knots, int32_t n, const float s0[3],
         for (int q = 0; q < 3; ++q) D[q][k] = knots[3 * b + q] - knots[3 * a + q];
     }
     int32_t k = 0;
-#if defined(__SSE2__)
+#if TSK_SIMD_SSE2
     const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), eps = _mm_set1_ps(1e-12f);
     const __m128 sx0 = _mm_set1_ps(s0[0]), sy0 = _mm_set1_ps(s0[1]), sz0 = _mm_set1_ps(s0[2]);
     for (; k + 4 <= n; k += 4) {

@@ -1,13 +1,14 @@
 /* The warp grid (seed 004, §III-E): corner displacements from the continuum by eq. 5-7 and
  * inverse warping with bilinear sampling by eq. 8 (or Map UV's filter, map_uv.c), delivered
  * as a warped RGBA image and as a UV pass for Blender's compositor Map UV node. */
+#include "core/simd.h"
 #include "picture_internal.h"
 
 #include <math.h>
 #include <stdatomic.h>
 #include <stdint.h>
 
-#if defined(__SSE2__)
+#if TSK_SIMD_SSE2
 #include <emmintrin.h> /* one pixel's 4 channels in one register; streaming stores */
 #define TSK_WARP_SSE 1
 #endif
@@ -407,6 +408,7 @@ static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx
             }
 #else
             const int stream = 0;
+            (void)row_buf; /* only the streaming path samples into it */
 #endif
             sample_row(c, sxs, sys, dst_row, stream);
         }

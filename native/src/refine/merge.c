@@ -4,9 +4,11 @@
  * The tests keep a naive O(K^2 F) version that this one must match bit for bit. */
 #include "tussock/refine.h"
 
+#include "core/simd.h"
+
 #include <math.h>
 #include <stdio.h>
-#if defined(__SSE2__) && !defined(TSK_NO_SIMD)
+#if TSK_SIMD_SSE2
 #include <emmintrin.h>
 #endif
 #include <string.h>
@@ -54,7 +56,7 @@ static double difference_rows(float mu, const float* a, const float* b, size_t f
     const float *ax = a, *ay = a + f, *az = a + 2 * f;
     const float *bx = b, *by = b + f, *bz = b + 2 * f;
     size_t i = 0;
-#if defined(__SSE2__) && !defined(TSK_NO_SIMD)
+#if TSK_SIMD_SSE2
     __m128d vs = _mm_setzero_pd(), vq = _mm_setzero_pd();
     const __m128d vinv = _mm_set1_pd(inv_length);
     for (; i + 2 <= f; i += 2) {
@@ -320,7 +322,7 @@ static tsk_status refine_one(const tsk_refine_def* def, const tsk_refine_input* 
                finite (halving is exact above the subnormals), and finite for two knots
                near +-FLT_MAX, whose sum overflows (found by fuzz_refine) */
             size_t i = 0;
-#if defined(__SSE2__) && !defined(TSK_NO_SIMD)
+#if TSK_SIMD_SSE2
             const __m128 half = _mm_set1_ps(0.5f); /* same IEEE operations as below */
             for (; i + 4 <= 3 * f; i += 4)
                 _mm_storeu_ps(a + i, _mm_add_ps(_mm_mul_ps(half, _mm_loadu_ps(a + i)),

@@ -1,10 +1,10 @@
 /* The blade solver for CPUs with AVX2 and F16C (x86-64-v3): 8 lanes per vector, chosen at run
  * time by blade_kernel.c. */
+#define TSK_SIMD_KERNEL_AVX2
 #include "sim/sim_internal.h"
 
-#if SIM_HAVE_X86_PATHS
-#pragma GCC target("avx2,fma,f16c,bmi,bmi2,lzcnt,popcnt")
-#define SIM_ISA_AVX2
+#if TSK_SIMD_X86_PATHS
+TSK_SIMD_TARGET_AVX2
 #define SIM_KFN(name) name##_avx2
 #include "sim/blade_kernel_impl.h"
 #else

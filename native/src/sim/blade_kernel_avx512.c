@@ -7,10 +7,10 @@
  * this machine (docs/performance.md) and gives the same bytes: the kernel uses only IEEE
  * operations and written-out fused multiply-adds, and both compilers run with
  * -ffp-contract=off (test_sim_kernel_paths_give_identical_bytes). */
+#define TSK_SIMD_KERNEL_AVX512
 #include "sim/sim_internal.h"
 
 #if defined(SIM_AVX512_STEP_UNIT) /* Clang, the AVX-512 flags on its command line */
-#define SIM_ISA_AVX512
 #define SIM_KERNEL_NO_RIBBONS
 #define SIM_KFN(name) name##_avx512
 #include "sim/blade_kernel_impl.h"
@@ -19,9 +19,8 @@
 const char* tsk_sim_avx512_step_compiler(void) {
     return "clang " SIM_STR(__clang_major__) "." SIM_STR(__clang_minor__) "." SIM_STR(__clang_patchlevel__);
 }
-#elif SIM_HAVE_X86_PATHS
-#pragma GCC target("fma,avx512f,avx512vl,avx512bw,avx512dq,avx512cd,avx2,f16c,bmi,bmi2,lzcnt,popcnt")
-#define SIM_ISA_AVX512
+#elif TSK_SIMD_X86_PATHS
+TSK_SIMD_TARGET_AVX512
 #define SIM_KFN(name) name##_avx512
 #if defined(SIM_AVX512_STEP_BY_CLANG)
 #define SIM_KERNEL_NO_STEP

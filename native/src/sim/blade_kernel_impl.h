@@ -7,13 +7,13 @@
  * (Han & Harada 2012, as seed 000 §2 and §4.5 adopt it: collision a hard constraint; length,
  * bending and twisting soft constraints of an iterative solver).
  *
- * The includer defines SIM_KFN(name) (the name with its instruction set's suffix) and one of
- * SIM_ISA_AVX512 (16 lanes per vector), SIM_ISA_AVX2 (8) or neither (portable, 4). Every value
- * is a vector of LN lanes (GCC/Clang vector extensions of the machine's own width, so
- * comparisons and selects stay vector instructions); a block is worked in SIM_W / LN slices,
- * two at a time, so that the serial root-to-tip chains of the two overlap (one slice alone
- * leaves the vector units waiting on the chain's latency; wider values make GCC keep them in
- * memory), and all of them at once in the length iterations of a block with no collider near.
+ * The includer defines SIM_KFN(name) (the name with its instruction set's suffix) and, before
+ * its first include, one of TSK_SIMD_KERNEL_AVX512 (16 lanes per vector), TSK_SIMD_KERNEL_AVX2
+ * (8) or neither (portable, 4): core/simd.h decides. Every value is a vector of LN lanes
+ * (GCC/Clang vector extensions of the machine's own width, so comparisons and selects stay
+ * vector instructions); a block is worked in SIM_W / LN slices, two at a time, so that the
+ * serial root-to-tip chains of the two overlap (one slice alone leaves the vector units waiting
+ * on the chain's latency; wider values make GCC keep them in memory), and all of them at once in the length iterations of a block with no collider near.
  * Only IEEE add, sub, mul, div, sqrt, fused multiply-add (written out: fmadd, fnmadd, fmsub),
  * comparisons, min/max as (a > b ? a : b) and exact conversions are used, and -ffp-contract=off
  * keeps the compiler from fusing anything else, so every instruction set computes the same bits
@@ -31,23 +31,11 @@
 #pragma GCC diagnostic ignored "-Wpsabi"
 #endif
 
-/* Lanes per value: one register (16 with AVX-512, 8 with AVX2, 4 portable). */
-#if defined(SIM_ISA_AVX512)
-#ifndef SIM_AVX512_LN
-#define SIM_AVX512_LN 16
-#endif
-#define LN SIM_AVX512_LN
-#define RL 16 /* lanes per register */
+/* Lanes per value: one register (core/simd.h). */
+#define LN TSK_SIMD_LANES
+#define RL TSK_SIMD_LANES /* lanes per register */
+#if defined(TSK_SIMD_KERNEL_AVX512) || defined(TSK_SIMD_KERNEL_AVX2)
 #include <immintrin.h>
-#elif defined(SIM_ISA_AVX2)
-#ifndef SIM_AVX2_LN
-#define SIM_AVX2_LN 8
-#endif
-#define LN SIM_AVX2_LN
-#define RL 8
-#include <immintrin.h>
-#else
-#define LN 4
 #endif
 #define W SIM_W
 #define NSLICE (SIM_W / LN)
@@ -76,7 +64,7 @@ INL vf splat(float x) {
 }
 INL vf sel_bits(vi m, vf a, vf b) { return (vf)(((vi)a & m) | ((vi)b & ~m)); }
 
-#if defined(SIM_ISA_AVX512) || defined(SIM_ISA_AVX2)
+#if defined(TSK_SIMD_KERNEL_AVX512) || defined(TSK_SIMD_KERNEL_AVX2)
 /* Comparisons, min, max, square roots and conversions register by register: GCC would split
    comparisons of values wider than a register into scalars. maxps(a, b) is exactly
    (a > b ? a : b) and minps(a, b) exactly (a < b ? a : b), as in the portable path. */
@@ -87,7 +75,7 @@ INL vf sel_bits(vi m, vf a, vf b) { return (vf)(((vi)a & m) | ((vi)b & ~m)); }
 #define JOIN(T, r, x) \
     T r;              \
     memcpy(&r, x, sizeof r)
-#if defined(SIM_ISA_AVX512)
+#if defined(TSK_SIMD_KERNEL_AVX512)
 typedef __m512 reg;
 typedef __m512i ireg;
 #define R_MAX _mm512_max_ps
@@ -194,10 +182,10 @@ INL vf ld_u8(const uint8_t* p) {
 INL vi gt(vf a, vf b) { return a > b; }
 INL vf vmax(vf a, vf b) { return sel_bits(a > b, a, b); }
 INL vf vmin(vf a, vf b) { return sel_bits(a < b, a, b); }
-#if defined(__SSE2__)
+#if TSK_SIMD_SSE2
 #include <emmintrin.h>
 INL vf vsqrt(vf a) { return (vf)_mm_sqrt_ps((__m128)a); }
-#elif defined(__ARM_NEON) && defined(__aarch64__)
+#elif TSK_SIMD_NEON
 #include <arm_neon.h>
 INL vf vsqrt(vf a) { return (vf)vsqrtq_f32((float32x4_t)a); }
 #else
@@ -273,7 +261,7 @@ INL vf ld_u8(const uint8_t* p) {
    vblendvps, which looks at each lane's sign bit only, gives the bits of sel_bits' three
    and-or instructions: the AVX2 kernel 1.3 % faster on Zen 1. (AVX-512 builds need no such
    help: GCC makes the and-or one vpternlogd, Clang a masked move.) */
-#if defined(SIM_ISA_AVX2)
+#if defined(TSK_SIMD_KERNEL_AVX2)
 INL vf sel(vi m, vf a, vf b) {
     SPLIT(reg, x, a);
     SPLIT(reg, y, b);

@@ -4,6 +4,7 @@
 #ifndef TSK_SIM_INTERNAL_H
 #define TSK_SIM_INTERNAL_H
 
+#include "core/simd.h"
 #include "tussock/sim.h"
 
 #include <math.h>
@@ -73,6 +74,34 @@ typedef struct sim_tile {
     float* bounds;        /* 6 floats per block: reach box lo xyz, hi xyz */
     size_t bytes;         /* bytes held by blocks + bounds */
 } sim_tile;
+
+/* The simulation (tiles.c). Its four tile lists ascend strictly, and pending is
+ * (touched U forced) minus the active tiles (tsk_sim_lists_problem checks them). */
+struct tsk_blade_sim {
+    tsk_blade_sim_def def;
+    int32_t K;
+    sim_tile* tiles; /* active tiles, ascending index; tile_cap allocated */
+    int32_t tile_count, tile_cap;
+    int32_t* pending; /* ascending */
+    int32_t pending_count;
+    int32_t* forced; /* activate_tile requests not yet provided, ascending */
+    int32_t forced_count;
+    int32_t* touched; /* tiles touched by the current colliders, ascending */
+    int32_t touched_count;
+    sim_collider* cols;
+    int32_t collider_count;
+    float bin_pad; /* how far any active tile's reach box extends beyond its square, metres */
+};
+
+/* NULL when the tile lists and the active tiles' records are consistent, else what is wrong
+ * (for TSK_ASSERT and the tests): every list ascends strictly within [0, tiles_x tiles_y), a
+ * list with entries is allocated, no tile is both active and pending or forced, every pending
+ * tile is touched or forced, and each active tile's blocks match its blade count. After an
+ * allocation failure pending may lack tiles, so that direction is not checked. */
+const char* tsk_sim_lists_problem(const tsk_blade_sim* sim);
+
+/* TSK_OK, or TSK_ERR_INTERNAL with tsk_sim_lists_problem's answer as the message. */
+tsk_status tsk_sim_validate(const tsk_blade_sim* sim);
 
 /* What the kernel needs from a step, the same for every block. */
 typedef struct sim_step_params {
@@ -180,18 +209,11 @@ static inline float sim_half_to_float(uint16_t h) {
     return f;
 }
 
-/* The instruction-set kernels (blade_kernel_avx512.c, blade_kernel_avx2.c) are built by GCC on
- * x86-64; elsewhere, and with Clang (the sanitizer build), only the portable one. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define SIM_HAVE_X86_PATHS 1
-#else
-#define SIM_HAVE_X86_PATHS 0
-#endif
-
-/* Which kernel runs: 0 the best the CPU has (AVX-512, then AVX2 + F16C), 1 the portable one,
- * 2 at most AVX2. All give the same bytes (only IEEE add, sub, mul, div, sqrt, fused
- * multiply-adds written out, comparisons and exact conversions); test_sim checks it. */
-extern int tsk_sim_kernel_path;
+/* The kernel units (core/simd.h): blade_kernel.c the portable one, blade_kernel_avx2.c and
+ * blade_kernel_avx512.c where TSK_SIMD_X86_PATHS; tsk_simd_isa() picks one per call and
+ * tsk_simd_force() forces one (tests). All give the same bytes (only IEEE add, sub, mul, div,
+ * sqrt, fused multiply-adds written out, comparisons and exact conversions); test_sim checks
+ * it. */
 
 /* The compiler of the AVX-512 step ("clang ..." or "gcc ...") when that is the kernel
  * tsk_sim_block_step runs, else "none"; for the benchmarks. */
@@ -240,7 +262,7 @@ void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* kno
     int tsk_sim_block_ribbons_##sfx(int32_t K, const float* P, int l0, int l1,                \
                                     const float* widths, const float* sides, float* out);
 SIM_KERNEL_DECL(generic)
-#if SIM_HAVE_X86_PATHS
+#if TSK_SIMD_X86_PATHS
 SIM_KERNEL_DECL(avx2)
 SIM_KERNEL_DECL(avx512)
 /* Which compiler built the AVX-512 step ("clang ..." or "gcc ..."). */

@@ -2,32 +2,18 @@
  * colliders touch tiles, touched tiles wait for their rest blades, active tiles are stepped in
  * parallel block by block, and quiet tiles blend back to rest and are freed, so a tile that is
  * not active holds no memory. */
+#include "core/invariant.h"
 #include "meadow/ribbon_input.h"
 #include "sim/sim_internal.h"
 
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 /* cos of the sharpest turn allowed between two consecutive rest segments: 170 degrees */
 #define SIM_MAX_FOLD_COS (-0.98480775301220802)
-
-struct tsk_blade_sim {
-    tsk_blade_sim_def def;
-    int32_t K;
-    sim_tile* tiles; /* active tiles, ascending index */
-    int32_t tile_count, tile_cap;
-    int32_t* pending; /* ascending */
-    int32_t pending_count;
-    int32_t* forced; /* activate_tile requests not yet provided, ascending */
-    int32_t forced_count;
-    int32_t* touched; /* tiles touched by the current colliders, ascending */
-    int32_t touched_count;
-    sim_collider* cols;
-    int32_t collider_count;
-    float bin_pad; /* how far any active tile's reach box extends beyond its square, metres */
-};
 
 /* ---- small sorted int arrays --------------------------------------------------------------- */
 
@@ -108,6 +94,63 @@ static tsk_status rebuild_pending(tsk_blade_sim* sim) {
     sim->pending = out;
     sim->pending_count = n;
     return TSK_OK;
+}
+
+/* ---- invariants ------------------------------------------------------------------------------ */
+
+/* NULL if v[0..n) ascends strictly within [0, tiles) and is allocated when n > 0 */
+static const char* list_problem(const int32_t* v, int32_t n, int32_t tiles) {
+    if (n < 0) return "has a negative count";
+    if (n > 0 && v == NULL) return "has entries but no array";
+    for (int32_t i = 0; i < n; ++i) {
+        if (v[i] < 0 || v[i] >= tiles) return "holds a tile outside the grid";
+        if (i > 0 && v[i] <= v[i - 1]) return "does not ascend strictly";
+    }
+    return NULL;
+}
+
+const char* tsk_sim_lists_problem(const tsk_blade_sim* sim) {
+    if (sim == NULL) return "no simulation";
+    const int32_t tiles = sim->def.tiles_x * sim->def.tiles_y;
+    static _Thread_local char msg[96];
+    const char* p;
+    if ((p = list_problem(sim->pending, sim->pending_count, tiles)))
+        return snprintf(msg, sizeof msg, "the pending list %s", p), msg;
+    if ((p = list_problem(sim->forced, sim->forced_count, tiles)))
+        return snprintf(msg, sizeof msg, "the forced list %s", p), msg;
+    if ((p = list_problem(sim->touched, sim->touched_count, tiles)))
+        return snprintf(msg, sizeof msg, "the touched list %s", p), msg;
+    if (sim->tile_count < 0 || sim->tile_count > sim->tile_cap ||
+        (sim->tile_count > 0 && !sim->tiles))
+        return "active tiles: count beyond the array";
+    const size_t bf = SIM_BLOCK_FLOATS(sim->K);
+    for (int32_t i = 0; i < sim->tile_count; ++i) {
+        const sim_tile* t = &sim->tiles[i];
+        if (t->index < 0 || t->index >= tiles) return "active tiles: a tile outside the grid";
+        if (i > 0 && t->index <= sim->tiles[i - 1].index)
+            return "active tiles: not ascending strictly";
+        if (t->blade_count < 0 || t->block_count != (t->blade_count + SIM_W - 1) / SIM_W)
+            return "active tiles: block count does not match the blade count";
+        const int has_blocks = t->block_count > 0;
+        if (has_blocks != (t->blocks != NULL) || has_blocks != (t->bounds != NULL))
+            return "active tiles: blocks allocated without blades, or blades without blocks";
+        if (t->bytes != (size_t)t->block_count * (bf + 6) * sizeof(float))
+            return "active tiles: bytes held do not match the blocks";
+        if (find_i32(sim->forced, sim->forced_count, t->index) >= 0)
+            return "an active tile is forced";
+        if (find_i32(sim->pending, sim->pending_count, t->index) >= 0)
+            return "an active tile is pending";
+    }
+    for (int32_t i = 0; i < sim->pending_count; ++i)
+        if (find_i32(sim->touched, sim->touched_count, sim->pending[i]) < 0 &&
+            find_i32(sim->forced, sim->forced_count, sim->pending[i]) < 0)
+            return "a pending tile is neither touched nor forced";
+    return NULL;
+}
+
+tsk_status tsk_sim_validate(const tsk_blade_sim* sim) {
+    const char* p = tsk_sim_lists_problem(sim);
+    return p ? tsk_error(TSK_ERR_INTERNAL, "blade simulation: %s", p) : TSK_OK;
 }
 
 /* ---- create / destroy ---------------------------------------------------------------------- */
@@ -222,7 +265,9 @@ static void mark_touched(tsk_blade_sim* sim) {
     int32_t j = 0;
     for (int32_t i = 0; i < sim->tile_count; ++i) {
         sim_tile* t = &sim->tiles[i];
+        TSK_ASSERT(i == 0 || sim->tiles[i - 1].index < t->index);
         while (j < sim->touched_count && sim->touched[j] < t->index) ++j;
+        TSK_ASSERT(j == 0 || j >= sim->touched_count || sim->touched[j - 1] < sim->touched[j]);
         t->touched = (t->touched & 2) | (j < sim->touched_count && sim->touched[j] == t->index);
     }
 }
@@ -535,6 +580,7 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
     remove_i32(&sim->pending, &sim->pending_count, tile);
     const float pad = tile_pad(sim, &sim->tiles[pos]);
     sim->bin_pad = sim->bin_pad > pad ? sim->bin_pad : pad;
+    TSK_ASSERT(tsk_sim_lists_problem(sim) == NULL);
     return TSK_OK;
 }
 
@@ -755,7 +801,10 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
                         const int32_t ii = ti % d->tiles_x, jj = ti / d->tiles_x;
                         if (ii < a0 || ii > a1 || jj < b0 || jj > b1) continue;
                         if (pass == 0) ++col_start[s + 1];
-                        else col_list[fill[s]++] = ci;
+                        else {
+                            TSK_ASSERT(fill[s] < col_start[s + 1]); /* pass 0 counted it */
+                            col_list[fill[s]++] = ci;
+                        }
                     }
                 } else {
                     for (int32_t jj = b0; jj <= b1; ++jj)
@@ -763,7 +812,10 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
                             const int32_t s = find_tile(sim, jj * d->tiles_x + ii);
                             if (s < 0) continue;
                             if (pass == 0) ++col_start[s + 1];
-                            else col_list[fill[s]++] = ci;
+                            else {
+                                TSK_ASSERT(fill[s] < col_start[s + 1]);
+                                col_list[fill[s]++] = ci;
+                            }
                         }
                 }
             }
@@ -815,6 +867,7 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
         }
     }
 done:
+    TSK_ASSERT(tsk_sim_lists_problem(sim) == NULL);
     tsk_free(blk_slot);
     tsk_free(blk_index);
     tsk_free(first);

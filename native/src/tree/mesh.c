@@ -5,6 +5,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/simd.h"
 #include "tree_internal.h"
 
 #define TWO_PI 6.28318530717958647692f
@@ -387,7 +388,7 @@ typedef struct deform_ctx {
     float* nrm;
 } deform_ctx;
 
-#if defined(__SSE2__)
+#if TSK_SIMD_SSE2
 #include <emmintrin.h>
 /* surface_point for four consecutive vertices of one ring (same v, same radius terms),
  * lane for lane the same operations as the scalar function; writes 4 xyz positions and
@@ -466,7 +467,7 @@ static void deform_branch(const deform_ctx* c, size_t i) {
         ring_setup(P, &f, v, &r);
         radius_terms rho = branch_radius_terms(sh, v, 0.0f);
         int k = 0;
-#if defined(__SSE2__)
+#if TSK_SIMD_SSE2
         if (!lobed && !tree_mesh_force_scalar) {
             for (; k + 4 <= C; k += 4, vi += 4) {
                 if (!surface_point4(&r, st + k, ct + k, rho, c->pos + 3 * vi,

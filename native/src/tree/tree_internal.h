@@ -161,8 +161,9 @@ static inline void tree_store3(float* a, size_t i, v3 v) {
     a[3 * i + 2] = v.z;
 }
 
-/* m^e for m > 0 through exp2(e log2 m), with series that the SSE path of the wind step
- * repeats operation for operation (so both give the same bytes); relative error < 1e-5.
+/* m^e for m > 0 through exp2(e log2 m), with series that the wind step's block kernel
+ * (wind_kernel_impl.h) repeats operation for operation (so both give the same bytes); relative
+ * error < 1e-5.
  * Used for the bend factor of seed 001, eq. 16, where powf was a third of the step. */
 static inline float bend_pow(float m, float e) {
     union { float f; uint32_t u; } b = {m};
@@ -265,8 +266,8 @@ static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3
     *O_out = v3_scale(side, -1.0f);
 }
 
-/* Tests set these to 1 to run the wind step / the deformer through the scalar path only;
- * tree_wind_force_scalar = 2 keeps the wind step on the 4-wide SSE path (no AVX2). */
+/* Tests set these to 1 to run the wind step / the deformer one branch (one vertex) at a time;
+ * which vector kernel runs otherwise is tsk_simd_force's (core/simd.h). */
 extern int tree_wind_force_scalar;
 extern int tree_mesh_force_scalar;
 

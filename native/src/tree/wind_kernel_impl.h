@@ -1,0 +1,268 @@
+/* The tree wind's block kernel, written once and compiled once per instruction set
+ * (wind_kernel.h): TSK_SIMD_LANES branches at a time, each lane performing exactly the
+ * operations of tree_pose_branch (tree_internal.h) in the same order. Only single-precision
+ * IEEE add, sub, mul, div, sqrt, comparisons, min/max as (a > b ? a : b) and exact conversions
+ * are used, and no fused multiply-add (the one-branch path has none, and -ffp-contract=off
+ * keeps the compiler from making any), so a branch gets the same bytes whichever kernel poses
+ * it (test_wind_simd_path_equals_scalar_path). Values are GCC/Clang vector extensions of one
+ * register; square roots and "any lane" tests use the instruction set's own instructions.
+ *
+ * The includer defines TREE_KFN(name), the name with its instruction set's suffix. */
+#include <string.h>
+
+#include "tree/wind_kernel.h"
+
+#if defined(TSK_SIMD_KERNEL_AVX512) || defined(TSK_SIMD_KERNEL_AVX2)
+#include <immintrin.h>
+#elif TSK_SIMD_SSE2
+#include <emmintrin.h>
+#elif TSK_SIMD_NEON
+#include <arm_neon.h>
+#endif
+
+#if defined(__GNUC__) && !defined(__clang__)
+/* The vector helpers below are always inlined static functions: no ABI crosses them. */
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+
+#define WK_LN TSK_SIMD_LANES
+#define WK_INL static inline __attribute__((always_inline))
+
+typedef float wk_f __attribute__((vector_size(4 * WK_LN)));
+typedef int32_t wk_i __attribute__((vector_size(4 * WK_LN)));
+typedef struct wk_v3 {
+    wk_f x, y, z;
+} wk_v3;
+
+WK_INL wk_f wk_splat(float x) {
+    wk_f v = {0};
+    return v + x;
+}
+WK_INL wk_f wk_ld(const float* p) {
+    wk_f v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+/* a where m (all ones or all zeros per lane), else b */
+WK_INL wk_f wk_sel(wk_i m, wk_f a, wk_f b) { return (wk_f)((m & (wk_i)a) | (~m & (wk_i)b)); }
+/* exactly maxps(a, b) and minps(a, b) */
+WK_INL wk_f wk_max(wk_f a, wk_f b) { return wk_sel(a > b, a, b); }
+WK_INL wk_f wk_min(wk_f a, wk_f b) { return wk_sel(a < b, a, b); }
+/* correctly rounded, as sqrtf */
+WK_INL wk_f wk_sqrt(wk_f a) {
+#if defined(TSK_SIMD_KERNEL_AVX512)
+    return (wk_f)_mm512_sqrt_ps((__m512)a);
+#elif defined(TSK_SIMD_KERNEL_AVX2)
+    return (wk_f)_mm256_sqrt_ps((__m256)a);
+#elif TSK_SIMD_SSE2
+    return (wk_f)_mm_sqrt_ps((__m128)a);
+#elif TSK_SIMD_NEON
+    return (wk_f)vsqrtq_f32((float32x4_t)a);
+#else
+    for (int l = 0; l < WK_LN; ++l) a[l] = sqrtf(a[l]);
+    return a;
+#endif
+}
+/* 1 when any lane of a comparison's result is set */
+WK_INL int wk_any(wk_i m) {
+#if defined(TSK_SIMD_KERNEL_AVX512)
+    return _mm512_test_epi32_mask((__m512i)m, (__m512i)m) != 0;
+#elif defined(TSK_SIMD_KERNEL_AVX2)
+    return _mm256_movemask_ps((__m256)m) != 0;
+#elif TSK_SIMD_SSE2
+    return _mm_movemask_ps((__m128)m) != 0;
+#else
+    int32_t o = 0;
+    for (int l = 0; l < WK_LN; ++l) o |= m[l];
+    return o != 0;
+#endif
+}
+
+WK_INL wk_v3 wk_add(wk_v3 a, wk_v3 b) { return (wk_v3){a.x + b.x, a.y + b.y, a.z + b.z}; }
+WK_INL wk_v3 wk_sub(wk_v3 a, wk_v3 b) { return (wk_v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
+WK_INL wk_v3 wk_scale(wk_v3 a, wk_f s) { return (wk_v3){a.x * s, a.y * s, a.z * s}; }
+WK_INL wk_f wk_dot(wk_v3 a, wk_v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+/* a*s + b*t, as v3_comb */
+WK_INL wk_v3 wk_comb(wk_v3 a, wk_f s, wk_v3 b, wk_f t) {
+    return (wk_v3){a.x * s + b.x * t, a.y * s + b.y * t, a.z * s + b.z * t};
+}
+/* v3_norm_or's main branch; *bad gets the lanes where the length is not > 1e-20 (where
+ * v3_norm_or takes its fallback) */
+WK_INL wk_v3 wk_norm(wk_v3 a, wk_i* bad) {
+    const wk_f l = wk_sqrt(wk_dot(a, a));
+    *bad |= ~(l > wk_splat(1e-20f));
+    return wk_scale(a, wk_splat(1.0f) / l);
+}
+/* component k of LN records of `stride` floats: records idx[l], or i + l */
+WK_INL wk_f wk_gather(const float* base, const size_t* idx, size_t stride, size_t k) {
+    wk_f v = {0};
+    for (int l = 0; l < WK_LN; ++l) v[l] = base[idx[l] * stride + k];
+    return v;
+}
+WK_INL wk_f wk_strided(const float* base, size_t i, size_t stride, size_t k) {
+    wk_f v = {0};
+    for (int l = 0; l < WK_LN; ++l) v[l] = base[(i + (size_t)l) * stride + k];
+    return v;
+}
+
+/* bend_pow of tree_internal.h, lane for lane the same operations in the same order */
+WK_INL wk_f wk_bend_pow(wk_f m, float e) {
+    const wk_i bits = (wk_i)m;
+    const wk_f ex = __builtin_convertvector(((bits >> 23) & 255) - 127, wk_f);
+    const wk_f mant = (wk_f)((bits & 0x7FFFFF) | 0x3F800000);
+    const wk_f one = wk_splat(1.0f);
+    const wk_f s = (mant - one) / (mant + one), s2 = s * s;
+    wk_f poly = 0.142857143f + s2 * 0.111111111f;
+    poly = 0.2f + s2 * poly;
+    poly = 0.333333333f + s2 * poly;
+    poly = one + s2 * poly;
+    const wk_f ln = 2.0f * s * poly;
+    wk_f y = e * (ex + ln * 1.44269504f);
+    y = wk_max(y, wk_splat(-126.0f));
+    y = wk_min(y, wk_splat(126.0f));
+    wk_f n = __builtin_convertvector(__builtin_convertvector(y, wk_i), wk_f); /* truncation */
+    n = n - (wk_f)((n > y) & (wk_i)one);                                       /* then floor */
+    const wk_f f = (y - n) * 0.693147181f;
+    wk_f p = 0.00138888889f + f * 0.000198412698f;
+    p = 0.00833333333f + f * p;
+    p = 0.0416666667f + f * p;
+    p = 0.166666667f + f * p;
+    p = 0.5f + f * p;
+    p = one + f * p;
+    p = one + f * p;
+    const wk_f sc = (wk_f)((__builtin_convertvector(n, wk_i) + 127) << 23);
+    return p * sc;
+}
+
+int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
+    tsk_tree* t = c->t;
+    size_t pi[WK_LN];
+    for (int l = 0; l < WK_LN; ++l) {
+        if (t->parent[i + (size_t)l] < 0) return 0;
+        pi[l] = (size_t)t->parent[i + (size_t)l];
+    }
+    wk_i bad = {0};
+    const wk_f one = wk_splat(1.0f);
+    /* the parents' curves and Sloan frames (18 floats: S[3], T[3]) */
+    wk_v3 P[4], S[3], T[3];
+    const float* fr = (const float*)c->parent_frames;
+    if (pi[0] == pi[WK_LN - 1]) { /* parents never decrease: the block shares one */
+        const float* pp = c->parent_pts + 12 * pi[0];
+        const float* pf = fr + 18 * pi[0];
+        for (int k = 0; k < 4; ++k)
+            P[k] = (wk_v3){wk_splat(pp[3 * k]), wk_splat(pp[3 * k + 1]), wk_splat(pp[3 * k + 2])};
+        for (int k = 0; k < 3; ++k) {
+            S[k] = (wk_v3){wk_splat(pf[3 * k]), wk_splat(pf[3 * k + 1]), wk_splat(pf[3 * k + 2])};
+            T[k] = (wk_v3){wk_splat(pf[9 + 3 * k]), wk_splat(pf[9 + 3 * k + 1]),
+                           wk_splat(pf[9 + 3 * k + 2])};
+        }
+    } else {
+        for (int k = 0; k < 4; ++k)
+            P[k] = (wk_v3){wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k)),
+                           wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k + 1)),
+                           wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k + 2))};
+        for (int k = 0; k < 3; ++k) {
+            S[k] = (wk_v3){wk_gather(fr, pi, 18, (size_t)(3 * k)),
+                           wk_gather(fr, pi, 18, (size_t)(3 * k + 1)),
+                           wk_gather(fr, pi, 18, (size_t)(3 * k + 2))};
+            T[k] = (wk_v3){wk_gather(fr, pi, 18, (size_t)(9 + 3 * k)),
+                           wk_gather(fr, pi, 18, (size_t)(9 + 3 * k + 1)),
+                           wk_gather(fr, pi, 18, (size_t)(9 + 3 * k + 2))};
+        }
+    }
+    const wk_f u = wk_ld(t->attach_v + i);
+    const wk_f ct = wk_strided(t->trig, i, 4, 0), st = wk_strided(t->trig, i, 4, 1);
+    const wk_f ca = wk_strided(t->trig, i, 4, 2), sa = wk_strided(t->trig, i, 4, 3);
+    /* tree_attach_frame: origin = bez_point */
+    const wk_f s = one - u;
+    const wk_f b0 = s * s * s, b1 = 3.0f * s * s * u, b2 = 3.0f * s * u * u, b3 = u * u * u;
+    wk_v3 origin;
+    origin.x = P[0].x * b0 + P[1].x * b1 + P[2].x * b2 + P[3].x * b3;
+    origin.y = P[0].y * b0 + P[1].y * b1 + P[2].y * b2 + P[3].y * b3;
+    origin.z = P[0].z * b0 + P[1].z * b1 + P[2].z * b2 + P[3].z * b3;
+    /* U = normalize(bez_deriv); where it is degenerate (the chord fallback) the block goes
+     * one branch at a time */
+    const wk_f d0 = 3.0f * s * s, d1 = 6.0f * s * u, d2 = 3.0f * u * u;
+    const wk_v3 ea = wk_sub(P[1], P[0]), eb = wk_sub(P[2], P[1]), ec = wk_sub(P[3], P[2]);
+    const wk_v3 der = {ea.x * d0 + eb.x * d1 + ec.x * d2, ea.y * d0 + eb.y * d1 + ec.y * d2,
+                       ea.z * d0 + eb.z * d1 + ec.z * d2};
+    const wk_v3 U = wk_norm(der, &bad);
+    /* sloan_at: quadratic Bernstein blend of the handles (bern2) */
+    const wk_f q0 = s * s, q1 = 2.0f * s * u, q2 = u * u;
+    const wk_v3 Sv = wk_add(wk_add(wk_scale(S[0], q0), wk_scale(S[1], q1)), wk_scale(S[2], q2));
+    const wk_v3 Tv = wk_add(wk_add(wk_scale(T[0], q0), wk_scale(T[1], q1)), wk_scale(T[2], q2));
+    wk_v3 D = wk_comb(Sv, st, Tv, ct);
+    D = wk_sub(D, wk_scale(U, wk_dot(D, U)));
+    const wk_v3 V = wk_norm(D, &bad);
+    if (wk_any(bad)) return 0;
+    /* tree_pose_branch */
+    const wk_v3 axis = wk_comb(U, ca, V, sa);
+    const wk_v3 side = wk_comb(U, -sa, V, ca);
+    const wk_v3 W = {U.y * V.z - U.z * V.y, U.z * V.x - U.x * V.z, U.x * V.y - U.y * V.x};
+    wk_v3 Q[4];
+    Q[0].x = Q[0].y = Q[0].z = wk_splat(0.0f);
+    for (int k = 0; k < 3; ++k)
+        Q[k + 1] = (wk_v3){wk_strided(t->local, i, 9, (size_t)(3 * k)),
+                           wk_strided(t->local, i, 9, (size_t)(3 * k + 1)),
+                           wk_strided(t->local, i, 9, (size_t)(3 * k + 2))};
+    wk_v3 F = {wk_strided(c->force, i, 3, 0), wk_strided(c->force, i, 3, 1),
+               wk_strided(c->force, i, 3, 2)};
+    if (c->strength != 1.0f) F = wk_scale(F, wk_splat(c->strength));
+    const wk_f zero = wk_splat(0.0f);
+    const wk_i nonzero = (F.x != zero) | (F.y != zero) | (F.z != zero);
+    if (wk_any(nonzero)) {
+        const wk_f rs = wk_ld(t->rest_seg + i), l2 = wk_ld(t->seg12 + i);
+        const wk_f inv_l = wk_ld(t->inv_l + i);
+        wk_v3 f = {wk_dot(F, axis), wk_dot(F, side), wk_dot(F, W)};
+        f = wk_scale(f, inv_l);
+        const wk_f m = wk_sqrt(wk_dot(f, f));
+        if (wk_any(~(m <= wk_splat(TREE_BEND_MAX)))) return 0; /* the one-branch path clamps */
+        const wk_f mag = (wk_f)((m > zero) & (wk_i)wk_bend_pow(m, c->power - 1.0f));
+        const wk_v3 bb3 = wk_scale(f, mag);
+        const wk_v3 bb2 = wk_scale(bb3, wk_splat(c->b2_scale));
+        const wk_v3 dd2 = wk_sub(Q[2], Q[1]), dd3 = wk_sub(Q[3], Q[2]);
+        wk_i nb = {0};
+        const wk_v3 n2 = wk_norm(wk_add(dd2, bb2), &nb);
+        const wk_v3 q2v = wk_add(Q[1], wk_scale(n2, l2));
+        const wk_v3 n3 = wk_norm(wk_add(dd3, bb3), &nb);
+        const wk_v3 q3v = wk_add(q2v, wk_scale(n3, rs));
+        /* a zero-length sum takes the one-branch fallback (a zero vector) */
+        if (wk_any(nb & nonzero)) return 0;
+        Q[2] = (wk_v3){wk_sel(nonzero, q2v.x, Q[2].x), wk_sel(nonzero, q2v.y, Q[2].y),
+                       wk_sel(nonzero, q2v.z, Q[2].z)};
+        Q[3] = (wk_v3){wk_sel(nonzero, q3v.x, Q[3].x), wk_sel(nonzero, q3v.y, Q[3].y),
+                       wk_sel(nonzero, q3v.z, Q[3].z)};
+    }
+    /* 12 components x LN lanes -> LN rows of 12 floats (the branches are contiguous) */
+    float out[12][WK_LN];
+    for (int k = 0; k < 4; ++k) {
+        const wk_f px = origin.x + axis.x * Q[k].x + side.x * Q[k].y + W.x * Q[k].z;
+        const wk_f py = origin.y + axis.y * Q[k].x + side.y * Q[k].y + W.y * Q[k].z;
+        const wk_f pz = origin.z + axis.z * Q[k].x + side.z * Q[k].y + W.z * Q[k].z;
+        memcpy(out[3 * k], &px, sizeof px);
+        memcpy(out[3 * k + 1], &py, sizeof py);
+        memcpy(out[3 * k + 2], &pz, sizeof pz);
+    }
+    float* dst = t->cur + 12 * i;
+    for (int l = 0; l < WK_LN; ++l)
+        for (int k = 0; k < 12; ++k) dst[12 * l + k] = out[k][l];
+    /* O of seed 001, eq. 8 */
+    float O[3][WK_LN];
+    const wk_f ox = side.x * -1.0f, oy = side.y * -1.0f, oz = side.z * -1.0f;
+    memcpy(O[0], &ox, sizeof ox);
+    memcpy(O[1], &oy, sizeof oy);
+    memcpy(O[2], &oz, sizeof oz);
+    for (int l = 0; l < WK_LN; ++l) {
+        float* od = t->cur_O + 3 * (i + (size_t)l);
+        od[0] = O[0][l], od[1] = O[1][l], od[2] = O[2][l];
+        if (t->has_kids[i + (size_t)l]) {
+            v3 Pl[4];
+            tree_load_points(t->cur, i + (size_t)l, Pl);
+            sloan_build(Pl, v3_make(O[0][l], O[1][l], O[2][l]), &t->frames[i + (size_t)l]);
+        }
+    }
+    return 1;
+}
+
+#undef WK_LN
+#undef WK_INL
