@@ -21,10 +21,10 @@ static float g_depth[W * H];
 static int write_images(const char* dir, const tsk_capture* cap) {
     static uint8_t img[W * H];
     static uint8_t rgb[W * H * 3];
-    static const char* names[4] = {"capture_depth.png", "capture_mask.png",
-                                   "capture_labels.png", "capture_overlay.png"};
+    static const char* names[4] = {"capture_depth.png", "capture_mask.png", "capture_labels.png",
+                                   "capture_overlay.png"};
     /* distinct colours for labels 1..n (BGR, as OpenCV writes) */
-    static const uint8_t pal[8][3] = {{60, 180, 75},  {200, 130, 0}, {75, 25, 230},
+    static const uint8_t pal[8][3] = {{60, 180, 75},  {200, 130, 0},  {75, 25, 230},
                                       {25, 225, 255}, {240, 50, 230}, {180, 30, 145},
                                       {48, 130, 245}, {240, 240, 70}};
     char path[1024];

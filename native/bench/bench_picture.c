@@ -50,11 +50,15 @@ static void bench_wind_frame(const tsk_picture* pic, float* out, float* uv) {
     src.radius = 6.0f;
     src.interval = 1.0f;
     tsk_wind* wind = NULL;
-    float *px = tsk_alloc(FX * FY * sizeof(float), "field x"), *py = tsk_alloc(FX * FY * sizeof(float), "field y");
-    float *vx = tsk_alloc(FX * FY * sizeof(float), "wind vx"), *vy = tsk_alloc(FX * FY * sizeof(float), "wind vy");
-    float *sx = tsk_alloc(FX * FY * sizeof(float), "sway x"), *sy = tsk_alloc(FX * FY * sizeof(float), "sway y");
+    float *px = tsk_alloc(FX * FY * sizeof(float), "field x"),
+          *py = tsk_alloc(FX * FY * sizeof(float), "field y");
+    float *vx = tsk_alloc(FX * FY * sizeof(float), "wind vx"),
+          *vy = tsk_alloc(FX * FY * sizeof(float), "wind vy");
+    float *sx = tsk_alloc(FX * FY * sizeof(float), "sway x"),
+          *sy = tsk_alloc(FX * FY * sizeof(float), "sway y");
     if (!px || !py || !vx || !vy || !sx || !sy || tsk_wind_create(&wd, &wind) != TSK_OK ||
-        tsk_wind_set_sources(wind, &src, 1) != TSK_OK || tsk_wind_step(wind, WARMUP * STEPS) != TSK_OK) {
+        tsk_wind_set_sources(wind, &src, 1) != TSK_OK ||
+        tsk_wind_step(wind, WARMUP * STEPS) != TSK_OK) {
         fprintf(stderr, "bench_picture wind: %s\n", tsk_last_error());
         goto done;
     }
@@ -153,7 +157,10 @@ static void bench_picture(int argc, char** argv) {
         snprintf(params, sizeof params,
                  "\"width\": %d, \"height\": %d, \"layers\": 1, \"cell\": 16, \"threads\": %d, "
                  "\"field\": \"%dx%d\", \"outputs\": \"%s\", \"sampling\": \"bilinear\"",
-                 W, H, threads, FW, FH, mode == 0 ? "rgba+uv" : mode == 1 ? "uv" : "rgba");
+                 W, H, threads, FW, FH,
+                 mode == 0   ? "rgba+uv"
+                 : mode == 1 ? "uv"
+                             : "rgba");
         bench_emit(names[mode], 1e3 * bench_median(t, REPS), "ms per frame", params, NULL);
     }
     /* peer: cv::remap of the same layer with the same source points (maps precomputed) */

@@ -147,8 +147,8 @@ static int evaluate(const tsk_refine_bend_def* bend, const float* full_knots,
 static void emit_quality(const char* method, int m, const quality* q, float mu) {
     char name[96], params[160];
     int n = snprintf(params, sizeof params,
-                     "\"knots\": %d, \"from\": %d, \"frames\": %d, \"mass_ratio\": %.4f", m,
-                     FULL, FRAMES, q->mass_ratio);
+                     "\"knots\": %d, \"from\": %d, \"frames\": %d, \"mass_ratio\": %.4f", m, FULL,
+                     FRAMES, q->mass_ratio);
     if (mu >= 0.0f) snprintf(params + n, sizeof params - (size_t)n, ", \"mu\": %g", (double)mu);
     snprintf(name, sizeof name, "refine_quality_%s_%d_tip", method, m);
     bench_emit(name, q->tip_rms * 1000.0, "mm RMS tip-trajectory error", params, NULL);

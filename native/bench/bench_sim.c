@@ -19,8 +19,10 @@ static void fill_tile(const tsk_blade_sim_def* d, int32_t t, float* knots, float
                       float* sides) {
     const int32_t i = t % d->tiles_x, j = t / d->tiles_x;
     for (int b = 0; b < BLADES_PER_TILE; ++b) {
-        const float rx = d->origin[0] + d->tile_size * ((float)i + tsk_rand01(11, (uint64_t)t, (uint64_t)b, 0));
-        const float ry = d->origin[1] + d->tile_size * ((float)j + tsk_rand01(11, (uint64_t)t, (uint64_t)b, 1));
+        const float rx =
+            d->origin[0] + d->tile_size * ((float)i + tsk_rand01(11, (uint64_t)t, (uint64_t)b, 0));
+        const float ry =
+            d->origin[1] + d->tile_size * ((float)j + tsk_rand01(11, (uint64_t)t, (uint64_t)b, 1));
         const float turn = 6.2831853f * tsk_rand01(11, (uint64_t)t, (uint64_t)b, 2);
         const float H = 0.3f * (0.8f + 0.4f * tsk_rand01(11, (uint64_t)t, (uint64_t)b, 3));
         const float c = cosf(turn), s = sinf(turn);
@@ -45,7 +47,7 @@ typedef struct scene {
     float* home; /* per object: centre x, y, phase */
     int64_t blades;
     float width, depth; /* metres of the region the tiles cover in x and y */
-    int log;            /* 1: instead of the objects, one log lying across the region */
+    int log; /* 1: instead of the objects, one log lying across the region */
 } scene;
 
 static int scene_make(scene* sc, int32_t tiles, int32_t objects) {
@@ -70,7 +72,8 @@ static int scene_make(scene* sc, int32_t tiles, int32_t objects) {
     sc->wind = malloc(sizeof(float) * 3 * (size_t)sc->blades);
     sc->cols = malloc(sizeof(tsk_blade_collider) * (size_t)objects);
     sc->home = malloc(sizeof(float) * 3 * (size_t)objects);
-    const float rows = (float)((tiles + side - 1) / side) * d.tile_size, cols = (float)side * d.tile_size;
+    const float rows = (float)((tiles + side - 1) / side) * d.tile_size,
+                cols = (float)side * d.tile_size;
     sc->width = cols, sc->depth = rows;
     for (int32_t o = 0; o < objects; ++o) {
         sc->home[3 * o] = cols * tsk_rand01(5, (uint64_t)o, 0, 0);
@@ -151,7 +154,6 @@ static double measure(scene* sc, int warm, int repeats, int batch, double* cpu_m
     return bench_median(v, repeats);
 }
 
-
 /* The solver's kernel alone: four blocks of SIM_W blades of the first tiles (about 54 KB, in
  * L1 and L2) stepped in turn with wind and no collider, as tsk_blade_sim_step sets up a step
  * from the default definition (tsk_sim_step_params). Batches of 64 block steps; the least and the tenth percentile
@@ -194,7 +196,8 @@ static int bench_block(double* best, double* p10, double* median) {
     for (int r = 0; r < BATCHES; ++r) {
         const double t0 = bench_now_s();
         for (int i = 0; i < BATCH; ++i)
-            tsk_sim_block_step(&p, blocks + fl * (size_t)(i % NB), wind, 0, NULL, 0, 0.0f, NULL, &st);
+            tsk_sim_block_step(&p, blocks + fl * (size_t)(i % NB), wind, 0, NULL, 0, 0.0f, NULL,
+                               &st);
         t[r] = (bench_now_s() - t0) * 1e9 / ((double)BATCH * SIM_W);
     }
     const int finite = isfinite(blocks[fl - 1]) && isfinite(st.max_disp2);
@@ -251,9 +254,11 @@ int main(int argc, char** argv) {
                  "\"tiles\": 709, \"objects\": 128, \"blades\": 45376, \"threads\": %d, "
                  "\"ns_per_blade\": %.4g, \"seed_gpu_ms\": 4.67",
                  threads, ns709);
-        bench_emit("blade_sim_table1", ms709, "ms per step, 709 tiles and 128 objects", params, NULL);
+        bench_emit("blade_sim_table1", ms709, "ms per step, 709 tiles and 128 objects", params,
+                   NULL);
     }
-    if (bench_wanted(argc, argv, "blade_sim_1M_cache") || bench_wanted(argc, argv, "blade_sim_1M_contact")) {
+    if (bench_wanted(argc, argv, "blade_sim_1M_cache") ||
+        bench_wanted(argc, argv, "blade_sim_1M_contact")) {
         /* The solver alone, in cache, on one thread: 2,048 blades (870 KB of state, inside one
            core's L2) and one object, so the figure is compute, not memory or scheduling. */
         const int saved = tsk_get_threads();
@@ -272,8 +277,8 @@ int main(int argc, char** argv) {
                  "\"blades\": %lld, \"knots\": %d, \"iterations\": 4, \"objects\": 1, "
                  "\"threads\": 1, \"load_avg\": %.2f",
                  (long long)sc.blades, KNOTS, load_avg());
-        bench_emit("blade_sim_1M_cache", ms * 1e6 / (double)sc.blades, "ns per blade-step",
-                   params, NULL);
+        bench_emit("blade_sim_1M_cache", ms * 1e6 / (double)sc.blades, "ns per blade-step", params,
+                   NULL);
         /* the same blades in contact: the log of blade_playback lying across them (a third of
            the blocks have it near) */
         sc.log = 1;
@@ -331,9 +336,9 @@ int main(int argc, char** argv) {
                  "\"target_ns\": 40, \"blender_hair_ns_reference\": 220000, "
                  "\"blender_hair_ratio\": %.4g, \"blender_hair_note\": \"quoted in issue 7 "
                  "(15 segments, this machine), not measured in this run\"",
-                 (long long)sc.blades, KNOTS, threads, ms, cpu * 1e6 / (double)sc.blades, load_avg(),
-                 (double)info.state_bytes / 1048576.0, (double)info.state_bytes / (double)sc.blades,
-                 tsk_sim_avx512_step_running(),
+                 (long long)sc.blades, KNOTS, threads, ms, cpu * 1e6 / (double)sc.blades,
+                 load_avg(), (double)info.state_bytes / 1048576.0,
+                 (double)info.state_bytes / (double)sc.blades, tsk_sim_avx512_step_running(),
                  220000.0 / ns);
         bench_emit("blade_sim_1M", ns, "ns per blade-step", params, NULL);
         scene_free(&sc);

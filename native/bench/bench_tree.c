@@ -83,8 +83,7 @@ static void bench_wind(const char* name, size_t target, int b12, int repeats) {
                  "\"ms_per_step\": %.3f, \"cpu_ns_per_branch\": %.1f",
                  n, tsk_get_threads(), mode == 1 ? "exact" : "lagged", repeats, med * 1e3, cpu_ns);
         snprintf(full, sizeof full, "%s%s", name, mode == 1 ? "_exact" : mode == 2 ? "_1t" : "");
-        bench_emit(full, (double)n / med * 1e-6, "million branch updates per second", params,
-                   NULL);
+        bench_emit(full, (double)n / med * 1e-6, "million branch updates per second", params, NULL);
     }
     tsk_set_threads(0);
     free(tips), free(force);
@@ -125,12 +124,14 @@ static void bench_mesh(int repeats) {
             tsk_tree_mesh_deform(t, &m, pos, nrm);
             samples[r] = bench_now_s() - t0;
         }
-        const double cpu_ns = (double)(clock() - c0) / CLOCKS_PER_SEC / ((double)repeats * nv) * 1e9;
+        const double cpu_ns =
+            (double)(clock() - c0) / CLOCKS_PER_SEC / ((double)repeats * nv) * 1e9;
         med = bench_median(samples, repeats);
-        snprintf(params, sizeof params,
-                 "\"preset\": \"black_tupelo\", \"branches\": %zu, \"vertices\": %zu, \"threads\": %d, "
-                 "\"normals\": true, \"ms_per_frame\": %.3f, \"cpu_ns_per_vertex\": %.1f",
-                 tsk_tree_branch_count(t), nv, tsk_get_threads(), med * 1e3, cpu_ns);
+        snprintf(
+            params, sizeof params,
+            "\"preset\": \"black_tupelo\", \"branches\": %zu, \"vertices\": %zu, \"threads\": %d, "
+            "\"normals\": true, \"ms_per_frame\": %.3f, \"cpu_ns_per_vertex\": %.1f",
+            tsk_tree_branch_count(t), nv, tsk_get_threads(), med * 1e3, cpu_ns);
         bench_emit(pass ? "tree_mesh_1t" : "tree_mesh", (double)nv / med * 1e-6,
                    "million deformed vertices per second", params, NULL);
     }
@@ -155,8 +156,8 @@ static void bench_mesh(int repeats) {
                  "\"preset\": \"black_tupelo\", \"refined_vertices\": %zu, \"levels\": 1, "
                  "\"threads\": %d, \"stencil_build_ms\": %.1f",
                  rn, tsk_get_threads(), build * 1e3);
-        bench_emit("tree_mesh_smooth", (double)rn / med * 1e-6, "million refined vertices per second",
-                   params, NULL);
+        bench_emit("tree_mesh_smooth", (double)rn / med * 1e-6,
+                   "million refined vertices per second", params, NULL);
         free(rp);
         tsk_subdiv_destroy(sd);
     }
@@ -212,10 +213,11 @@ static void bench_frame(int repeats) {
             if (gap > worst) worst = gap;
             if (metres > worst_m) worst_m = metres;
         }
-        snprintf(params, sizeof params,
-                 "\"preset\": \"ca_black_oak\", \"frames\": \"24-72\", \"fps\": 24, \"mode\": \"%s\", "
-                 "\"largest_gap_m\": %.4g",
-                 mode ? "exact" : "lagged", worst_m);
+        snprintf(
+            params, sizeof params,
+            "\"preset\": \"ca_black_oak\", \"frames\": \"24-72\", \"fps\": 24, \"mode\": \"%s\", "
+            "\"largest_gap_m\": %.4g",
+            mode ? "exact" : "lagged", worst_m);
         bench_emit(mode ? "tree_wind_gap_exact" : "tree_wind_gap_lagged", worst,
                    "largest child gap / parent radius", params, NULL);
     }
@@ -270,7 +272,8 @@ static void bench_mesh_edges(int repeats) {
     char params[256];
     snprintf(params, sizeof params,
              "\"preset\": \"black_tupelo\", \"quads\": %zu, \"edges\": %zu, "
-             "\"derived_ms\": %.3f", nf, ne, bench_median(derived, repeats) * 1e3);
+             "\"derived_ms\": %.3f",
+             nf, ne, bench_median(derived, repeats) * 1e3);
     bench_emit("tree_mesh_edges", bench_median(closed, repeats) * 1e3, "ms", params, NULL);
     free(faces), free(edges), free(ce);
     tsk_tree_destroy(t);

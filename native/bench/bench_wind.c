@@ -53,7 +53,9 @@ static void bench_fluid(const char* name, int n, int steps_per_repeat) {
              "\"grid\": %d, \"threads\": %d, \"pressure_iterations\": %d, \"steps_per_s\": %.1f, "
              "\"cpu_ms_1_thread\": %.4g, \"continuum\": true, \"sources\": 3",
              n, threads, d.fluid.pressure_iterations, 1e3 / med, bench_median(cpu, REPEATS));
-    bench_emit(name, med, strcmp(name, "wind_fluid") == 0 ? "ms per 128² fluid + wave step" : "ms per step", params, NULL);
+    bench_emit(name, med,
+               strcmp(name, "wind_fluid") == 0 ? "ms per 128² fluid + wave step" : "ms per step",
+               params, NULL);
     tsk_wind_destroy(w);
 }
 
@@ -85,10 +87,8 @@ static void bench_sample(const char* name, int xyz) {
         if (pass == 1) tsk_set_threads(1);
         for (int r = 0; r < REPEATS; ++r) {
             const double t0 = pass ? cpu_now_s() : bench_now_s();
-            if (xyz)
-                tsk_wind_sample_xyz(w, 1.0 + r, n, x, vx, NULL);
-            else
-                tsk_wind_sample(w, 1.0 + r, n, x, y, vx, vy, NULL, NULL);
+            if (xyz) tsk_wind_sample_xyz(w, 1.0 + r, n, x, vx, NULL);
+            else tsk_wind_sample(w, 1.0 + r, n, x, y, vx, vy, NULL, NULL);
             const double sec = (pass ? cpu_now_s() : bench_now_s()) - t0;
             (pass ? rate1 : rate)[r] = (double)n / sec / 1e6;
         }

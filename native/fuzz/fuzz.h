@@ -39,22 +39,32 @@ static inline uint64_t fz_u64(fz* r) { return (uint64_t)fz_u32(r) << 32 | fz_u32
 static inline float fz_float(fz* r, float def) {
     const uint8_t k = fz_u8(r);
     switch (k % 16) {
-    case 0: return 0.0f;
-    case 1: return -def;
-    case 2: return NAN;
-    case 3: return (k & 16) ? INFINITY : -INFINITY;
-    case 4: return (k & 16) ? FLT_MAX : -FLT_MAX;
-    case 5: return (k & 16) ? FLT_MIN : 1e-30f;
-    case 6: return def * (float)(fz_u8(r) + 1) / 16.0f;
-    case 7: {
-        uint32_t b = fz_u32(r);
-        float f;
-        memcpy(&f, &b, sizeof f);
-        return f;
-    }
-    case 8: return (float)(int8_t)fz_u8(r);
-    case 9: return def * 1e6f;
-    default: return def;
+        case 0:
+            return 0.0f;
+        case 1:
+            return -def;
+        case 2:
+            return NAN;
+        case 3:
+            return (k & 16) ? INFINITY : -INFINITY;
+        case 4:
+            return (k & 16) ? FLT_MAX : -FLT_MAX;
+        case 5:
+            return (k & 16) ? FLT_MIN : 1e-30f;
+        case 6:
+            return def * (float)(fz_u8(r) + 1) / 16.0f;
+        case 7: {
+            uint32_t b = fz_u32(r);
+            float f;
+            memcpy(&f, &b, sizeof f);
+            return f;
+        }
+        case 8:
+            return (float)(int8_t)fz_u8(r);
+        case 9:
+            return def * 1e6f;
+        default:
+            return def;
     }
 }
 
@@ -62,16 +72,25 @@ static inline float fz_float(fz* r, float def) {
 static inline int fz_int(fz* r, int def) {
     const uint8_t k = fz_u8(r);
     switch (k % 14) {
-    case 0: return 0;
-    case 1: return -1;
-    case 2: return INT_MAX;
-    case 3: return INT_MIN;
-    case 4: return (int)fz_u8(r);
-    /* wrapping arithmetic: a default near the limits must not overflow in the harness */
-    case 5: return (int)((uint32_t)def + (uint32_t)(int32_t)(int8_t)fz_u8(r));
-    case 6: return (int)fz_u32(r);
-    case 7: return (int)((uint32_t)def * 2u);
-    default: return def;
+        case 0:
+            return 0;
+        case 1:
+            return -1;
+        case 2:
+            return INT_MAX;
+        case 3:
+            return INT_MIN;
+        case 4:
+            return (int)fz_u8(r);
+        /* wrapping arithmetic: a default near the limits must not overflow in the harness */
+        case 5:
+            return (int)((uint32_t)def + (uint32_t)(int32_t)(int8_t)fz_u8(r));
+        case 6:
+            return (int)fz_u32(r);
+        case 7:
+            return (int)((uint32_t)def * 2u);
+        default:
+            return def;
     }
 }
 

@@ -125,8 +125,8 @@ static void structured_frames(fz* r) {
         put_u64(file + 24, sum);
         memcpy(file + 32, pts[f], (size_t)count * 12);
         size_t len = 32 + (size_t)count * 12;
-        if (lie % 16 == 7) len = fz_u8(r) % (len + 1), clean = 0;           /* truncated */
-        if (lie % 16 == 8) len += 1 + fz_u8(r) % 60, clean = 0;             /* too long */
+        if (lie % 16 == 7) len = fz_u8(r) % (len + 1), clean = 0; /* truncated */
+        if (lie % 16 == 8) len += 1 + fz_u8(r) % 60, clean = 0; /* too long */
         if (!write_file(paths[f], file, len)) abort();
         if ((int64_t)first + f > INT32_MAX) clean = 0;
         read_frame_back(paths[f]);
@@ -140,8 +140,7 @@ static void structured_frames(fz* r) {
     char out[96];
     temp_name(out, sizeof out, 99, "pc2");
     /* a wrong count that is too large would read past `list`: pass a NULL list then */
-    const tsk_status s =
-        tsk_bake_assemble_pc2(out, fc > nf ? NULL : list, fc, start, rate);
+    const tsk_status s = tsk_bake_assemble_pc2(out, fc > nf ? NULL : list, fc, start, rate);
     const int good_params = !bad_count && isfinite(start) && isfinite(rate) && rate > 0;
     if (clean && good_params && s != TSK_OK) {
         fprintf(stderr, "bake: clean frames refused: %s\n", tsk_last_error());
@@ -228,32 +227,38 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     fz r = {data + 1, size - 1};
     char path[96];
     switch (data[0] % 6) {
-    case 0: {
-        temp_name(path, sizeof path, 0, "tskf");
-        if (!write_file(path, data + 1, size - 1)) abort();
-        read_frame_back(path);
-        const char* list[2] = {path, path};
-        char out[96];
-        temp_name(out, sizeof out, 99, "pc2");
-        if (tsk_bake_assemble_pc2(out, list, 1, 1.0f, 1.0f) == TSK_OK) {
-            read_pc2_back(&r, out);
-            unlink(out);
+        case 0: {
+            temp_name(path, sizeof path, 0, "tskf");
+            if (!write_file(path, data + 1, size - 1)) abort();
+            read_frame_back(path);
+            const char* list[2] = {path, path};
+            char out[96];
+            temp_name(out, sizeof out, 99, "pc2");
+            if (tsk_bake_assemble_pc2(out, list, 1, 1.0f, 1.0f) == TSK_OK) {
+                read_pc2_back(&r, out);
+                unlink(out);
+            }
+            /* the same frame twice is not two consecutive frames */
+            if (tsk_bake_assemble_pc2(out, list, 2, 1.0f, 1.0f) == TSK_OK) abort();
+            unlink(path);
+            break;
         }
-        /* the same frame twice is not two consecutive frames */
-        if (tsk_bake_assemble_pc2(out, list, 2, 1.0f, 1.0f) == TSK_OK) abort();
-        unlink(path);
-        break;
-    }
-    case 1:
-        temp_name(path, sizeof path, 0, "pc2");
-        if (!write_file(path, data + 1, size - 1)) abort();
-        read_pc2_back(&r, path);
-        unlink(path);
-        break;
-    case 2:
-    case 3: structured_frames(&r); break;
-    case 4: structured_pc2(&r); break;
-    default: write_round_trip(&r); break;
+        case 1:
+            temp_name(path, sizeof path, 0, "pc2");
+            if (!write_file(path, data + 1, size - 1)) abort();
+            read_pc2_back(&r, path);
+            unlink(path);
+            break;
+        case 2:
+        case 3:
+            structured_frames(&r);
+            break;
+        case 4:
+            structured_pc2(&r);
+            break;
+        default:
+            write_round_trip(&r);
+            break;
     }
     fz_check_leaks("bake");
     return 0;

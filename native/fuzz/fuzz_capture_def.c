@@ -78,14 +78,15 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                     !isfinite(xyz[3 * i + 2]) || !(wid[i] >= 0.0f) || !isfinite(wid[i])) {
                     const tsk_intrinsics in = tsk_capture_intrinsics(cap);
                     fprintf(stderr, "knot %d: %g %g %g width %g (fx %g fy %g cx %g cy %g)\n", i,
-                            xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], wid[i], in.fx, in.fy,
-                            in.cx, in.cy);
-                    fprintf(stderr, "def: band %g %g area %d hole %d open %d cs %g ss %g sp %g "
+                            xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], wid[i], in.fx, in.fy, in.cx,
+                            in.cy);
+                    fprintf(stderr,
+                            "def: band %g %g area %d hole %d open %d cs %g ss %g sp %g "
                             "root %d ks %g ws %g dw %d mk %d rt %g; %dx%d\n",
-                            def.near_m, def.far_m, def.min_area, def.hole_radius,
-                            def.open_radius, def.contour_smooth, def.split_smooth,
-                            def.split_prominence, def.root, def.knot_spacing, def.width_smooth,
-                            def.depth_window, def.min_knots, def.root_trim, w, h);
+                            def.near_m, def.far_m, def.min_area, def.hole_radius, def.open_radius,
+                            def.contour_smooth, def.split_smooth, def.split_prominence, def.root,
+                            def.knot_spacing, def.width_smooth, def.depth_window, def.min_knots,
+                            def.root_trim, w, h);
                     abort();
                 }
             (void)tsk_capture_get_knots(cap, xyz, wid, uv, (size_t)nk + 1); /* wrong size */
@@ -98,8 +99,7 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
             const size_t npix = (size_t)w * (size_t)h; /* this pass's frame */
             uint8_t* img = malloc(npix);
             for (int k = 0; k < 4; ++k)
-                if (tsk_capture_get_image(cap, (tsk_capture_image)k, img, npix) != TSK_OK)
-                    abort();
+                if (tsk_capture_get_image(cap, (tsk_capture_image)k, img, npix) != TSK_OK) abort();
             (void)tsk_capture_get_image(cap, (tsk_capture_image)4, img, npix);
             free(img);
             free(counts);

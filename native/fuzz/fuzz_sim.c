@@ -97,13 +97,18 @@ static int make_tile(fz* r, const tsk_blade_sim_def* d, int32_t t, int n, float*
         const size_t kn = (size_t)n * K * 3, wn = (size_t)n * K;
         const uint32_t which = fz_u32(r);
         const int what = fz_u8(r) % 3;
-        float* v = what == 0 ? &knots[which % kn]
-                   : what == 1 ? &widths[which % wn] : &sides[which % ((size_t)n * 3)];
+        float* v = what == 0   ? &knots[which % kn]
+                   : what == 1 ? &widths[which % wn]
+                               : &sides[which % ((size_t)n * 3)];
         *v = fz_float(r, what == 2 ? 1.0f : *v);
         if (getenv("TSK_FUZZ_VERBOSE"))
             fprintf(stderr, "tile %d: %s value %u set to %g\n", t,
-                    what == 0 ? "knot" : what == 1 ? "width" : "side",
-                    (unsigned)(which % (what == 0 ? kn : what == 1 ? wn : (size_t)n * 3)),
+                    what == 0   ? "knot"
+                    : what == 1 ? "width"
+                                : "side",
+                    (unsigned)(which % (what == 0   ? kn
+                                        : what == 1 ? wn
+                                                    : (size_t)n * 3)),
                     (double)*v);
     }
     return fz_u8(r) % 8 != 0; /* pass sides (else NULL) */
@@ -114,13 +119,12 @@ static void dump_def(const tsk_blade_sim_def* d) {
             "def: origin %g %g %g tile %g tiles %d x %d K %d gravity %g %g %g preload %g "
             "damping %g drag %g density %g stiff %g %g local %g it %d ground %g margin %g "
             "act %g maxh %g rest %g %g frames %d %d settle %d %d\n",
-            (double)d->origin[0], (double)d->origin[1], (double)d->origin[2],
-            (double)d->tile_size, d->tiles_x, d->tiles_y, d->knot_count, (double)d->gravity[0],
-            (double)d->gravity[1], (double)d->gravity[2], (double)d->gravity_preload,
-            (double)d->damping, (double)d->wind_drag, (double)d->linear_density,
-            (double)d->global_stiffness_root, (double)d->global_stiffness_tip,
-            (double)d->local_stiffness, d->iterations, (double)d->ground_height,
-            (double)d->collision_margin, (double)d->activation_margin,
+            (double)d->origin[0], (double)d->origin[1], (double)d->origin[2], (double)d->tile_size,
+            d->tiles_x, d->tiles_y, d->knot_count, (double)d->gravity[0], (double)d->gravity[1],
+            (double)d->gravity[2], (double)d->gravity_preload, (double)d->damping,
+            (double)d->wind_drag, (double)d->linear_density, (double)d->global_stiffness_root,
+            (double)d->global_stiffness_tip, (double)d->local_stiffness, d->iterations,
+            (double)d->ground_height, (double)d->collision_margin, (double)d->activation_margin,
             (double)d->max_blade_height, (double)d->rest_distance, (double)d->rest_speed,
             d->rest_frames, d->blend_frames, d->settle_frames, d->settle_blend_frames);
 }
@@ -151,16 +155,17 @@ static void check_state(const tsk_blade_sim* sim, const tsk_blade_sim_def* d) {
             size_t blade = i / 3 / (size_t)d->knot_count;
             int32_t at = 0;
             while (at < info.active_tiles && blade >= (size_t)counts[at]) blade -= counts[at++];
-            fprintf(stderr, "sim: knot value %zu of %zu is %g (tile %d, blade %zu, knot %zu)\n",
-                    i, n, (double)knots[i], at < info.active_tiles ? tiles[at] : -1, blade,
+            fprintf(stderr, "sim: knot value %zu of %zu is %g (tile %d, blade %zu, knot %zu)\n", i,
+                    n, (double)knots[i], at < info.active_tiles ? tiles[at] : -1, blade,
                     i / 3 % (size_t)d->knot_count);
             dump_def(d);
             abort();
         }
         /* roots (knot 0) are pinned where they were provided, even below the ground */
-        if (i % 3 == 2 && (i / 3) % (size_t)d->knot_count != 0 && knots[i] < d->ground_height - tol) {
-            fprintf(stderr, "sim: knot %zu below the ground: z %g < %g\n", i / 3,
-                    (double)knots[i], (double)d->ground_height);
+        if (i % 3 == 2 && (i / 3) % (size_t)d->knot_count != 0 &&
+            knots[i] < d->ground_height - tol) {
+            fprintf(stderr, "sim: knot %zu below the ground: z %g < %g\n", i / 3, (double)knots[i],
+                    (double)d->ground_height);
             dump_def(d);
             abort();
         }
@@ -175,9 +180,10 @@ static void check_state(const tsk_blade_sim* sim, const tsk_blade_sim_def* d) {
     float* rb = malloc(c * K * 6 * sizeof *rb);
     for (size_t i = 0; i < nb * K; ++i) w[i] = 0.002f * (float)(i % 7);
     for (size_t b = 0; b < nb; ++b) sd[3 * b] = 1.0f, sd[3 * b + 1] = 0.5f, sd[3 * b + 2] = 0.0f;
-    if (tsk_blade_sim_get_ribbons(sim, (int64_t)f, (int64_t)c, w + f * K, sd + 3 * f, ra) != TSK_OK ||
-        tsk_blades_expand(knots + f * K * 3, w + f * K, sd + 3 * f, c, (int32_t)K, rb, NULL, NULL) !=
-            TSK_OK) {
+    if (tsk_blade_sim_get_ribbons(sim, (int64_t)f, (int64_t)c, w + f * K, sd + 3 * f, ra) !=
+            TSK_OK ||
+        tsk_blades_expand(knots + f * K * 3, w + f * K, sd + 3 * f, c, (int32_t)K, rb, NULL,
+                          NULL) != TSK_OK) {
         fprintf(stderr, "sim: ribbons refused: %s\n", tsk_last_error());
         abort();
     }

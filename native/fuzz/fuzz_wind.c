@@ -144,8 +144,7 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         (void)tsk_wind_step(w, 1);
         if (tsk_wind_sample(w, tsk_wind_time(w), N, x, y, vx, vy, sx, sy) == TSK_OK) {
             for (int i = 0; i < N; ++i)
-                if (!isfinite(vx[i]) || !isfinite(vy[i]) || !isfinite(sx[i]) ||
-                    !isfinite(sy[i])) {
+                if (!isfinite(vx[i]) || !isfinite(vy[i]) || !isfinite(sx[i]) || !isfinite(sy[i])) {
                     fprintf(stderr, "non-finite wind after loading a fuzzed state\n");
                     abort();
                 }

@@ -18,12 +18,12 @@
 #endif
 
 typedef struct scene_blade {
-    double bx, by;   /* root, pixels */
-    double theta;    /* initial direction, radians from up (-y), positive to the right */
-    double kappa;    /* curvature, 1/px (nonzero) */
-    double length;   /* pixels */
-    double w0;       /* width at the root, pixels */
-    double z0, dz;   /* depth at the root (m) and its change per pixel of arc (m/px) */
+    double bx, by; /* root, pixels */
+    double theta; /* initial direction, radians from up (-y), positive to the right */
+    double kappa; /* curvature, 1/px (nonzero) */
+    double length; /* pixels */
+    double w0; /* width at the root, pixels */
+    double z0, dz; /* depth at the root (m) and its change per pixel of arc (m/px) */
 } scene_blade;
 
 static inline double scene_width(const scene_blade* b, double s) {
@@ -84,8 +84,8 @@ static inline int scene_fan(scene_blade* out, double base_x, double base_y) {
     static const double len[5] = {250, 310, 350, 300, 240};
     static const double z0[5] = {0.80, 0.79, 0.81, 0.80, 0.82};
     for (int i = 0; i < 5; ++i) {
-        scene_blade b = {base_x + 3.0 * (i - 2), base_y, theta[i], kappa[i], len[i], 16.0,
-                         z0[i], -0.00025};
+        scene_blade b = {
+            base_x + 3.0 * (i - 2), base_y, theta[i], kappa[i], len[i], 16.0, z0[i], -0.00025};
         out[i] = b;
     }
     return 5;
@@ -99,7 +99,7 @@ static inline int scene_crossing_fan(scene_blade* out, double base_x, double bas
     static const double kappa[4] = {-0.0009, -0.0004, 0.0005, 0.0010};
     for (int i = 0; i < 4; ++i) {
         const double u = i - 1.5;
-        scene_blade b = {base_x - 6.0 * u, base_y, 0.22 * u, kappa[i], len[i], 14.0,
+        scene_blade b = {base_x - 6.0 * u,      base_y, 0.22 * u, kappa[i], len[i], 14.0,
                          0.75 + 0.01 * (i % 2), -0.0002};
         out[i] = b;
     }

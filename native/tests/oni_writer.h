@@ -26,9 +26,15 @@ typedef struct oni_writer {
 } oni_writer;
 
 enum {
-    ONIW_NODE_ADDED = 0x0D, ONIW_INT_PROPERTY = 0x03, ONIW_GENERAL_PROPERTY = 0x06,
-    ONIW_NODE_REMOVED = 0x07, ONIW_NODE_DATA_BEGIN = 0x08, ONIW_NODE_STATE_READY = 0x09,
-    ONIW_NEW_DATA = 0x0A, ONIW_END = 0x0B, ONIW_SEEK_TABLE = 0x0E,
+    ONIW_NODE_ADDED = 0x0D,
+    ONIW_INT_PROPERTY = 0x03,
+    ONIW_GENERAL_PROPERTY = 0x06,
+    ONIW_NODE_REMOVED = 0x07,
+    ONIW_NODE_DATA_BEGIN = 0x08,
+    ONIW_NODE_STATE_READY = 0x09,
+    ONIW_NEW_DATA = 0x0A,
+    ONIW_END = 0x0B,
+    ONIW_SEEK_TABLE = 0x0E,
 };
 #define ONIW_HEADER 28 /* magic, type, node, fieldsSize, payloadSize (u32), undo pos (u64) */
 
@@ -81,10 +87,10 @@ static void oniw_int(oni_writer* w, const char* name, uint64_t v) {
 static void oniw_node_added(oni_writer* w, uint32_t frames, uint64_t max_ts, uint64_t seek_pos) {
     unsigned char buf[128], *p = buf;
     oniw_str(&p, "Depth");
-    oniw_u32(&p, 2);                 /* node type: depth */
-    oniw_u32(&p, 0x454E4F4E);        /* codec "NONE": uncompressed */
+    oniw_u32(&p, 2); /* node type: depth */
+    oniw_u32(&p, 0x454E4F4E); /* codec "NONE": uncompressed */
     oniw_u32(&p, frames);
-    oniw_u64(&p, 0);                 /* min timestamp */
+    oniw_u64(&p, 0); /* min timestamp */
     oniw_u64(&p, max_ts);
     oniw_u64(&p, seek_pos);
     oniw_record(w, ONIW_NODE_ADDED, 1, 0, buf, (size_t)(p - buf), NULL, 0);
@@ -94,13 +100,13 @@ static void oniw_file_header(oni_writer* w, uint64_t max_ts) {
     unsigned char h[24], *p = h;
     memcpy(p, "NI10", 4);
     p += 4;
-    *p++ = 1;                        /* version 1.0.1.0 */
+    *p++ = 1; /* version 1.0.1.0 */
     *p++ = 0;
     *p++ = 1;
     *p++ = 0;
-    oniw_u32(&p, 0);                 /* build */
+    oniw_u32(&p, 0); /* build */
     oniw_u64(&p, max_ts);
-    oniw_u32(&p, 1);                 /* max node id */
+    oniw_u32(&p, 1); /* max node id */
     fwrite(h, 1, sizeof h, w->f);
 }
 
@@ -130,7 +136,7 @@ static int oniw_open(oni_writer* w, const char* path, int width, int height, dou
     oniw_general(w, "xnMapOutputMode", mode, sizeof mode);
     const uint32_t supported = 1u << 3; /* grayscale 16-bit */
     oniw_general(w, "xnSupportedPixelFormats", &supported, 4);
-    oniw_int(w, "xnPixelFormat", 4);    /* XN_PIXEL_FORMAT_GRAYSCALE_16_BIT */
+    oniw_int(w, "xnPixelFormat", 4); /* XN_PIXEL_FORMAT_GRAYSCALE_16_BIT */
     oniw_int(w, "oniPixelFormat", 100); /* ONI_PIXEL_FORMAT_DEPTH_1_MM */
     double fov[2] = {hfov, vfov};
     oniw_general(w, "xnFOV", fov, sizeof fov);

@@ -17,45 +17,46 @@ typedef struct tsk_test_case {
 static int tsk_test_failed_checks;
 
 #define TEST(name) static void name(void)
-#define TEST_ENTRY(name) {#name, name}
+#define TEST_ENTRY(name) \
+    { #name, name }
 
-#define CHECK(cond)                                                                          \
-    do {                                                                                     \
-        if (!(cond)) {                                                                       \
-            fprintf(stderr, "  %s:%d: CHECK(%s) failed\n", __FILE__, __LINE__, #cond);       \
-            ++tsk_test_failed_checks;                                                        \
-        }                                                                                    \
+#define CHECK(cond)                                                                    \
+    do {                                                                               \
+        if (!(cond)) {                                                                 \
+            fprintf(stderr, "  %s:%d: CHECK(%s) failed\n", __FILE__, __LINE__, #cond); \
+            ++tsk_test_failed_checks;                                                  \
+        }                                                                              \
     } while (0)
 
-#define CHECK_MSG(cond, ...)                                                                 \
-    do {                                                                                     \
-        if (!(cond)) {                                                                       \
-            fprintf(stderr, "  %s:%d: CHECK(%s) failed: ", __FILE__, __LINE__, #cond);       \
-            fprintf(stderr, __VA_ARGS__);                                                    \
-            fputc('\n', stderr);                                                             \
-            ++tsk_test_failed_checks;                                                        \
-        }                                                                                    \
+#define CHECK_MSG(cond, ...)                                                           \
+    do {                                                                               \
+        if (!(cond)) {                                                                 \
+            fprintf(stderr, "  %s:%d: CHECK(%s) failed: ", __FILE__, __LINE__, #cond); \
+            fprintf(stderr, __VA_ARGS__);                                              \
+            fputc('\n', stderr);                                                       \
+            ++tsk_test_failed_checks;                                                  \
+        }                                                                              \
     } while (0)
 
-#define CHECK_NEAR(a, b, tol)                                                                \
-    do {                                                                                     \
-        double tsk_a_ = (double)(a), tsk_b_ = (double)(b), tsk_t_ = (double)(tol);           \
-        if (!(fabs(tsk_a_ - tsk_b_) <= tsk_t_)) {                                            \
-            fprintf(stderr, "  %s:%d: |%s - %s| = |%.9g - %.9g| > %.3g\n", __FILE__, __LINE__, \
-                    #a, #b, tsk_a_, tsk_b_, tsk_t_);                                         \
-            ++tsk_test_failed_checks;                                                        \
-        }                                                                                    \
+#define CHECK_NEAR(a, b, tol)                                                                      \
+    do {                                                                                           \
+        double tsk_a_ = (double)(a), tsk_b_ = (double)(b), tsk_t_ = (double)(tol);                 \
+        if (!(fabs(tsk_a_ - tsk_b_) <= tsk_t_)) {                                                  \
+            fprintf(stderr, "  %s:%d: |%s - %s| = |%.9g - %.9g| > %.3g\n", __FILE__, __LINE__, #a, \
+                    #b, tsk_a_, tsk_b_, tsk_t_);                                                   \
+            ++tsk_test_failed_checks;                                                              \
+        }                                                                                          \
     } while (0)
 
 /* Checks that a call returns the expected status and that the message mentions `needle`. */
-#define CHECK_STATUS(call, expected, needle)                                                 \
-    do {                                                                                     \
-        tsk_clear_error();                                                                   \
-        tsk_status tsk_s_ = (call);                                                          \
-        CHECK_MSG(tsk_s_ == (expected), "%s returned %s, expected %s (%s)", #call,           \
-                  tsk_status_name(tsk_s_), tsk_status_name(expected), tsk_last_error());     \
-        CHECK_MSG(strstr(tsk_last_error(), (needle)) != NULL, "message '%s' lacks '%s'",     \
-                  tsk_last_error(), (needle));                                               \
+#define CHECK_STATUS(call, expected, needle)                                             \
+    do {                                                                                 \
+        tsk_clear_error();                                                               \
+        tsk_status tsk_s_ = (call);                                                      \
+        CHECK_MSG(tsk_s_ == (expected), "%s returned %s, expected %s (%s)", #call,       \
+                  tsk_status_name(tsk_s_), tsk_status_name(expected), tsk_last_error()); \
+        CHECK_MSG(strstr(tsk_last_error(), (needle)) != NULL, "message '%s' lacks '%s'", \
+                  tsk_last_error(), (needle));                                           \
     } while (0)
 
 /* FNV-1a over n bytes from h (TSK_TEST_FNV_START to begin): the golden hashes of kernel
@@ -120,10 +121,10 @@ static int tsk_test_run(int argc, char** argv, const tsk_test_case* cases, size_
     return failed == 0 ? 0 : 1;
 }
 
-#define TEST_MAIN(...)                                                                       \
-    int main(int argc, char** argv) {                                                        \
-        static const tsk_test_case cases[] = {__VA_ARGS__};                                  \
-        return tsk_test_run(argc, argv, cases, sizeof cases / sizeof cases[0]);              \
+#define TEST_MAIN(...)                                                          \
+    int main(int argc, char** argv) {                                           \
+        static const tsk_test_case cases[] = {__VA_ARGS__};                     \
+        return tsk_test_run(argc, argv, cases, sizeof cases / sizeof cases[0]); \
     }
 
 #endif

@@ -67,8 +67,7 @@ TEST(test_corrupt_truncated_and_foreign_frames_are_refused) {
 
 TEST(test_non_finite_points_and_limits_are_refused) {
     float a[6] = {0, 0, 0, 1, NAN, 1};
-    CHECK_STATUS(tsk_bake_write_frame(tmp_path("nan.tskf"), 1, a, 2), TSK_ERR_ARGUMENT,
-                 "point 1");
+    CHECK_STATUS(tsk_bake_write_frame(tmp_path("nan.tskf"), 1, a, 2), TSK_ERR_ARGUMENT, "point 1");
     CHECK_STATUS(tsk_bake_write_frame(tmp_path("big.tskf"), 1, a, TSK_BAKE_MAX_POINTS + 1),
                  TSK_ERR_LIMIT, "limit");
     CHECK(access(tmp_path("nan.tskf"), F_OK) != 0);
@@ -95,8 +94,8 @@ TEST(test_read_only_folder_and_full_disk_report_io_errors) {
     setrlimit(RLIMIT_FSIZE, &old);
     CHECK(s == TSK_ERR_IO);
     CHECK_MSG(strstr(tsk_last_error(), "cannot write") != NULL, "%s", tsk_last_error());
-    CHECK(access(tmp_path("full.tskf"), F_OK) != 0);  /* no half frame */
-    DIR* d = opendir(g_dir);                          /* and no temporary file left */
+    CHECK(access(tmp_path("full.tskf"), F_OK) != 0); /* no half frame */
+    DIR* d = opendir(g_dir); /* and no temporary file left */
     int leftovers = 0;
     for (struct dirent* e; d && (e = readdir(d)) != NULL;)
         leftovers += strstr(e->d_name, ".tmp") != NULL;
@@ -221,9 +220,11 @@ TEST(test_pc2_headers_with_bad_start_or_rate_are_refused) {
     CHECK(tsk_bake_write_frame(fp, 1, a, 1) == TSK_OK);
     const char* list[1] = {fp};
     const char* out = tmp_path("never.pc2");
-    CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, INFINITY, 1.0f), TSK_ERR_ARGUMENT, "start_frame");
+    CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, INFINITY, 1.0f), TSK_ERR_ARGUMENT,
+                 "start_frame");
     CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, NAN, 1.0f), TSK_ERR_ARGUMENT, "start_frame");
-    CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, 1.0f, INFINITY), TSK_ERR_ARGUMENT, "sample_rate");
+    CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, 1.0f, INFINITY), TSK_ERR_ARGUMENT,
+                 "sample_rate");
     CHECK_STATUS(tsk_bake_assemble_pc2(out, list, 1, 1.0f, 0.0f), TSK_ERR_ARGUMENT, "sample_rate");
     CHECK(access(out, F_OK) != 0);
     CHECK(tsk_bake_assemble_pc2(out, list, 1, -3.5f, 0.5f) == TSK_OK);

@@ -101,8 +101,7 @@ TEST(test_corrupt_foreign_and_missing_image_frames_are_refused) {
     CHECK_STATUS(tsk_bake_image_info(p, NULL, NULL, NULL, NULL), TSK_ERR_FORMAT, "c_0002.exr");
     CHECK(tsk_bake_write_image(p, 2, 7, a, 4 * W * H, W, H) == TSK_OK);
     flip_byte(side, 8); /* format version 1 -> 65 */
-    CHECK_STATUS(tsk_bake_image_info(p, NULL, NULL, NULL, NULL), TSK_ERR_FORMAT,
-                 "another Tussock");
+    CHECK_STATUS(tsk_bake_image_info(p, NULL, NULL, NULL, NULL), TSK_ERR_FORMAT, "another Tussock");
     FILE* f = fopen(side, "wb");
     fputs("not a sidecar, though about as long as one is", f);
     fclose(f);

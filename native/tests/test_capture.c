@@ -42,12 +42,12 @@ const char* __lsan_default_suppressions(void) {
 typedef struct eval_stats {
     int blades, matched;
     double centre_mean_px, centre_max_px; /* knot (u,v) to the analytic centreline */
-    double width_mean_mm, width_max_mm;   /* over s in [root+8 px, 0.9 L] */
+    double width_mean_mm, width_max_mm; /* over s in [root+8 px, 0.9 L] */
     double width_mean_px;
-    double xyz_mean_mm, xyz_max_mm;       /* knot xyz to the analytic 3-D point */
-    double cover_root, cover_tip;         /* worst fraction of L reached at root and tip */
-    double root_gap_px;                   /* worst distance of a root knot to the true root */
-    double shared_width_px;               /* worst mean |width error| over s < 0.3 L */
+    double xyz_mean_mm, xyz_max_mm; /* knot xyz to the analytic 3-D point */
+    double cover_root, cover_tip; /* worst fraction of L reached at root and tip */
+    double root_gap_px; /* worst distance of a root knot to the true root */
+    double shared_width_px; /* worst mean |width error| over s < 0.3 L */
 } eval_stats;
 
 static void evaluate(const tsk_capture* cap, const scene_blade* sb, int nb, eval_stats* e) {
@@ -123,8 +123,10 @@ static void evaluate(const tsk_capture* cap, const scene_blade* sb, int nb, eval
                     e->width_mean_px += fabs(wm[k] - wt) * f / z;
                     if (we > e->width_max_mm) e->width_max_mm = we;
                     if (getenv("TSK_DEBUG") && we > 2.0)
-                        printf("       blade %d k %d/%d s %.1f/%.0f (root %.1f) w %.2f px, truth %.2f px\n",
-                               best, k, n, s, B->length, s_root, wm[k] * f / z, scene_width(B, s));
+                        printf(
+                            "       blade %d k %d/%d s %.1f/%.0f (root %.1f) w %.2f px, truth %.2f "
+                            "px\n",
+                            best, k, n, s, B->length, s_root, wm[k] * f / z, scene_width(B, s));
                     ++n_w;
                 }
             }
@@ -139,12 +141,13 @@ static void evaluate(const tsk_capture* cap, const scene_blade* sb, int nb, eval
 }
 
 static void print_stats(const char* what, const eval_stats* e) {
-    printf("     %s: %d blades (%d matched); centreline mean %.2f max %.2f px; width mean %.2f "
-           "px = %.2f mm, max %.2f mm; 3-D mean %.2f max %.2f mm; cover root %.2f tip %.2f; "
-           "root gap %.2f px; shared-part width %.2f px\n",
-           what, e->blades, e->matched, e->centre_mean_px, e->centre_max_px, e->width_mean_px,
-           e->width_mean_mm, e->width_max_mm, e->xyz_mean_mm, e->xyz_max_mm, e->cover_root,
-           e->cover_tip, e->root_gap_px, e->shared_width_px);
+    printf(
+        "     %s: %d blades (%d matched); centreline mean %.2f max %.2f px; width mean %.2f "
+        "px = %.2f mm, max %.2f mm; 3-D mean %.2f max %.2f mm; cover root %.2f tip %.2f; "
+        "root gap %.2f px; shared-part width %.2f px\n",
+        what, e->blades, e->matched, e->centre_mean_px, e->centre_max_px, e->width_mean_px,
+        e->width_mean_mm, e->width_max_mm, e->xyz_mean_mm, e->xyz_max_mm, e->cover_root,
+        e->cover_tip, e->root_gap_px, e->shared_width_px);
 }
 
 static tsk_capture* run_fan(int noisy, uint64_t seed, scene_blade* sb, int* nb, eval_stats* e) {
@@ -195,7 +198,7 @@ TEST(test_capture_clean_fan_gives_exact_blades_and_profiles) {
     float near_m, far_m;
     tsk_capture_band(cap, &near_m, &far_m);
     CHECK(near_m > 0.5f && near_m < 0.72f); /* blades span 0.72 .. 0.82 m */
-    CHECK(far_m > 0.82f && far_m < 1.0f);   /* the wall at 1.6 m is left out */
+    CHECK(far_m > 0.82f && far_m < 1.0f); /* the wall at 1.6 m is left out */
     tsk_capture_destroy(cap);
 }
 
@@ -253,7 +256,6 @@ TEST(test_capture_crossing_blades_run_from_the_base_through_the_shared_part) {
         tsk_capture_destroy(cap);
     }
 }
-
 
 TEST(test_capture_single_blade_is_one_blade_root_to_tip) {
     scene_blade b = {300.0, 440.0, 0.15, 0.0009, 330.0, 18.0, 0.9, -0.0002};
@@ -582,8 +584,8 @@ TEST(test_depth_bad_files_give_clear_errors) {
 
 TEST(test_depth_huge_images_are_refused_from_the_header) {
     /* a PNG header claiming 20000x20000 16-bit grey: refused before decoding */
-    unsigned char png[64] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 13,
-                             'I', 'H', 'D', 'R'};
+    unsigned char png[64] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a,
+                             0,    0,   0,   13,  'I',  'H',  'D',  'R'};
     const uint32_t side = 20000;
     for (int k = 0; k < 2; ++k) {
         png[16 + 4 * k] = (unsigned char)(side >> 24);
@@ -704,7 +706,8 @@ TEST(test_band_proposal_finds_the_nearest_mode) {
      * a wall at 2 m */
     for (int i = 0; i < W * H; ++i) g_depth[i] = 2.0f;
     for (int y = 100; y < 300; ++y)
-        for (int x = 200; x < 260; ++x) g_depth[y * W + x] = 1.0f + 0.05f * (float)(y - 100) / 200.0f;
+        for (int x = 200; x < 260; ++x)
+            g_depth[y * W + x] = 1.0f + 0.05f * (float)(y - 100) / 200.0f;
     for (int i = 0; i < 100; ++i) g_depth[i * 37] = 0.3f;
     float near_m = 0, far_m = 0;
     CHECK(tsk_capture_propose_band(g_depth, W, H, 150, &near_m, &far_m) == TSK_OK);
@@ -795,7 +798,6 @@ TEST(test_device_missing_gives_device_error) {
     CHECK(src == NULL);
 }
 
-
 TEST(test_oni_recording_made_by_the_test_plays_frame_by_frame) {
     /* four frames of the fan at 0.6, 0.7, 0.8, 0.9 m, written as an OpenNI2 recording */
     const char* path = tmp_path("fan.oni");
@@ -840,7 +842,8 @@ TEST(test_oni_recording_made_by_the_test_plays_frame_by_frame) {
     long diff = 0;
     for (int i = 0; i < nb; ++i) sb[i].z0 = 0.7;
     scene_render(sb, nb, W, H, 0.0f, g_depth);
-    for (int i = 0; i < W * H; ++i) diff += fabsf(d[i] - 0.001f * lroundf(g_depth[i] * 1000.0f)) > 1e-6f;
+    for (int i = 0; i < W * H; ++i)
+        diff += fabsf(d[i] - 0.001f * lroundf(g_depth[i] * 1000.0f)) > 1e-6f;
     CHECK(diff == 0);
     /* and captures like the image */
     tsk_capture* cap = NULL;
@@ -864,7 +867,6 @@ TEST(test_oni_recording_made_by_the_test_plays_frame_by_frame) {
     }
 }
 
-
 static double oni_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -874,13 +876,12 @@ static double oni_now(void) {
 /* The reader's crash as reported: a signal, or in sanitizer builds (whose handler catches
  * the signal and exits) an exit code. */
 static int reader_crashed(const char* msg) {
-    return strstr(msg, "crashed (signal 11") != NULL || strstr(msg, "stopped with exit code") != NULL;
+    return strstr(msg, "crashed (signal 11") != NULL ||
+           strstr(msg, "stopped with exit code") != NULL;
 }
 
 /* no reader process is left behind (all were reaped) */
-static int children_left(void) {
-    return waitpid(-1, NULL, WNOHANG) != -1 || errno != ECHILD;
-}
+static int children_left(void) { return waitpid(-1, NULL, WNOHANG) != -1 || errno != ECHILD; }
 
 TEST(test_oni_damaged_recordings_cannot_crash_the_caller) {
     /* a recording that crashes OpenNI2's player (found by fuzz_oni): the reader process
@@ -1073,7 +1074,9 @@ TEST(test_oni_reader_answers_are_checked) {
     struct {
         const char* want;
         int field;
-    } cases[] = {{"invalid depth", 0}, {"past the end", 1}, {"sending a frame", 2},
+    } cases[] = {{"invalid depth", 0},
+                 {"past the end", 1},
+                 {"sending a frame", 2},
                  {"inconsistent reply", 3}};
     for (int c = 0; c < 4; ++c) {
         b = m;
@@ -1097,7 +1100,8 @@ TEST(test_capture_random_depth_is_handled_without_harm) {
     for (uint64_t seed = 1; seed <= 3; ++seed) {
         for (int y = 0; y < H; ++y)
             for (int x = 0; x < W; ++x) {
-                const float u = tsk_rand01(seed, (uint64_t)x / (seed + 1), (uint64_t)y / (seed + 1), 9);
+                const float u =
+                    tsk_rand01(seed, (uint64_t)x / (seed + 1), (uint64_t)y / (seed + 1), 9);
                 g_depth[y * W + x] = u < 0.1f ? 0.0f : (u < 0.6f ? 0.8f + 0.05f * u : 3.0f * u);
             }
         tsk_capture_def def = tsk_default_capture_def();

@@ -106,7 +106,7 @@ TEST(test_rand_uniform_statistics) {
         bins[(int)(v[i] * 10)]++;
     }
     double mean = sum / N, var = sum2 / N - mean * mean;
-    CHECK_NEAR(mean, 0.5, 0.005);          /* 0.5 ± ~7σ (σ = 0.29/sqrt(N) = 0.00065) */
+    CHECK_NEAR(mean, 0.5, 0.005); /* 0.5 ± ~7σ (σ = 0.29/sqrt(N) = 0.00065) */
     CHECK_NEAR(var, 1.0 / 12.0, 0.002);
     for (int k = 0; k < 10; ++k) CHECK_NEAR(bins[k], N / 10, 600); /* ±~4.5σ */
 }
@@ -248,9 +248,11 @@ TEST(test_set_threads_rejects_out_of_range) {
 TEST(test_vec3_bounds_of_many_points) {
     const size_t n = 100003;
     float* xyz = malloc(3 * n * sizeof(float));
-    float want_lo[3] = {INFINITY, INFINITY, INFINITY}, want_hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    float want_lo[3] = {INFINITY, INFINITY, INFINITY},
+          want_hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < 3 * n; ++i) {
-        xyz[i] = (float)((double)((i * 2654435761u) % 1000003u) / 1000.0 - 500.0) * (1.0f + (float)(i % 3));
+        xyz[i] = (float)((double)((i * 2654435761u) % 1000003u) / 1000.0 - 500.0) *
+                 (1.0f + (float)(i % 3));
         const int q = (int)(i % 3);
         want_lo[q] = fminf(want_lo[q], xyz[i]), want_hi[q] = fmaxf(want_hi[q], xyz[i]);
     }
@@ -284,7 +286,8 @@ TEST(test_vec3_bounds_every_position) {
     for (size_t n = 1; n <= 19; ++n)
         for (size_t j = 0; j < n; ++j) {
             for (size_t i = 0; i < 3 * n; ++i) xyz[i] = (float)(i % 7) - 3.0f;
-            for (int q = 0; q < 3; ++q) xyz[3 * j + q] = (q == 1 ? -100.0f : 100.0f) * (float)(q + 1);
+            for (int q = 0; q < 3; ++q)
+                xyz[3 * j + q] = (q == 1 ? -100.0f : 100.0f) * (float)(q + 1);
             float lo[3], hi[3];
             CHECK(tsk_vec3_bounds(xyz, n, lo, hi) == TSK_OK);
             float wl[3] = {INFINITY, INFINITY, INFINITY}, wh[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -310,8 +313,7 @@ TEST(test_vec3_lengths_and_nonfinite_rejected) {
 
 /* Reference for tsk_mesh_edges: distinct unordered pairs in first-appearance order, by a
  * quadratic search (small meshes only). */
-static size_t naive_edges(const int32_t* corners, size_t nf, int fs, int32_t* edges,
-                          int32_t* ce) {
+static size_t naive_edges(const int32_t* corners, size_t nf, int fs, int32_t* edges, int32_t* ce) {
     size_t ne = 0;
     for (size_t c = 0; c < nf * (size_t)fs; ++c) {
         const int32_t a = corners[c], b = corners[c / fs * fs + (c % fs + 1) % fs];
@@ -445,8 +447,7 @@ static void exr_attr(exr_buf* e, const char* name, const char* type, const void*
     e->n += (size_t)size;
 }
 
-static void exr_box(exr_buf* e, const char* name, int32_t x0, int32_t y0, int32_t x1,
-                    int32_t y1) {
+static void exr_box(exr_buf* e, const char* name, int32_t x0, int32_t y0, int32_t x1, int32_t y1) {
     exr_buf v = {.n = 0};
     exr_put32(&v, x0), exr_put32(&v, y0), exr_put32(&v, x1), exr_put32(&v, y1);
     exr_attr(e, name, "box2i", v.b, 16);
@@ -465,7 +466,9 @@ static void exr_channels(exr_buf* e, int count, int type) {
     exr_attr(e, "channels", "chlist", v.b, (int32_t)v.n);
 }
 
-static void exr_compression(exr_buf* e, uint8_t c) { exr_attr(e, "compression", "compression", &c, 1); }
+static void exr_compression(exr_buf* e, uint8_t c) {
+    exr_attr(e, "compression", "compression", &c, 1);
+}
 
 /* The header is read as OpenEXR reads it, so that OpenEXR's buffers (sized from the header
  * alone) stay bounded: fuzz_depth_files found a file whose first dataWindow claimed 272 bytes
@@ -502,7 +505,8 @@ TEST(test_exr_header_is_read_as_openexr_reads_it) {
     exr_box(&e, "dataWindow", 0, 0, 47, 39);
     exr_box(&e, "dataWindow", 0, 0, 9, 9);
     e.b[e.n++] = 0;
-    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "two.exr", &h), TSK_ERR_FORMAT, "second dataWindow");
+    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "two.exr", &h), TSK_ERR_FORMAT,
+                 "second dataWindow");
     /* 200 float channels 8192 wide: ZIP packs 16 lines (100 MiB), DWAB 256 (1.6 GiB) */
     for (int c = 0; c < 2; ++c) {
         exr_begin(&e, 0);
@@ -522,7 +526,8 @@ TEST(test_exr_header_is_read_as_openexr_reads_it) {
     exr_compression(&e, 10);
     exr_box(&e, "dataWindow", 0, 0, 9, 9);
     e.b[e.n++] = 0;
-    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "c.exr", &h), TSK_ERR_FORMAT, "unknown compression");
+    CHECK_STATUS(tsk_exr_check_header(e.b, e.n, "c.exr", &h), TSK_ERR_FORMAT,
+                 "unknown compression");
     exr_begin(&e, 0x1000);
     exr_box(&e, "dataWindow", 0, 0, 9, 9);
     e.b[e.n++] = 0;
@@ -597,7 +602,8 @@ TEST(test_fopen_regular_refuses_what_would_block_or_never_end) {
                  {"", TSK_ERR_ARGUMENT, "is empty"}};
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         const double t0 = now_seconds();
-        CHECK_STATUS(tsk_fopen_regular(cases[i].path, "path", &f), cases[i].status, cases[i].needle);
+        CHECK_STATUS(tsk_fopen_regular(cases[i].path, "path", &f), cases[i].status,
+                     cases[i].needle);
         CHECK(f == NULL);
         CHECK_MSG(now_seconds() - t0 < 1.0, "%s took %.2f s", cases[i].path, now_seconds() - t0);
     }
@@ -624,7 +630,8 @@ TEST(test_simd_variable_forces_the_kernel_path) {
     static const struct {
         const char* value;
         int most;
-    } cases[] = {{"portable", TSK_ISA_PORTABLE}, {"avx2", TSK_ISA_AVX2}, {"avx-9000", TSK_ISA_AVX512}};
+    } cases[] = {
+        {"portable", TSK_ISA_PORTABLE}, {"avx2", TSK_ISA_AVX2}, {"avx-9000", TSK_ISA_AVX512}};
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         CHECK(setenv("TSK_SIMD", cases[i].value, 1) == 0);
         tsk_simd_force(-1); /* read the variable again */
@@ -651,9 +658,9 @@ TEST(test_simd_variable_forces_the_kernel_path) {
 TEST_MAIN(TEST_ENTRY(test_memory_budget_is_half_of_physical_memory_and_refuses_more),
           TEST_ENTRY(test_mesh_edges_match_the_reference_and_count_a_tube),
           TEST_ENTRY(test_error_names_argument), TEST_ENTRY(test_error_long_message_truncates),
-          TEST_ENTRY(test_alloc_is_aligned_and_counted), TEST_ENTRY(test_calloc_overflow_is_refused),
-          TEST_ENTRY(test_allocator_hooks_are_used), TEST_ENTRY(test_hash_matches_definition),
-          TEST_ENTRY(test_rand_uniform_statistics),
+          TEST_ENTRY(test_alloc_is_aligned_and_counted),
+          TEST_ENTRY(test_calloc_overflow_is_refused), TEST_ENTRY(test_allocator_hooks_are_used),
+          TEST_ENTRY(test_hash_matches_definition), TEST_ENTRY(test_rand_uniform_statistics),
           TEST_ENTRY(test_parallel_for_identical_bytes_1_and_2_threads),
           TEST_ENTRY(test_parallel_for_covers_every_index_once),
           TEST_ENTRY(test_parallel_for_nested_covers_every_index_once),

@@ -39,9 +39,9 @@ TEST(test_default_blade_matches_documented_formula) {
         CHECK_NEAR(m.width[k], W * (1.0 - t * t * t), 1e-9);
     }
     CHECK(m.xyz[0] == 0.0f && m.xyz[2] == 0.0f); /* root at the origin */
-    CHECK(m.width[10] == 0.0f);                  /* pointed tip */
+    CHECK(m.width[10] == 0.0f); /* pointed tip */
     float side[3];
-    tsk_blade_model_side(&m, side);              /* leans +x -> side +y */
+    tsk_blade_model_side(&m, side); /* leans +x -> side +y */
     CHECK_NEAR(side[0], 0.0, 1e-7);
     CHECK_NEAR(side[1], 1.0, 1e-7);
     CHECK_NEAR(side[2], 0.0, 0.0);
@@ -342,9 +342,9 @@ TEST(test_noise_in_range_zero_at_lattice_and_continuous) {
         }
     CHECK(lattice_nonzero == 0);
     CHECK(lo >= -1.0 && hi <= 1.0);
-    CHECK(hi - lo > 1.0);                 /* it really varies */
+    CHECK(hi - lo > 1.0); /* it really varies */
     const double cnt = 600.0 * 86;
-    CHECK_NEAR(sum / cnt, 0.0, 0.02);     /* mean about 0 */
+    CHECK_NEAR(sum / cnt, 0.0, 0.02); /* mean about 0 */
     CHECK(sqrt(sum2 / cnt) > 0.1);
     /* Lipschitz continuity: |grad| <= 2 * sqrt(2) * max|fade'| bound, use 5 */
     double worst_slope = 0;
@@ -384,9 +384,9 @@ static tsk_meadow* make_meadow(const tsk_meadow_def* d) {
 static int32_t ref_count(const tsk_meadow_def* d, const ref_noise* r, int i, int j, int* tie) {
     const double cx = d->origin[0] + (i + 0.5) * (double)d->tile_size;
     const double cy = d->origin[1] + (j + 0.5) * (double)d->tile_size;
-    const double n = ref_fbm(r, (cx - d->origin[0]) / d->noise_scale,
-                             (cy - d->origin[1]) / d->noise_scale, d->noise_octaves,
-                             d->noise_persistence);
+    const double n =
+        ref_fbm(r, (cx - d->origin[0]) / d->noise_scale, (cy - d->origin[1]) / d->noise_scale,
+                d->noise_octaves, d->noise_persistence);
     double v = (1 + d->noise_contrast * n) / 2, t = d->noise_threshold;
     v = v < 0 ? 0 : v > 1 ? 1 : v;
     double dens = (v - t) / (1 - t);
@@ -438,7 +438,7 @@ TEST(test_meadow_count_matches_density_map) {
     CHECK_MSG(llabs(got - expected) <= ties, "got %lld expected %lld", (long long)got,
               (long long)expected);
     CHECK(info.blade_count == got);
-    CHECK(zero > 0 && zero < T);  /* the threshold leaves bare patches, not bare everything */
+    CHECK(zero > 0 && zero < T); /* the threshold leaves bare patches, not bare everything */
     CHECK(got > T * 5 && got < T * 95);
     CHECK(full > 0 && full < T); /* the contrast reaches full density somewhere */
     free(counts);
@@ -467,7 +467,7 @@ TEST(test_meadow_uniform_count_is_tiles_times_blades) {
 TEST(test_meadow_image_density_is_bilinear_at_tile_centres) {
     /* a 4 x 2 image over an 8 x 4 m meadow of 1 m tiles */
     const float img[8] = {0.0f, 0.25f, 0.5f, 1.0f, /* row 0: y near origin */
-                          1.0f, 1.0f, 0.0f, 0.0f};
+                          1.0f, 1.0f,  0.0f, 0.0f};
     tsk_meadow_def d = tsk_default_meadow_def();
     d.density = TSK_DENSITY_IMAGE;
     d.size[0] = 8.0f;
@@ -495,8 +495,8 @@ TEST(test_meadow_image_density_is_bilinear_at_tile_centres) {
             CHECK_NEAR(dens[j * 8 + i], e, 1e-6);
             CHECK(counts[j * 8 + i] == (int32_t)floor(1000 * e + 0.5));
         }
-    CHECK(counts[0] == 0);      /* corner pixel 0 */
-    CHECK(counts[7] == 1000);   /* corner pixel 1 */
+    CHECK(counts[0] == 0); /* corner pixel 0 */
+    CHECK(counts[7] == 1000); /* corner pixel 1 */
     tsk_meadow_destroy(m);
 }
 
@@ -645,8 +645,8 @@ TEST(test_chunk_instances_reproduce_the_realised_meadow) {
             CHECK(tsk_meadow_blade_count(m, 0, ctile[n] + 1, &upto) == TSK_OK);
             ok &= (int64_t)o >= before && (int64_t)o < upto;
             ok &= fabsf(org[3 * n] + pxy[2 * idx[o]] * d.tile_size - xyz[3 * o]) < 1e-4f;
-            ok &= fabsf(org[3 * n + 1] + pxy[2 * idx[o] + 1] * d.tile_size - xyz[3 * o + 1]) <
-                  1e-4f;
+            ok &=
+                fabsf(org[3 * n + 1] + pxy[2 * idx[o] + 1] * d.tile_size - xyz[3 * o + 1]) < 1e-4f;
         }
     CHECK(ok);
     /* the per-tile instance data agrees with the tiles */
@@ -788,16 +788,20 @@ TEST(test_expansion_widths_equal_model_widths_times_scale) {
             const double dw = sqrt(pow(r[0] - l[0], 2) + pow(r[1] - l[1], 2) + pow(r[2] - l[2], 2));
             worst_w = fmax(worst_w, fabs(dw - bm->width[k] * scale[b]));
             /* the midpoint is the placed knot */
-            const double kx = bxy[2 * b] * 0.5 + scale[b] * (c * bm->xyz[3 * k] - s * bm->xyz[3 * k + 1]);
-            const double ky = bxy[2 * b + 1] * 0.5 + scale[b] * (s * bm->xyz[3 * k] + c * bm->xyz[3 * k + 1]);
+            const double kx =
+                bxy[2 * b] * 0.5 + scale[b] * (c * bm->xyz[3 * k] - s * bm->xyz[3 * k + 1]);
+            const double ky =
+                bxy[2 * b + 1] * 0.5 + scale[b] * (s * bm->xyz[3 * k] + c * bm->xyz[3 * k + 1]);
             const double kz = scale[b] * bm->xyz[3 * k + 2];
-            worst_mid = fmax(worst_mid, fabs(0.5 * (l[0] + r[0]) - kx) +
-                                            fabs(0.5 * (l[1] + r[1]) - ky) + fabs(0.5 * (l[2] + r[2]) - kz));
+            worst_mid =
+                fmax(worst_mid, fabs(0.5 * (l[0] + r[0]) - kx) + fabs(0.5 * (l[1] + r[1]) - ky) +
+                                    fabs(0.5 * (l[2] + r[2]) - kz));
             const float* nn = &nrm[3 * (32 * b + 2 * k)];
             const double nl = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
             /* normal is unit and perpendicular to the width direction */
             /* (metres: the width vector's component along the normal) */
-            const double dot = nn[0] * (r[0] - l[0]) + nn[1] * (r[1] - l[1]) + nn[2] * (r[2] - l[2]);
+            const double dot =
+                nn[0] * (r[0] - l[0]) + nn[1] * (r[1] - l[1]) + nn[2] * (r[2] - l[2]);
             worst_n = fmax(worst_n, fabs(nl - 1));
             worst_dot = fmax(worst_dot, fabs(dot));
             const float* u = &uv[2 * (32 * b + 2 * k)];
@@ -817,7 +821,9 @@ TEST(test_expansion_widths_equal_model_widths_times_scale) {
                                   e1[0] * e2[1] - e1[1] * e2[0]};
             const double cl = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
             const float* na = &nrm[3 * q[0]];
-            if (cl > 1e-9) worst_wind = fmax(worst_wind, -(cr[0] * na[0] + cr[1] * na[1] + cr[2] * na[2]) / cl);
+            if (cl > 1e-9)
+                worst_wind =
+                    fmax(worst_wind, -(cr[0] * na[0] + cr[1] * na[1] + cr[2] * na[2]) / cl);
         }
     }
     CHECK_MSG(worst_w < 1e-7, "width error %g m", worst_w);
@@ -867,8 +873,10 @@ TEST(test_blade_expand_straight_blade_closed_form) {
     const float zero[3] = {0, 0, 0};
     CHECK_STATUS(tsk_blade_expand(knots, widths, 4, zero, pos, nrm, uv), TSK_ERR_ARGUMENT, "side");
     widths[1] = NAN;
-    CHECK_STATUS(tsk_blade_expand(knots, widths, 4, side, pos, nrm, uv), TSK_ERR_ARGUMENT, "widths");
-    CHECK_STATUS(tsk_blade_expand(knots, widths, 70, side, pos, nrm, uv), TSK_ERR_LIMIT, "knot_count");
+    CHECK_STATUS(tsk_blade_expand(knots, widths, 4, side, pos, nrm, uv), TSK_ERR_ARGUMENT,
+                 "widths");
+    CHECK_STATUS(tsk_blade_expand(knots, widths, 70, side, pos, nrm, uv), TSK_ERR_LIMIT,
+                 "knot_count");
 }
 
 /* Bent blades of every length from 2 to 19 knots (the four-knot SIMD steps and the scalar
@@ -886,7 +894,10 @@ TEST(test_blades_expand_follows_the_ribbon_definition) {
                 const float z = 0.05f * (float)k;
                 float* q = &knots[3 * (K * b + k)];
                 q[0] = 0.3f * (float)b + 0.4f * z * z * (float)(b % 3 - 1);
-                q[1] = 0.02f * (float)((state = state * 6364136223846793005ull + 1442695040888963407ull) >> 40) / (float)(1 << 24);
+                q[1] = 0.02f *
+                       (float)((state = state * 6364136223846793005ull + 1442695040888963407ull) >>
+                               40) /
+                       (float)(1 << 24);
                 q[2] = b == 4 ? 0.0f : z; /* blade 4: along +x below */
                 if (b == 4) q[0] = z;
                 if (b == 5 && k >= K / 2) memcpy(q, q - 3, 3 * sizeof(float)); /* repeated knots */
@@ -903,7 +914,8 @@ TEST(test_blades_expand_follows_the_ribbon_definition) {
                 double t[3], s0[3], s[3], tl = 0, sl = 0, d = 0;
                 for (int q = 0; q < 3; ++q) t[q] = (double)P[3 * c + q] - (double)P[3 * a + q];
                 for (int q = 0; q < 3; ++q) tl += t[q] * t[q];
-                if (tl > 0) for (int q = 0; q < 3; ++q) t[q] /= sqrt(tl);
+                if (tl > 0)
+                    for (int q = 0; q < 3; ++q) t[q] /= sqrt(tl);
                 else t[0] = 0, t[1] = 0, t[2] = 1;
                 for (int q = 0; q < 3; ++q) sl += (double)sides[3 * b + q] * sides[3 * b + q];
                 for (int q = 0; q < 3; ++q) s0[q] = sides[3 * b + q] / sqrt(sl);
@@ -952,7 +964,6 @@ TEST(test_patch_mesh_identical_bytes_1_and_2_threads) {
     CHECK(patch_digest(2, 18) != a);
 }
 
-
 TEST(test_realised_tile_expands_to_the_patch_mesh_moved_to_the_tile) {
     /* two routes to the same geometry: the patch mesh (tile-local) moved to tile t's corner,
      * and the tile's realised rest skeletons expanded by tsk_blades_expand */
@@ -987,10 +998,12 @@ TEST(test_realised_tile_expands_to_the_patch_mesh_moved_to_the_tile) {
         for (int v = 0; v < 2 * K; ++v) {
             const float* a = &pos[3 * (2 * K * b + v)];
             const float* e = &mesh[3 * (2 * K * (size_t)idx[b] + v)];
-            worst = fmax(worst, fabs(a[0] - (e[0] + cx)) + fabs(a[1] - (e[1] + cy)) + fabs(a[2] - e[2]));
+            worst = fmax(worst,
+                         fabs(a[0] - (e[0] + cx)) + fabs(a[1] - (e[1] + cy)) + fabs(a[2] - e[2]));
             const float* an = &nrm[3 * (2 * K * b + v)];
             const float* en = &mesh_n[3 * (2 * K * (size_t)idx[b] + v)];
-            worst_n = fmax(worst_n, fabs(an[0] - en[0]) + fabs(an[1] - en[1]) + fabs(an[2] - en[2]));
+            worst_n =
+                fmax(worst_n, fabs(an[0] - en[0]) + fabs(an[1] - en[1]) + fabs(an[2] - en[2]));
         }
     CHECK_MSG(worst < 1e-5, "position difference %g m", worst);
     CHECK_MSG(worst_n < 1e-3, "normal difference %g", worst_n);
@@ -1028,16 +1041,16 @@ TEST(test_blades_expand_reports_first_bad_blade_and_writes_nothing) {
     CHECK(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL) == TSK_OK);
     CHECK(pos[6 * K * 999 + 1] == -0.005f && pos[6 * K * 999 + 4] == 0.005f);
     knots[3 * (700 * K + 2) + 1] = NAN; /* a later blade's knot */
-    widths[300 * K + 4] = -1.0f;         /* an earlier blade's width */
+    widths[300 * K + 4] = -1.0f; /* an earlier blade's width */
     for (int i = 0; i < N * K * 6; ++i) pos[i] = 7.0f;
-    CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL),
-                 TSK_ERR_ARGUMENT, "width 4 of blade 300");
+    CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL), TSK_ERR_ARGUMENT,
+                 "width 4 of blade 300");
     int untouched = 1;
     for (int i = 0; i < N * K * 6; ++i) untouched &= pos[i] == 7.0f;
     CHECK(untouched);
     widths[300 * K + 4] = 0.01f;
-    CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL),
-                 TSK_ERR_ARGUMENT, "knot 2 of blade 700");
+    CHECK_STATUS(tsk_blades_expand(knots, widths, sides, N, K, pos, NULL, NULL), TSK_ERR_ARGUMENT,
+                 "knot 2 of blade 700");
     knots[3 * (700 * K + 2) + 1] = 0.0f;
     /* each kind of bad value alone, wherever it sits in a chunk of the parallel check */
     const int at[4] = {0, 255, 256, 999};
@@ -1090,12 +1103,12 @@ TEST(test_models_from_flat_arrays_split_by_knot_counts) {
 TEST(test_meadow_rejects_bad_input_with_messages) {
     tsk_meadow* m = (tsk_meadow*)1;
     tsk_meadow_def d = tsk_default_meadow_def();
-#define BAD(field, value, status, needle)                                                    \
-    do {                                                                                     \
-        d = tsk_default_meadow_def();                                                        \
-        d.field = value;                                                                     \
-        CHECK_STATUS(tsk_meadow_create(&d, &m), status, needle);                            \
-        CHECK(m == NULL);                                                                    \
+#define BAD(field, value, status, needle)                        \
+    do {                                                         \
+        d = tsk_default_meadow_def();                            \
+        d.field = value;                                         \
+        CHECK_STATUS(tsk_meadow_create(&d, &m), status, needle); \
+        CHECK(m == NULL);                                        \
     } while (0)
     BAD(size[0], 0.0f, TSK_ERR_ARGUMENT, "size.x");
     BAD(size[1], -3.0f, TSK_ERR_ARGUMENT, "size.y");
@@ -1149,10 +1162,12 @@ TEST(test_meadow_rejects_bad_input_with_messages) {
     tsk_patch_destroy(p);
     p = make_patch(1, 16384);
     CHECK_STATUS(tsk_meadow_realise(m, p, 5, 2, xyz, NULL, NULL, NULL), TSK_ERR_ARGUMENT, "tile");
-    CHECK_STATUS(tsk_meadow_realise(m, p, 0, 1000000, xyz, NULL, NULL, NULL), TSK_ERR_ARGUMENT, "tile");
+    CHECK_STATUS(tsk_meadow_realise(m, p, 0, 1000000, xyz, NULL, NULL, NULL), TSK_ERR_ARGUMENT,
+                 "tile");
     int64_t n;
     CHECK_STATUS(tsk_meadow_blade_count(m, -1, 3, &n), TSK_ERR_ARGUMENT, "tile");
-    CHECK_STATUS(tsk_patch_expand(p, NAN, xyz, NULL, NULL, NULL, NULL), TSK_ERR_ARGUMENT, "tile_size");
+    CHECK_STATUS(tsk_patch_expand(p, NAN, xyz, NULL, NULL, NULL, NULL), TSK_ERR_ARGUMENT,
+                 "tile_size");
     tsk_patch_destroy(p);
     tsk_meadow_destroy(m);
 }
@@ -1217,10 +1232,12 @@ TEST_MAIN(TEST_ENTRY(test_meadow_and_patch_over_memory_budget_are_refused),
           TEST_ENTRY(test_blade_model_set_moves_root_to_origin),
           TEST_ENTRY(test_blade_model_rejects_bad_input),
           TEST_ENTRY(test_resample_spaces_knots_evenly_on_the_polyline),
-          TEST_ENTRY(test_patch_defaults_follow_seed), TEST_ENTRY(test_patch_values_in_range_and_uniform),
+          TEST_ENTRY(test_patch_defaults_follow_seed),
+          TEST_ENTRY(test_patch_values_in_range_and_uniform),
           TEST_ENTRY(test_patch_same_seed_same_bytes_other_seed_differs),
           TEST_ENTRY(test_patch_blade_values_are_keyed_by_seed_and_blade),
-          TEST_ENTRY(test_patch_model_choice_follows_weights), TEST_ENTRY(test_patch_rejects_bad_input),
+          TEST_ENTRY(test_patch_model_choice_follows_weights),
+          TEST_ENTRY(test_patch_rejects_bad_input),
           TEST_ENTRY(test_noise_matches_textbook_reference),
           TEST_ENTRY(test_noise_in_range_zero_at_lattice_and_continuous),
           TEST_ENTRY(test_meadow_count_matches_density_map),

@@ -42,7 +42,7 @@ static double ref_bilinear(const float* img, int w, int h, int ch, double sx, do
     int x0 = (int)floor(fx), y0 = (int)floor(fy);
     int x1 = x0 + 1 < w ? x0 + 1 : w - 1, y1 = y0 + 1 < h ? y0 + 1 : h - 1;
     double tx = fx - x0, ty = fy - y0;
-#define PX(x, y) ((double)img[((size_t)(y) * w + (x)) * 4 + ch])
+#define PX(x, y) ((double)img[((size_t)(y)*w + (x)) * 4 + ch])
     return (1 - ty) * ((1 - tx) * PX(x0, y0) + tx * PX(x1, y0)) +
            ty * ((1 - tx) * PX(x0, y1) + tx * PX(x1, y1));
 #undef PX
@@ -209,8 +209,8 @@ TEST(test_warp_output_at_any_page_offset_gives_the_same_bytes) {
             const double sx = (double)q[0] * W, sy = H - (double)q[1] * H;
             moved += fabs(sx - (i + 0.5)) > 0.5 || fabs(sy - (j + 0.5)) > 0.5;
             for (int c = 0; c < 4; ++c) {
-                const double e = fabs(ref_bilinear(src, W, H, c, sx, sy) -
-                                      first[((size_t)j * W + i) * 4 + c]);
+                const double e =
+                    fabs(ref_bilinear(src, W, H, c, sx, sy) - first[((size_t)j * W + i) * 4 + c]);
                 if (e > worst) worst = e;
             }
         }
@@ -245,8 +245,8 @@ TEST(test_warp_allocation_failures_are_reported) {
     float* uv = malloc(n4 * sizeof(float));
     CHECK(tsk_set_threads(1) == TSK_OK); /* allocations in a fixed order */
     for (int sampling = TSK_SAMPLE_BILINEAR; sampling <= TSK_SAMPLE_MAP_UV_5; ++sampling) {
-        CHECK(tsk_warp_apply(W, H, src, n4, C, C, dx, dy, nc, (tsk_warp_sampling)sampling, ref,
-                             n4, uv, n4, 0) == TSK_OK);
+        CHECK(tsk_warp_apply(W, H, src, n4, C, C, dx, dy, nc, (tsk_warp_sampling)sampling, ref, n4,
+                             uv, n4, 0) == TSK_OK);
         const size_t held = tsk_allocated_bytes();
         int failures = 0;
         for (int n = 0; n < 64; ++n) {
@@ -390,7 +390,8 @@ TEST(test_horizon_root_line_does_not_move) {
     }
     CHECK(fabs(dx[0]) > 5.0);
     CHECK(warp(&d, &f, W, H, src, dst, NULL, 0) == TSK_OK);
-    CHECK(memcmp(dst + 48 * W * 4, src + 48 * W * 4, (size_t)(H - 48) * W * 4 * sizeof(float)) == 0);
+    CHECK(memcmp(dst + 48 * W * 4, src + 48 * W * 4, (size_t)(H - 48) * W * 4 * sizeof(float)) ==
+          0);
     CHECK(memcmp(dst, src, 8 * W * 4 * sizeof(float)) != 0);
     /* roots at the top, root line at y = 16: rows at and above it stay */
     d.root = TSK_ROOT_TOP;
@@ -430,7 +431,8 @@ TEST(test_uv_pass_reproduces_native_warp) {
     float* src = smooth_image(W, H);
     float* flipped = malloc(W * H * 4 * sizeof(float));
     for (int j = 0; j < H; ++j)
-        memcpy(flipped + (size_t)(H - 1 - j) * W * 4, src + (size_t)j * W * 4, W * 4 * sizeof(float));
+        memcpy(flipped + (size_t)(H - 1 - j) * W * 4, src + (size_t)j * W * 4,
+               W * 4 * sizeof(float));
     /* a travelling sine wave as the continuum's velocity */
     float vx[FW * FH], vy[FW * FH];
     for (int b = 0; b < FH; ++b)
@@ -467,7 +469,6 @@ TEST(test_uv_pass_reproduces_native_warp) {
     free(dst);
     free(uv);
 }
-
 
 TEST(test_map_uv_sampling_exact_at_rest_and_for_integer_shifts) {
     const int W = 60, H = 44;
@@ -534,8 +535,8 @@ static void uv_clamped(const float* uv, int w, int h, int x, int y, double out[2
  * blue. `ambiguous` is set where float rounding may decide otherwise than double: a texel
  * with 256 r^2 within 0.002 of a table step, or a footprint within 0.1 % of one of the two
  * thresholds. */
-static void ref_map_uv_5(const float* img_top_first, const float* uv, int w, int h, int x,
-                         int y, double out[4], int* ambiguous) {
+static void ref_map_uv_5(const float* img_top_first, const float* uv, int w, int h, int x, int y,
+                         double out[4], int* ambiguous) {
     const int x0 = x - x % 2, y0 = y - y % 2;
     double a[2], b[2], jx[2], jy[2];
     uv_clamped(uv, w, h, x0, y, a);
@@ -648,9 +649,10 @@ TEST(test_map_uv_5_matches_reference_ewa) {
                 outside += ref[3] == 0.0;
                 for (int c = 0; c < 4; ++c) worst = fmax(worst, fabs(got[c] - ref[c]));
             }
-        printf("    shape %d: max |native - reference| = %.3g, %d of %d pixels too close to a "
-               "float/double decision to compare, %d sampled wholly outside\n",
-               shape, worst, skipped, W * H, outside);
+        printf(
+            "    shape %d: max |native - reference| = %.3g, %d of %d pixels too close to a "
+            "float/double decision to compare, %d sampled wholly outside\n",
+            shape, worst, skipped, W * H, outside);
         CHECK_MSG(worst < 1e-5, "shape %d: max error %g", shape, worst);
         CHECK_MSG(skipped < W * H / 10, "shape %d: %d pixels skipped", shape, skipped);
         free(uv);
@@ -739,9 +741,8 @@ TEST(test_warp_map_uv_5_samples_its_own_uv_pass) {
     int cx, cy;
     CHECK(tsk_warp_grid_size(W, H, 8, 8, &cx, &cy) == TSK_OK);
     float* zeros = calloc((size_t)cx * cy, sizeof(float));
-    CHECK_STATUS(tsk_warp_apply(W, H, src, (size_t)W * H * 4, 8, 8, zeros, zeros,
-                                (size_t)cx * cy, (tsk_warp_sampling)3, dst, (size_t)W * H * 4,
-                                NULL, 0, 1),
+    CHECK_STATUS(tsk_warp_apply(W, H, src, (size_t)W * H * 4, 8, 8, zeros, zeros, (size_t)cx * cy,
+                                (tsk_warp_sampling)3, dst, (size_t)W * H * 4, NULL, 0, 1),
                  TSK_ERR_ARGUMENT, "sampling");
     free(zeros);
     free(src);
@@ -1018,9 +1019,12 @@ TEST(test_load_png_jpeg_exr_variants) {
         const char* ext;
         int channels, bits;
         double tol;
-    } cases[] = {{"rgba8.png", 4, 8, 0.5 / 255 + 1e-6},   {"rgb16.png", 3, 16, 0.5 / 65535 + 1e-6},
-                 {"grey8.png", 1, 8, 0.5 / 255 + 1e-6},   {"grey16.png", 1, 16, 0.5 / 65535 + 1e-6},
-                 {"rgb.jpg", 3, 8, 0.06},                 {"rgba32.exr", 4, 32, 0.0},
+    } cases[] = {{"rgba8.png", 4, 8, 0.5 / 255 + 1e-6},
+                 {"rgb16.png", 3, 16, 0.5 / 65535 + 1e-6},
+                 {"grey8.png", 1, 8, 0.5 / 255 + 1e-6},
+                 {"grey16.png", 1, 16, 0.5 / 65535 + 1e-6},
+                 {"rgb.jpg", 3, 8, 0.06},
+                 {"rgba32.exr", 4, 32, 0.0},
                  {"grey32.exr", 1, 32, 0.0}};
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
         char path[256];
@@ -1036,7 +1040,7 @@ TEST(test_load_png_jpeg_exr_variants) {
         double worst = 0;
         for (int i = 0; i < W * H; ++i)
             for (int c = 0; c < 4; ++c) {
-                double want = cases[k].channels == 1 ? (c == 3 ? 1.0 : src[4 * i])
+                double want = cases[k].channels == 1             ? (c == 3 ? 1.0 : src[4 * i])
                               : cases[k].channels == 3 && c == 3 ? 1.0
                                                                  : src[4 * i + c];
                 worst = fmax(worst, fabs(got[4 * i + c] - want));
@@ -1096,7 +1100,7 @@ TEST(test_load_grey_alpha_png_written_by_hand) {
     for (int j = 0; j < H; ++j) {
         raw[j * ROW] = 0; /* filter: none */
         for (int i = 0; i < W; ++i) {
-            raw[j * ROW + 1 + 2 * i] = (uint8_t)(17 * i + 29 * j);      /* grey */
+            raw[j * ROW + 1 + 2 * i] = (uint8_t)(17 * i + 29 * j); /* grey */
             raw[j * ROW + 2 + 2 * i] = (uint8_t)(255 - 11 * i - 7 * j); /* alpha */
         }
     }
@@ -1106,8 +1110,8 @@ TEST(test_load_grey_alpha_png_written_by_hand) {
     z[2] = 1; /* final block, stored */
     z[3] = RAW & 0xFF;
     z[4] = RAW >> 8;
-    z[5] = (uint8_t)~(RAW & 0xFF);
-    z[6] = (uint8_t)~(RAW >> 8);
+    z[5] = (uint8_t) ~(RAW & 0xFF);
+    z[6] = (uint8_t) ~(RAW >> 8);
     memcpy(z + 7, raw, RAW);
     uint32_t s1 = 1, s2 = 0;
     for (int i = 0; i < RAW; ++i) {
@@ -1118,8 +1122,8 @@ TEST(test_load_grey_alpha_png_written_by_hand) {
     uint8_t ihdr[13];
     put32(ihdr, W);
     put32(ihdr + 4, H);
-    ihdr[8] = 8;  /* bit depth */
-    ihdr[9] = 4;  /* colour type: grey + alpha */
+    ihdr[8] = 8; /* bit depth */
+    ihdr[9] = 4; /* colour type: grey + alpha */
     ihdr[10] = ihdr[11] = ihdr[12] = 0;
     uint8_t file[8 + 25 + 12 + sizeof z + 12];
     const uint8_t sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
@@ -1140,7 +1144,8 @@ TEST(test_load_grey_alpha_png_written_by_hand) {
         for (int j = 0; j < H; ++j)
             for (int i = 0; i < W; ++i) {
                 const float* q = got + (j * W + i) * 4;
-                const double g = raw[j * ROW + 1 + 2 * i] / 255.0, a = raw[j * ROW + 2 + 2 * i] / 255.0;
+                const double g = raw[j * ROW + 1 + 2 * i] / 255.0,
+                             a = raw[j * ROW + 2 + 2 * i] / 255.0;
                 worst = fmax(worst, fmax(fabs(q[0] - g), fmax(fabs(q[1] - g), fabs(q[2] - g))));
                 worst = fmax(worst, fabs(q[3] - a));
             }
@@ -1157,15 +1162,15 @@ TEST(test_bad_files_give_messages) {
     CHECK(p == NULL);
     char path[256];
     /* a PNG header declaring 30000 x 30000: refused from the header, nothing decoded */
-    const uint8_t huge_png[33] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n', 0, 0, 0, 13,
-                                  'I',  'H', 'D', 'R', 0, 0, 0x75, 0x30, 0, 0, 0x75, 0x30,
-                                  8,    6,   0, 0, 0, 0, 0, 0, 0};
+    const uint8_t huge_png[33] = {0x89, 'P',  'N', 'G', '\r', '\n', 0x1A, '\n', 0,    0, 0,
+                                  13,   'I',  'H', 'D', 'R',  0,    0,    0x75, 0x30, 0, 0,
+                                  0x75, 0x30, 8,   6,   0,    0,    0,    0,    0,    0, 0};
     temp_path(path, sizeof path, "huge.png");
     write_bytes(path, huge_png, sizeof huge_png);
     CHECK_STATUS(tsk_picture_load(path, &p), TSK_ERR_LIMIT, "30000x30000");
     /* a JPEG frame header declaring 20000 x 100 */
-    const uint8_t huge_jpg[] = {0xFF, 0xD8, 0xFF, 0xE0, 0, 4, 0, 0, 0xFF, 0xC0, 0, 11, 8,
-                                0, 100, 0x4E, 0x20, 3, 0, 0, 0};
+    const uint8_t huge_jpg[] = {0xFF, 0xD8, 0xFF, 0xE0, 0,    4,    0, 0, 0xFF, 0xC0, 0,
+                                11,   8,    0,    100,  0x4E, 0x20, 3, 0, 0,    0};
     temp_path(path, sizeof path, "huge.jpg");
     write_bytes(path, huge_jpg, sizeof huge_jpg);
     CHECK_STATUS(tsk_picture_load(path, &p), TSK_ERR_LIMIT, "20000x100");

@@ -241,7 +241,8 @@ TEST(test_refine_widths_positive_and_length_weighted) {
     /* the arc length each source knot owns, computed here independently */
     double l[200] = {0};
     for (int j = 0; j + 1 < 200; ++j) {
-        double dx = b.knots[3 * j + 3] - b.knots[3 * j], dy = b.knots[3 * j + 4] - b.knots[3 * j + 1],
+        double dx = b.knots[3 * j + 3] - b.knots[3 * j],
+               dy = b.knots[3 * j + 4] - b.knots[3 * j + 1],
                dz = b.knots[3 * j + 5] - b.knots[3 * j + 2];
         double seg = sqrt(dx * dx + dy * dy + dz * dz);
         l[j] += seg / 2, l[j + 1] += seg / 2;
@@ -277,7 +278,7 @@ TEST(test_refine_ties_go_to_root_side_and_root_absorbs) {
     CHECK(tsk_refine_blade(&def, &in, &out) == TSK_OK);
     int32_t want4[8] = {0, 2, 2, 1, 3, 1, 4, 1};
     CHECK(memcmp(o.ranges, want4, sizeof want4) == 0);
-    CHECK(o.knots[2] == 0.0f);                          /* merged into the root */
+    CHECK(o.knots[2] == 0.0f); /* merged into the root */
     CHECK_NEAR(o.widths[0], (0.5 * 1 + 1 * 2) / 1.5, 1e-6); /* l = 1/2, 1 */
     /* m = 3: now D(root, 2) = 2 > D(2, 3) = 1 = D(3, 4); the tie goes to (2, 3) */
     def.target_knots = 3;
@@ -379,7 +380,8 @@ TEST(test_refine_heap_matches_naive_bitwise) {
         blade b = random_blade(1, k, 2);
         for (size_t j = 0; j < k; ++j) {
             b.knots[3 * j] = 0, b.knots[3 * j + 1] = 0, b.knots[3 * j + 2] = (float)j;
-            for (size_t fr = 0; fr < 2; ++fr) memcpy(b.traj + (fr * k + j) * 3, b.knots + 3 * j, 12);
+            for (size_t fr = 0; fr < 2; ++fr)
+                memcpy(b.traj + (fr * k + j) * 3, b.knots + 3 * j, 12);
         }
         for (int m = 2; m <= 64 && (size_t)m <= k; m += 5) {
             outbuf o, r;
@@ -443,7 +445,8 @@ TEST(test_refine_batch_identical_1_and_2_threads) {
         CHECK(tsk_set_threads(run + 1) == TSK_OK);
         for (int i = 0; i < B; ++i) {
             in[i] = as_input(&bl[i % 8]);
-            out[i] = (tsk_refine_output){knots[run][i], widths[run][i], ranges[run][i], traj[run][i]};
+            out[i] =
+                (tsk_refine_output){knots[run][i], widths[run][i], ranges[run][i], traj[run][i]};
         }
         tsk_refine_def def = {M, 0.25f};
         CHECK(tsk_refine_blades(&def, in, out, B) == TSK_OK);
@@ -561,8 +564,8 @@ TEST(test_refine_target_equal_to_knot_count_changes_nothing) {
  * then (2, 3), whose halves are added as 0.5 a + 0.5 b. */
 TEST(test_refine_merge_of_huge_knots_stays_finite) {
     const float big = 3.4e38f;
-    float knots[5 * 3] = {0, 0, 0, 0, 0, 0.1f, 0.9f * big, 0.9f * big, 0.2f,
-                          0.8f * big, 0.9f * big, 0.3f, 0, 0, 0.4f};
+    float knots[5 * 3] = {0,    0,          0,          0,    0, 0.1f, 0.9f * big, 0.9f * big,
+                          0.2f, 0.8f * big, 0.9f * big, 0.3f, 0, 0,    0.4f};
     float widths[5] = {0.01f, 0.01f, 0.01f, 0.01f, 0.01f};
     float ok[3 * 3], ow[3], otraj[3 * 3];
     int32_t rg[3 * 2];
@@ -619,7 +622,8 @@ TEST(test_track_matches_knots_by_arc_length) {
         for (int j = 0; j < K; ++j) {
             double s = L * pow((double)j / (K - 1), 1.3), p[3];
             arc_point(2.0 * fr, s, p);
-            for (int c = 0; c < 3; ++c) worst = fmax(worst, fabs(traj[(fr * K + j) * 3 + c] - p[c]));
+            for (int c = 0; c < 3; ++c)
+                worst = fmax(worst, fabs(traj[(fr * K + j) * 3 + c] - p[c]));
         }
     CHECK_MSG(worst < 2e-4, "worst tracking error %g m", worst); /* chords of 150+ knots */
     CHECK(traj[0] == 0.0f && traj[1] == 0.0f && traj[2] == 0.0f);
@@ -667,7 +671,8 @@ TEST(test_bend_cantilever_matches_euler_bernoulli) {
     CHECK(tsk_refine_simulate(&d, knots, widths, K, 1, traj) == TSK_OK);
     const double tip = q * pow(L, 4) / (8.0 * EI);
     CHECK_NEAR(-traj[3 * (K - 1) + 2], tip, 0.01 * tip);
-    if (getenv("TSK_VERBOSE")) fprintf(stderr, "  cantilever tip %g m, analytic %g m\n", -traj[3 * (K - 1) + 2], tip);
+    if (getenv("TSK_VERBOSE"))
+        fprintf(stderr, "  cantilever tip %g m, analytic %g m\n", -traj[3 * (K - 1) + 2], tip);
     double worst = 0;
     for (int j = 0; j < K; ++j) {
         double x = L * j / (K - 1);
@@ -746,9 +751,9 @@ TEST(test_bend_wind_is_the_documented_sum_of_sines) {
         double t = 0.05 * i;
         float w[3];
         tsk_refine_wind_at(&d, t, w);
-        double along = d.wind_speed * (1 + d.gust * (0.6 * sin(pi2 * 0.31 * t) +
-                                                     0.3 * sin(pi2 * 0.87 * t + 1.1) +
-                                                     0.1 * sin(pi2 * 2.3 * t + 2.3)));
+        double along = d.wind_speed *
+                       (1 + d.gust * (0.6 * sin(pi2 * 0.31 * t) + 0.3 * sin(pi2 * 0.87 * t + 1.1) +
+                                      0.1 * sin(pi2 * 2.3 * t + 2.3)));
         double across = d.wind_speed * d.gust * 0.25 * sin(pi2 * 0.53 * t + 0.4);
         CHECK_NEAR(w[1], along, 1e-5);
         CHECK_NEAR(w[0], -across, 1e-5); /* z x (+y) = -x */

@@ -72,7 +72,8 @@ static float seg_len(const float* a, const float* b) {
 
 /* Distance from p to segment a-b. */
 static double dist_segment(const float* p, const float* a, const float* b) {
-    double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+    double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]},
+           ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
     double ab2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
     double t = ab2 > 0 ? (ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / ab2 : 0;
     t = t < 0 ? 0 : t > 1 ? 1 : t;
@@ -152,12 +153,13 @@ TEST(test_sim_without_preload_gravity_bends_blades_down) {
     tsk_blade_sim_def def = big_tile_def();
     def.gravity_preload = 0.0f;
     tsk_blade_sim* sim = one_tile_sim(def, N, knots, widths, sides);
-    for (int s = 0; s < 120; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
+    for (int s = 0; s < 120; ++s)
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
     CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
     for (int b = 1; b < N; ++b) { /* blade 0 stands straight up: gravity cannot bend it */
         const int tip = (b * K16 + K16 - 1) * 3;
-        CHECK_MSG(out[tip + 2] < knots[tip + 2] - 1e-3, "blade %d tip z %g vs rest %g", b, out[tip + 2],
-                  knots[tip + 2]);
+        CHECK_MSG(out[tip + 2] < knots[tip + 2] - 1e-3, "blade %d tip z %g vs rest %g", b,
+                  out[tip + 2], knots[tip + 2]);
     }
     tsk_blade_sim_destroy(sim);
 }
@@ -174,7 +176,8 @@ TEST(test_sim_free_blade_hangs_and_follows_wind) {
     def.gravity_preload = 0.0f;
     tsk_blade_sim* sim = one_tile_sim(def, 1, knots, widths, NULL);
     float out[6];
-    for (int s = 0; s < 600; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
+    for (int s = 0; s < 600; ++s)
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
     CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
     CHECK_NEAR(out[3], 0.5f, 2e-3);
     CHECK_NEAR(out[4], 0.5f, 2e-3);
@@ -185,7 +188,8 @@ TEST(test_sim_free_blade_hangs_and_follows_wind) {
     def.gravity[2] = 0.0f;
     sim = one_tile_sim(def, 1, knots, widths, NULL);
     const float wind[3] = {0.0f, 8.0f, 0.0f};
-    for (int s = 0; s < 600; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    for (int s = 0; s < 600; ++s)
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
     CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
     CHECK_NEAR(out[3], 0.5f, 2e-3);
     CHECK_NEAR(out[4], 0.5f + L, 2e-3);
@@ -201,7 +205,8 @@ TEST(test_sim_wind_bends_downwind_more_with_stronger_wind) {
     for (int w = 0; w < 2; ++w) {
         tsk_blade_sim* sim = one_tile_sim(big_tile_def(), N, knots, widths, sides);
         const float wind[3] = {0.0f, w == 0 ? 3.0f : 8.0f, 0.0f};
-        for (int s = 0; s < 240; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+        for (int s = 0; s < 240; ++s)
+            CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
         CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
         push[w] = 1e9;
         for (int b = 0; b < N; ++b) {
@@ -251,7 +256,8 @@ static void collider_pass(int capsule) {
                 if (d < r * 1.05) ++touched_knots;
                 lowest = fmin(lowest, p[2]);
                 if (k > 0) {
-                    const float L0 = seg_len(knots + (size_t)(b * K16 + k - 1) * 3, knots + (size_t)(b * K16 + k) * 3);
+                    const float L0 = seg_len(knots + (size_t)(b * K16 + k - 1) * 3,
+                                             knots + (size_t)(b * K16 + k) * 3);
                     const float L1 = seg_len(p - 3, p);
                     worst_len = fmax(worst_len, fabs(L1 - L0) / L0);
                 }
@@ -292,9 +298,10 @@ TEST(test_sim_contact_holds_for_5_to_64_knots) {
     for (int ki = 0; ki < 3; ++ki) {
         const int K = Ks[ki];
         for (int b = 0; b < N; ++b) {
-            float root[3] = {0.5f * tsk_rand01(4, (uint64_t)b, 0, 0), 0.5f * tsk_rand01(4, (uint64_t)b, 1, 0), 0.0f};
-            make_blade(K, root, 0.3f, 0.3f, 6.28f * tsk_rand01(4, (uint64_t)b, 2, 0), knots + (size_t)b * K * 3,
-                       widths + (size_t)b * K, NULL);
+            float root[3] = {0.5f * tsk_rand01(4, (uint64_t)b, 0, 0),
+                             0.5f * tsk_rand01(4, (uint64_t)b, 1, 0), 0.0f};
+            make_blade(K, root, 0.3f, 0.3f, 6.28f * tsk_rand01(4, (uint64_t)b, 2, 0),
+                       knots + (size_t)b * K * 3, widths + (size_t)b * K, NULL);
         }
         tsk_blade_sim_def def = big_tile_def();
         def.knot_count = K;
@@ -302,7 +309,8 @@ TEST(test_sim_contact_holds_for_5_to_64_knots) {
         double worst_in = 0, worst_len = 0, lowest = 1e9;
         for (int s = 0; s < 120; ++s) {
             const float x = 0.25f + 0.6f * sinf(0.05f * (float)s);
-            tsk_blade_collider c = {TSK_COLLIDER_CAPSULE, 0.1f, {x, -0.2f, 0.12f}, {x, 0.7f, 0.12f}};
+            tsk_blade_collider c = {
+                TSK_COLLIDER_CAPSULE, 0.1f, {x, -0.2f, 0.12f}, {x, 0.7f, 0.12f}};
             CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
             CHECK(tsk_blade_sim_step(sim, 1.0f / 24.0f, NULL, TSK_WIND_NONE) == TSK_OK);
             CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
@@ -311,7 +319,8 @@ TEST(test_sim_contact_holds_for_5_to_64_knots) {
                     const float* p = out + (size_t)(b * K + k) * 3;
                     worst_in = fmax(worst_in, 0.1 - dist_segment(p, c.a, c.b));
                     lowest = fmin(lowest, p[2]);
-                    const float L0 = seg_len(knots + (size_t)(b * K + k - 1) * 3, knots + (size_t)(b * K + k) * 3);
+                    const float L0 = seg_len(knots + (size_t)(b * K + k - 1) * 3,
+                                             knots + (size_t)(b * K + k) * 3);
                     worst_len = fmax(worst_len, fabs(seg_len(p - 3, p) - L0) / L0);
                 }
         }
@@ -334,7 +343,8 @@ TEST(test_sim_local_shape_alone_restores_bend) {
     tsk_blade_sim* sim = one_tile_sim(def, N, knots, widths, sides);
     const float dt = 1.0f / 60.0f;
     for (int s = 0; s < 60; ++s) {
-        tsk_blade_collider c = {TSK_COLLIDER_SPHERE, 0.1f, {-0.2f + 1.0f * dt * (float)s, 0.5f, 0.12f}, {0, 0, 0}};
+        tsk_blade_collider c = {
+            TSK_COLLIDER_SPHERE, 0.1f, {-0.2f + 1.0f * dt * (float)s, 0.5f, 0.12f}, {0, 0, 0}};
         CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
         CHECK(tsk_blade_sim_step(sim, dt, NULL, TSK_WIND_NONE) == TSK_OK);
     }
@@ -349,7 +359,9 @@ TEST(test_sim_local_shape_alone_restores_bend) {
     for (int b = 0; b < N; ++b) {
         const float Lb = blade_length(K16, knots + (size_t)b * K16 * 3);
         for (int k = 0; k < K16; ++k)
-            worst_rel = fmax(worst_rel, seg_len(out + (size_t)(b * K16 + k) * 3, knots + (size_t)(b * K16 + k) * 3) / Lb);
+            worst_rel = fmax(
+                worst_rel,
+                seg_len(out + (size_t)(b * K16 + k) * 3, knots + (size_t)(b * K16 + k) * 3) / Lb);
     }
     CHECK_MSG(worst_rel < 0.01, "local shape alone left %.3g %% of blade length", 100 * worst_rel);
     tsk_blade_sim_destroy(sim);
@@ -391,11 +403,12 @@ static void run_scene(int threads, float* out, size_t* out_count) {
     static float knots[NB * K16 * 3], widths[NB * K16], sides[NB * 3];
     for (int t = 0; t < 36; ++t) {
         for (int b = 0; b < NB; ++b) {
-            float root[3] = {0.5f * (float)(t % 6) + 0.5f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 0),
-                             0.5f * (float)(t / 6) + 0.5f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 1), 0.0f};
+            float root[3] = {
+                0.5f * (float)(t % 6) + 0.5f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 0),
+                0.5f * (float)(t / 6) + 0.5f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 1), 0.0f};
             make_blade(K16, root, 0.25f + 0.1f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 2), 0.25f,
-                       6.28f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 3), knots + (size_t)b * K16 * 3,
-                       widths + (size_t)b * K16, sides + 3 * b);
+                       6.28f * tsk_rand01(7, (uint64_t)t, (uint64_t)b, 3),
+                       knots + (size_t)b * K16 * 3, widths + (size_t)b * K16, sides + 3 * b);
         }
         CHECK(tsk_blade_sim_activate_tile(sim, t) == TSK_OK);
         CHECK(tsk_blade_sim_provide_tile(sim, t, NB, knots, widths, sides) == TSK_OK);
@@ -407,7 +420,8 @@ static void run_scene(int threads, float* out, size_t* out_count) {
         for (int i = 0; i < 3; ++i) {
             c[i].kind = i == 2 ? TSK_COLLIDER_CAPSULE : TSK_COLLIDER_SPHERE;
             c[i].radius = 0.15f;
-            c[i].a[0] = 0.3f + 0.9f * (float)i + 0.03f * (float)s, c[i].a[1] = 1.5f, c[i].a[2] = 0.12f;
+            c[i].a[0] = 0.3f + 0.9f * (float)i + 0.03f * (float)s, c[i].a[1] = 1.5f,
+            c[i].a[2] = 0.12f;
             c[i].b[0] = c[i].a[0], c[i].b[1] = 2.2f, c[i].b[2] = 0.12f;
         }
         CHECK(tsk_blade_sim_set_colliders(sim, c, 3) == TSK_OK);
@@ -449,8 +463,10 @@ TEST(test_sim_wind_per_blade_equals_wind_per_knot) {
     static float wb[N * 3], wk[N * K16 * 3];
     make_row(K16, N, 0.0f, 0.05f, 0.5f, knots, widths, sides);
     for (int i = 0; i < N; ++i) {
-        wb[3 * i] = 3.0f * sinf((float)i), wb[3 * i + 1] = 2.0f + cosf((float)i), wb[3 * i + 2] = 0.1f;
-        for (int k = 0; k < K16; ++k) memcpy(wk + (size_t)(i * K16 + k) * 3, wb + 3 * i, sizeof(float) * 3);
+        wb[3 * i] = 3.0f * sinf((float)i), wb[3 * i + 1] = 2.0f + cosf((float)i),
+               wb[3 * i + 2] = 0.1f;
+        for (int k = 0; k < K16; ++k)
+            memcpy(wk + (size_t)(i * K16 + k) * 3, wb + 3 * i, sizeof(float) * 3);
     }
     for (int layout = 0; layout < 2; ++layout) {
         tsk_blade_sim* sim = one_tile_sim(big_tile_def(), N, knots, widths, sides);
@@ -484,7 +500,8 @@ TEST(test_sim_kernel_paths_give_identical_bytes) {
             run_scene(threads, a, &na);
             CHECK(na == n);
             const uint64_t h = tsk_test_fnv(a, sizeof(float) * na, TSK_TEST_FNV_START);
-            CHECK_MSG(h == SIM_GOLDEN, "%s kernel (%d), %d threads: the solver's bytes changed: hash %#018llx",
+            CHECK_MSG(h == SIM_GOLDEN,
+                      "%s kernel (%d), %d threads: the solver's bytes changed: hash %#018llx",
                       names[p], tsk_simd_isa(), threads, (unsigned long long)h);
         }
     }
@@ -497,10 +514,13 @@ static void tile_blades(const tsk_blade_sim_def* def, int t, int n, float* knots
                         float* sides) {
     const int i = t % def->tiles_x, j = t / def->tiles_x;
     for (int b = 0; b < n; ++b) {
-        float root[3] = {def->origin[0] + def->tile_size * ((float)i + tsk_rand01(3, (uint64_t)t, (uint64_t)b, 0)),
-                         def->origin[1] + def->tile_size * ((float)j + tsk_rand01(3, (uint64_t)t, (uint64_t)b, 1)),
+        float root[3] = {def->origin[0] + def->tile_size * ((float)i + tsk_rand01(3, (uint64_t)t,
+                                                                                  (uint64_t)b, 0)),
+                         def->origin[1] + def->tile_size * ((float)j + tsk_rand01(3, (uint64_t)t,
+                                                                                  (uint64_t)b, 1)),
                          def->ground_height};
-        make_blade(def->knot_count, root, 0.3f, 0.2f, 6.28f * tsk_rand01(3, (uint64_t)t, (uint64_t)b, 2),
+        make_blade(def->knot_count, root, 0.3f, 0.2f,
+                   6.28f * tsk_rand01(3, (uint64_t)t, (uint64_t)b, 2),
                    knots + (size_t)b * def->knot_count * 3, widths + (size_t)b * def->knot_count,
                    sides + 3 * b);
     }
@@ -558,7 +578,8 @@ TEST(test_sim_tile_activates_then_releases_and_frees_memory) {
         CHECK(tsk_blade_sim_step(sim, 1.0f / 60.0f, NULL, TSK_WIND_NONE) == TSK_OK);
         CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
         saw_blend |= info.blending_tiles > 0;
-        if (tsk_blade_sim_tile_state(sim, 27) == 1) CHECK(tsk_blade_sim_get_tile_knots(sim, 27, last) == TSK_OK);
+        if (tsk_blade_sim_tile_state(sim, 27) == 1)
+            CHECK(tsk_blade_sim_get_tile_knots(sim, 27, last) == TSK_OK);
         if (info.active_tiles == 0) released_at = s;
     }
     CHECK_MSG(released_at > def.rest_frames, "released after %d steps", released_at);
@@ -600,7 +621,8 @@ TEST(test_sim_tile_in_steady_wind_settles_and_is_freed) {
     CHECK(tsk_blade_sim_provide_tile(sim, tile, NB, knots, widths, sides) == TSK_OK);
     const float wind[3] = {6.0f, 0.0f, 0.0f};
     const float dt = 1.0f / 48.0f;
-    for (int s = 0; s < 20; ++s) CHECK(tsk_blade_sim_step(sim, dt, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    for (int s = 0; s < 20; ++s)
+        CHECK(tsk_blade_sim_step(sim, dt, wind, TSK_WIND_UNIFORM) == TSK_OK);
     CHECK(tsk_blade_sim_set_colliders(sim, NULL, 0) == TSK_OK);
     int released_at = -1, blend_began = -1;
     double bent = 0.0, jump = 0.0, wind_step = 0.0, last_gap = 1.0;
@@ -623,7 +645,7 @@ TEST(test_sim_tile_in_steady_wind_settles_and_is_freed) {
             if (blend_began < 0) blend_began = s;
             jump = fmax(jump, step);
         } else if (s > 60) {
-            bent = fmax(bent, gap);          /* settled in the wind, still untouched */
+            bent = fmax(bent, gap); /* settled in the wind, still untouched */
             wind_step = fmax(wind_step, step);
         }
         last_gap = gap;
@@ -670,7 +692,8 @@ TEST(test_sim_all_knots_are_the_tiles_knots_in_order) {
         CHECK(tsk_blade_sim_provide_tile(sim, pend[i], n, knots, widths, sides) == TSK_OK);
     }
     const float wind[3] = {3.0f, 1.0f, 0.0f};
-    for (int s = 0; s < 3; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    for (int s = 0; s < 3; ++s)
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
     tsk_blade_sim_info info;
     CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
     CHECK(info.active_tiles == 3 && info.active_blades == 135);
@@ -714,7 +737,9 @@ TEST(test_sim_validate_finds_corrupt_tile_lists) {
     const int before = validated_steps;
     const float wind[3] = {2.0f, 0.5f, 0.0f};
     for (int s = 0; s < 8; ++s) { /* a capsule rolling over tiles 12.. 16 */
-        tsk_blade_collider c = {TSK_COLLIDER_CAPSULE, 0.2f, {0.2f + 0.25f * (float)s, 1.2f, 0.1f},
+        tsk_blade_collider c = {TSK_COLLIDER_CAPSULE,
+                                0.2f,
+                                {0.2f + 0.25f * (float)s, 1.2f, 0.1f},
                                 {0.6f + 0.25f * (float)s, 1.3f, 0.1f}};
         CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
         CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
@@ -725,7 +750,8 @@ TEST(test_sim_validate_finds_corrupt_tile_lists) {
               "scene: %d active, %d forced, %d touched, %d pending", sim->tile_count,
               sim->forced_count, sim->touched_count, sim->pending_count);
     CHECK(tsk_sim_validate(sim) == TSK_OK);
-    if (sim->tile_count < 2 || sim->forced_count < 2 || sim->touched_count < 2 || sim->pending_count < 2) {
+    if (sim->tile_count < 2 || sim->forced_count < 2 || sim->touched_count < 2 ||
+        sim->pending_count < 2) {
         tsk_blade_sim_destroy(sim);
         return;
     }
@@ -784,16 +810,20 @@ TEST(test_sim_ribbons_are_the_expanded_knots) {
     tsk_blade_collider c = {TSK_COLLIDER_SPHERE, 0.2f, {0.3f, 0.4f, 0.15f}, {0, 0, 0}};
     CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
     const float wind[3] = {4.0f, -1.0f, 0.0f};
-    for (int s = 0; s < 12; ++s) CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    for (int s = 0; s < 12; ++s)
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 48.0f, wind, TSK_WIND_UNIFORM) == TSK_OK);
     tsk_blade_sim_info info;
     CHECK(tsk_blade_sim_get_info(sim, &info) == TSK_OK);
     CHECK(info.active_blades == NA);
-    static float all[NA * K16 * 3], w[NA * K16], sd[NA * 3], want_pos[NA * K16 * 6], got[NA * K16 * 6];
+    static float all[NA * K16 * 3], w[NA * K16], sd[NA * 3], want_pos[NA * K16 * 6],
+        got[NA * K16 * 6];
     CHECK(tsk_blade_sim_get_knots(sim, all) == TSK_OK);
     for (int b = 0; b < NA; ++b) { /* widths of every size and zero, sides of any length */
-        for (int k = 0; k < K16; ++k) w[b * K16 + k] = 0.02f * tsk_rand01(5, (uint64_t)b, (uint64_t)k, 0);
+        for (int k = 0; k < K16; ++k)
+            w[b * K16 + k] = 0.02f * tsk_rand01(5, (uint64_t)b, (uint64_t)k, 0);
         w[b * K16 + K16 - 1] = 0.0f;
-        const float a = 6.28f * tsk_rand01(5, (uint64_t)b, 0, 1), l = 0.1f + 3.0f * tsk_rand01(5, (uint64_t)b, 0, 2);
+        const float a = 6.28f * tsk_rand01(5, (uint64_t)b, 0, 1),
+                    l = 0.1f + 3.0f * tsk_rand01(5, (uint64_t)b, 0, 2);
         sd[3 * b] = l * cosf(a), sd[3 * b + 1] = l * sinf(a), sd[3 * b + 2] = 0.3f * l;
     }
     sd[3 * 7] = 0.0f, sd[3 * 7 + 1] = 0.0f, sd[3 * 7 + 2] = 1.0f; /* along the blade */
@@ -829,8 +859,9 @@ TEST(test_sim_ribbons_are_the_expanded_knots) {
         for (int r = 0; r < NR; at += counts[r++]) {
             memcpy(rw + at * K16, w + starts[r] * K16, sizeof(float) * (size_t)(counts[r] * K16));
             memcpy(rs + at * 3, sd + starts[r] * 3, sizeof(float) * (size_t)(counts[r] * 3));
-            CHECK(tsk_blades_expand(all + starts[r] * K16 * 3, w + starts[r] * K16, sd + 3 * starts[r],
-                                    (size_t)counts[r], K16, want_pos + at * K16 * 6, NULL, NULL) == TSK_OK);
+            CHECK(tsk_blades_expand(all + starts[r] * K16 * 3, w + starts[r] * K16,
+                                    sd + 3 * starts[r], (size_t)counts[r], K16,
+                                    want_pos + at * K16 * 6, NULL, NULL) == TSK_OK);
         }
         memset(got, 0xff, sizeof got);
         CHECK(tsk_blade_sim_get_ribbon_runs(sim, starts, counts, NR, rw, rs, got) == TSK_OK);
@@ -841,38 +872,45 @@ TEST(test_sim_ribbons_are_the_expanded_knots) {
         CHECK_MSG(past == 0xffffffffu, "wrote past the runs' %lld blades", (long long)at);
         CHECK(tsk_blade_sim_get_ribbon_runs(sim, NULL, NULL, 0, NULL, NULL, NULL) == TSK_OK);
         const int64_t bad_s[] = {0, 130}, bad_c[] = {2, 6}, neg_s[] = {-1}, one[] = {1};
-        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, bad_s, bad_c, 2, rw, rs, got), TSK_ERR_ARGUMENT,
-                     "run 1: 6 blades from blade 130 on");
-        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, neg_s, one, 1, rw, rs, got), TSK_ERR_ARGUMENT,
-                     "run 0");
-        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, NULL, one, 1, rw, rs, got), TSK_ERR_ARGUMENT,
-                     "starts");
-        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, one, one, -1, rw, rs, got), TSK_ERR_ARGUMENT,
-                     "run_count");
-        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, one, one, 1, rw, rs, NULL), TSK_ERR_ARGUMENT,
-                     "positions");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, bad_s, bad_c, 2, rw, rs, got),
+                     TSK_ERR_ARGUMENT, "run 1: 6 blades from blade 130 on");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, neg_s, one, 1, rw, rs, got),
+                     TSK_ERR_ARGUMENT, "run 0");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, NULL, one, 1, rw, rs, got),
+                     TSK_ERR_ARGUMENT, "starts");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, one, one, -1, rw, rs, got),
+                     TSK_ERR_ARGUMENT, "run_count");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, one, one, 1, rw, rs, NULL),
+                     TSK_ERR_ARGUMENT, "positions");
         rw[40 * K16 + 2] = -1.0f; /* blade 40 of the runs' arrays (run 3, blade 31 + 2) */
-        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, starts, counts, NR, rw, rs, got), TSK_ERR_ARGUMENT,
-                     "width 2 of blade 40");
+        CHECK_STATUS(tsk_blade_sim_get_ribbon_runs(sim, starts, counts, NR, rw, rs, got),
+                     TSK_ERR_ARGUMENT, "width 2 of blade 40");
     }
     /* bad input: the first bad blade, in the caller's numbering */
     w[80 * K16 + 3] = -1.0f;
-    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT, "width 3 of blade 80");
-    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 10, NA - 10, w + 10 * K16, sd + 30, got), TSK_ERR_ARGUMENT,
-                 "width 3 of blade 70");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT,
+                 "width 3 of blade 80");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 10, NA - 10, w + 10 * K16, sd + 30, got),
+                 TSK_ERR_ARGUMENT, "width 3 of blade 70");
     w[80 * K16 + 3] = NAN;
-    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT, "width 3 of blade 80");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT,
+                 "width 3 of blade 80");
     w[80 * K16 + 3] = 0.01f;
     sd[3 * 120] = sd[3 * 120 + 1] = sd[3 * 120 + 2] = 0.0f;
-    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT, "side of blade 120");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, NA, w, sd, got), TSK_ERR_ARGUMENT,
+                 "side of blade 120");
     sd[3 * 120] = INFINITY;
-    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 100, 35, w + 100 * K16, sd + 300, got), TSK_ERR_ARGUMENT,
-                 "side of blade 20");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 100, 35, w + 100 * K16, sd + 300, got),
+                 TSK_ERR_ARGUMENT, "side of blade 20");
     CHECK(tsk_blade_sim_get_ribbons(sim, 0, 100, w, sd, got) == TSK_OK); /* blade 120 not asked */
-    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, -1, 2, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
-    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 100, 36, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
-    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, NA + 1, 0, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
-    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, INT64_MAX, w, sd, got), TSK_ERR_ARGUMENT, "active ones");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, -1, 2, w, sd, got), TSK_ERR_ARGUMENT,
+                 "active ones");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 100, 36, w, sd, got), TSK_ERR_ARGUMENT,
+                 "active ones");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, NA + 1, 0, w, sd, got), TSK_ERR_ARGUMENT,
+                 "active ones");
+    CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 0, INT64_MAX, w, sd, got), TSK_ERR_ARGUMENT,
+                 "active ones");
     CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, 100, INT64_MAX, w, sd, got), TSK_ERR_ARGUMENT,
                  "from blade 100 on");
     CHECK_STATUS(tsk_blade_sim_get_ribbons(sim, INT64_MAX, INT64_MAX, w, sd, got), TSK_ERR_ARGUMENT,
@@ -896,12 +934,14 @@ TEST(test_sim_touched_tile_never_releases) {
     CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
     CHECK(tsk_blade_sim_pending_count(sim) == 1);
     CHECK(tsk_blade_sim_provide_tile(sim, 0, 0, NULL, NULL, NULL) == TSK_OK); /* an empty tile */
-    for (int s = 0; s < 50; ++s) CHECK(tsk_blade_sim_step(sim, 0.02f, NULL, TSK_WIND_NONE) == TSK_OK);
+    for (int s = 0; s < 50; ++s)
+        CHECK(tsk_blade_sim_step(sim, 0.02f, NULL, TSK_WIND_NONE) == TSK_OK);
     CHECK(tsk_blade_sim_tile_state(sim, 0) == 1);
     c.a[2] = 5.0f; /* above max_blade_height: touches nothing */
     CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
     CHECK(tsk_blade_sim_pending_count(sim) == 0);
-    for (int s = 0; s < 5; ++s) CHECK(tsk_blade_sim_step(sim, 0.02f, NULL, TSK_WIND_NONE) == TSK_OK);
+    for (int s = 0; s < 5; ++s)
+        CHECK(tsk_blade_sim_step(sim, 0.02f, NULL, TSK_WIND_NONE) == TSK_OK);
     CHECK(tsk_blade_sim_tile_state(sim, 0) == 0);
     tsk_blade_sim_destroy(sim);
 }
@@ -909,7 +949,8 @@ TEST(test_sim_touched_tile_never_releases) {
 /* A scene with two tiles activated by a moving sphere, stepped `steps` times from step `from`. */
 static void clone_scene_steps(tsk_blade_sim* sim, int from, int steps) {
     for (int s = from; s < from + steps; ++s) {
-        tsk_blade_collider c = {TSK_COLLIDER_SPHERE, 0.12f, {0.3f + 0.02f * (float)s, 0.4f, 0.12f}, {0, 0, 0}};
+        tsk_blade_collider c = {
+            TSK_COLLIDER_SPHERE, 0.12f, {0.3f + 0.02f * (float)s, 0.4f, 0.12f}, {0, 0, 0}};
         CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
         int32_t pend[16];
         const int32_t n = tsk_blade_sim_pending_count(sim);
@@ -977,7 +1018,8 @@ TEST(test_sim_clone_resumes_with_identical_bytes) {
           memcmp(ka, kb, sizeof(float) * (size_t)(ia.active_blades * K16 * 3)) == 0);
     /* and the blades moved meanwhile, so equal bytes say something */
     CHECK(tsk_blade_sim_get_tile_knots(b, first_tile, tile1) == TSK_OK);
-    CHECK(first_count > 0 && memcmp(tile0, tile1, sizeof(float) * (size_t)first_count * K16 * 3) != 0);
+    CHECK(first_count > 0 &&
+          memcmp(tile0, tile1, sizeof(float) * (size_t)first_count * K16 * 3) != 0);
     free(tile0);
     free(tile1);
     free(ka);
@@ -1044,13 +1086,16 @@ TEST(test_sim_bad_input_names_the_argument) {
     CHECK_STATUS(tsk_blade_sim_step(sim, NAN, NULL, TSK_WIND_NONE), TSK_ERR_ARGUMENT, "dt");
     CHECK_STATUS(tsk_blade_sim_step(sim, 0.01f, NULL, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT, "wind");
     const float bad_wind[3] = {0, NAN, 0};
-    CHECK_STATUS(tsk_blade_sim_step(sim, 0.01f, bad_wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT, "wind");
-    CHECK_STATUS(tsk_blade_sim_step(sim, 0.01f, NULL, (tsk_wind_layout)9), TSK_ERR_ARGUMENT, "layout");
+    CHECK_STATUS(tsk_blade_sim_step(sim, 0.01f, bad_wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT,
+                 "wind");
+    CHECK_STATUS(tsk_blade_sim_step(sim, 0.01f, NULL, (tsk_wind_layout)9), TSK_ERR_ARGUMENT,
+                 "layout");
 
     static tsk_blade_collider many[TSK_BLADE_SIM_MAX_COLLIDERS + 1];
     for (int i = 0; i <= TSK_BLADE_SIM_MAX_COLLIDERS; ++i)
         many[i] = (tsk_blade_collider){TSK_COLLIDER_SPHERE, 0.1f, {0, 0, 0}, {0, 0, 0}};
-    CHECK_STATUS(tsk_blade_sim_set_colliders(sim, many, TSK_BLADE_SIM_MAX_COLLIDERS + 1), TSK_ERR_LIMIT, "count");
+    CHECK_STATUS(tsk_blade_sim_set_colliders(sim, many, TSK_BLADE_SIM_MAX_COLLIDERS + 1),
+                 TSK_ERR_LIMIT, "count");
     many[2].radius = -1.0f;
     CHECK_STATUS(tsk_blade_sim_set_colliders(sim, many, 3), TSK_ERR_ARGUMENT, "colliders");
     many[2].radius = 0.1f;
@@ -1065,23 +1110,32 @@ TEST(test_sim_bad_input_names_the_argument) {
     const float root[3] = {0.1f, 0.1f, 0.0f};
     make_blade(K16, root, 0.3f, 0.2f, 0.0f, knots, widths, side);
     CHECK_STATUS(tsk_blade_sim_activate_tile(sim, 400), TSK_ERR_ARGUMENT, "tile");
-    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, -1, 1, knots, widths, side), TSK_ERR_ARGUMENT, "tile");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, -1, 1, knots, widths, side), TSK_ERR_ARGUMENT,
+                 "tile");
     knots[3 * 5 + 1] = NAN;
-    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT, "knots");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT,
+                 "knots");
     make_blade(K16, root, 0.3f, 0.2f, 0.0f, knots, widths, side);
-    knots[3 * 6] = knots[3 * 5], knots[3 * 6 + 1] = knots[3 * 5 + 1], knots[3 * 6 + 2] = knots[3 * 5 + 2];
-    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT, "zero length");
+    knots[3 * 6] = knots[3 * 5], knots[3 * 6 + 1] = knots[3 * 5 + 1],
+              knots[3 * 6 + 2] = knots[3 * 5 + 2];
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT,
+                 "zero length");
     make_blade(K16, root, 0.3f, 0.2f, 0.0f, knots, widths, side);
     widths[3] = -0.001f;
-    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT, "widths");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT,
+                 "widths");
     widths[3] = 0.001f;
     side[0] = NAN;
-    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT, "sides");
-    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, TSK_BLADE_SIM_MAX_BLADES_PER_TILE + 1, knots, widths, NULL),
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, side), TSK_ERR_ARGUMENT,
+                 "sides");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, TSK_BLADE_SIM_MAX_BLADES_PER_TILE + 1, knots,
+                                            widths, NULL),
                  TSK_ERR_LIMIT, "blade_count");
-    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, NULL, widths, NULL), TSK_ERR_ARGUMENT, "knots");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, NULL, widths, NULL), TSK_ERR_ARGUMENT,
+                 "knots");
     CHECK(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, NULL) == TSK_OK);
-    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, NULL), TSK_ERR_ARGUMENT, "already active");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, NULL), TSK_ERR_ARGUMENT,
+                 "already active");
     CHECK_STATUS(tsk_blade_sim_get_tile_knots(sim, 1, knots), TSK_ERR_ARGUMENT, "not active");
     tsk_blade_sim_destroy(sim);
 }
@@ -1100,11 +1154,14 @@ TEST(test_sim_huge_colliders_and_values_are_refused_not_nan) {
     c = (tsk_blade_collider){TSK_COLLIDER_CAPSULE, 0.1f, {0, 0, 0}, {0, -2e6f, 0}};
     CHECK_STATUS(tsk_blade_sim_set_colliders(sim, &c, 1), TSK_ERR_ARGUMENT, "colliders");
     /* the largest accepted: a sphere of radius 1e6 m whose surface passes through the blades */
-    c = (tsk_blade_collider){TSK_COLLIDER_SPHERE, TSK_BLADE_SIM_MAX_COORD,
-                             {0.1f, 0.0f, 0.1f - TSK_BLADE_SIM_MAX_COORD}, {0, 0, 0}};
+    c = (tsk_blade_collider){TSK_COLLIDER_SPHERE,
+                             TSK_BLADE_SIM_MAX_COORD,
+                             {0.1f, 0.0f, 0.1f - TSK_BLADE_SIM_MAX_COORD},
+                             {0, 0, 0}};
     CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
     float wind[3] = {TSK_BLADE_SIM_MAX_WIND, 0, 0};
-    for (int i = 0; i < 5; ++i) CHECK(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    for (int i = 0; i < 5; ++i)
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM) == TSK_OK);
     CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
     int finite = 1;
     for (int i = 0; i < N * K16 * 3; ++i) finite &= isfinite(out[i]) != 0;
@@ -1116,14 +1173,17 @@ TEST(test_sim_huge_colliders_and_values_are_refused_not_nan) {
     sim = one_tile_sim(big_tile_def(), N, knots, widths, sides);
     c = (tsk_blade_collider){TSK_COLLIDER_CAPSULE, 2e5f, {5.8e5f, 0.0f, 0.1f}, {0.0f, 0.0f, 0.1f}};
     CHECK(tsk_blade_sim_set_colliders(sim, &c, 1) == TSK_OK);
-    for (int i = 0; i < 3; ++i) CHECK(tsk_blade_sim_step(sim, 1.0f / 48, NULL, TSK_WIND_NONE) == TSK_OK);
+    for (int i = 0; i < 3; ++i)
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 48, NULL, TSK_WIND_NONE) == TSK_OK);
     CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
     for (int i = 0; i < N * K16 * 3; ++i) finite &= isfinite(out[i]) != 0;
     CHECK_MSG(finite, "a knot is not finite after a push of 200 km");
     wind[0] = 2 * TSK_BLADE_SIM_MAX_WIND;
-    CHECK_STATUS(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT, "wind");
+    CHECK_STATUS(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT,
+                 "wind");
     wind[0] = FLT_MAX;
-    CHECK_STATUS(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT, "wind");
+    CHECK_STATUS(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM), TSK_ERR_ARGUMENT,
+                 "wind");
     tsk_blade_sim_destroy(sim);
     /* a blade folding back on itself (a knot thrown 10 m sideways and back, fuzz_sim): its
        rest frames are undefined at the fold, so it is refused rather than started from a
@@ -1145,7 +1205,8 @@ TEST(test_sim_huge_colliders_and_values_are_refused_not_nan) {
     tsk_blade_sim_def def = tsk_default_blade_sim_def();
     CHECK(tsk_blade_sim_create(&def, &sim) == TSK_OK);
     knots[3 * 4 + 2] = 2e6f;
-    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, NULL), TSK_ERR_ARGUMENT, "knots");
+    CHECK_STATUS(tsk_blade_sim_provide_tile(sim, 0, 1, knots, widths, NULL), TSK_ERR_ARGUMENT,
+                 "knots");
     tsk_blade_sim_destroy(sim);
     /* definition fields */
     def.collision_margin = FLT_MAX;
@@ -1192,7 +1253,8 @@ TEST(test_sim_huge_wind_drag_is_refused_and_the_largest_stays_finite) {
     def.linear_density = 1e-3f; /* ratio 1e30: the largest accepted */
     sim = one_tile_sim(def, N, knots, widths, sides);
     const float wind[3] = {5.0f, 0.0f, 0.0f};
-    for (int i = 0; i < 4; ++i) CHECK(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM) == TSK_OK);
+    for (int i = 0; i < 4; ++i)
+        CHECK(tsk_blade_sim_step(sim, 1.0f / 48, wind, TSK_WIND_UNIFORM) == TSK_OK);
     CHECK(tsk_blade_sim_get_tile_knots(sim, 0, out) == TSK_OK);
     int finite = 1;
     for (int i = 0; i < N * K16 * 3; ++i) finite &= isfinite(out[i]) != 0;
@@ -1245,7 +1307,7 @@ TEST_MAIN(TEST_ENTRY(test_sim_starts_exactly_at_rest_pose),
           TEST_ENTRY(test_sim_tile_activates_then_releases_and_frees_memory),
           TEST_ENTRY(test_sim_touched_tile_never_releases),
           TEST_ENTRY(test_sim_all_knots_are_the_tiles_knots_in_order),
-         TEST_ENTRY(test_sim_ribbons_are_the_expanded_knots),
+          TEST_ENTRY(test_sim_ribbons_are_the_expanded_knots),
           TEST_ENTRY(test_sim_tile_in_steady_wind_settles_and_is_freed),
           TEST_ENTRY(test_sim_clone_resumes_with_identical_bytes),
           TEST_ENTRY(test_sim_bad_input_names_the_argument),

@@ -40,7 +40,7 @@ static tree_data read_tree(const tsk_tree* t) {
     d.radius = malloc(2 * d.n * sizeof(float) + 4);
     d.length = malloc(d.n * sizeof(float) + 4);
     d.orient = malloc(3 * d.n * sizeof(float) + 4);
-    tsk_tree_branches b = {d.parent, d.level, d.depth, d.points, d.rest,
+    tsk_tree_branches b = {d.parent, d.level,  d.depth,  d.points, d.rest,
                            d.attach, d.radius, d.length, d.orient};
     CHECK(tsk_tree_get_branches(t, &b) == TSK_OK);
     return d;
@@ -99,7 +99,8 @@ static void sines_force(const float* tips, size_t n, double t, float* force) {
     for (size_t i = 0; i < n; ++i) {
         double fx = 0, fy = 0;
         for (int s = 0; s < 2; ++s) {
-            const double arg = (D[s][0] * tips[3 * i] + D[s][1] * tips[3 * i + 1]) * w[s] + t * phi[s];
+            const double arg =
+                (D[s][0] * tips[3 * i] + D[s][1] * tips[3 * i + 1]) * w[s] + t * phi[s];
             const double a = A[s] * pow((sin(arg) + 1) / 2, k);
             fx += D[s][0] * a;
             fy += D[s][1] * a;
@@ -177,14 +178,22 @@ TEST(test_tree_same_seed_same_bytes_1_and_2_threads) {
  * parent of length Lp carry round(Branches3 (1 - 0.5 o/Lp)). */
 static double shape_ratio(int shape, double r) {
     switch (shape) {
-    case 0: return 0.2 + 0.8 * r;
-    case 1: return 0.2 + 0.8 * sin(PI * r);
-    case 2: return 0.2 + 0.8 * sin(0.5 * PI * r);
-    case 3: return 1.0;
-    case 4: return 0.5 + 0.5 * r;
-    case 5: return r <= 0.7 ? r / 0.7 : (1 - r) / 0.3;
-    case 6: return 1 - 0.8 * r;
-    default: return r <= 0.7 ? 0.5 + 0.5 * r / 0.7 : 0.5 + 0.5 * (1 - r) / 0.3;
+        case 0:
+            return 0.2 + 0.8 * r;
+        case 1:
+            return 0.2 + 0.8 * sin(PI * r);
+        case 2:
+            return 0.2 + 0.8 * sin(0.5 * PI * r);
+        case 3:
+            return 1.0;
+        case 4:
+            return 0.5 + 0.5 * r;
+        case 5:
+            return r <= 0.7 ? r / 0.7 : (1 - r) / 0.3;
+        case 6:
+            return 1 - 0.8 * r;
+        default:
+            return r <= 0.7 ? 0.5 + 0.5 * r / 0.7 : 0.5 + 0.5 * (1 - r) / 0.3;
     }
 }
 
@@ -205,8 +214,8 @@ TEST(test_tree_level_counts_follow_weber_penn) {
         const double v1 = b + (1 - b) * (i + 0.5) / n1, o1 = v1 * L0;
         const double L1 = L0 * def.level[1].length * shape_ratio(0, (L0 - o1) / (L0 - b * L0));
         expect[1]++;
-        const int n2 = (int)floor(def.level[2].branches *
-                                      (0.2 + 0.8 * (L1 / L0) / def.level[1].length) + 0.5);
+        const int n2 =
+            (int)floor(def.level[2].branches * (0.2 + 0.8 * (L1 / L0) / def.level[1].length) + 0.5);
         for (int j = 0; j < n2; ++j) {
             const double o2 = (j + 0.5) / n2 * L1;
             const double L2 = def.level[2].length * (L1 - 0.6 * o2);
@@ -240,9 +249,9 @@ TEST(test_tree_level_counts_follow_weber_penn) {
     }
     /* parents come first, depths never decrease */
     int ok = 1;
-    for (size_t i = 1; i < d.n; ++i) ok &= d.parent[i] >= 0 && (size_t)d.parent[i] < i &&
-                                           d.depth[i] >= d.depth[i - 1] &&
-                                           d.depth[i] == d.depth[d.parent[i]] + 1;
+    for (size_t i = 1; i < d.n; ++i)
+        ok &= d.parent[i] >= 0 && (size_t)d.parent[i] < i && d.depth[i] >= d.depth[i - 1] &&
+              d.depth[i] == d.depth[d.parent[i]] + 1;
     CHECK(ok);
     free_tree_data(&d);
     tsk_tree_destroy(t);
@@ -344,7 +353,8 @@ TEST(test_tree_leaves_sit_on_their_stems) {
         if (j == 0 || best > worst) worst = best;
         const double dv[3] = {dir[3 * j], dir[3 * j + 1], dir[3 * j + 2]};
         const double nv[3] = {nrm[3 * j], nrm[3 * j + 1], nrm[3 * j + 2]};
-        units &= fabs(len3(dv) - 1) < 1e-5 && fabs(len3(nv) - 1) < 1e-5 && fabs(dot3(dv, nv)) < 1e-5;
+        units &=
+            fabs(len3(dv) - 1) < 1e-5 && fabs(len3(nv) - 1) < 1e-5 && fabs(dot3(dv, nv)) < 1e-5;
         units &= fabs(size[2 * j] - def.leaf_scale) < 1e-7 &&
                  fabs(size[2 * j + 1] - def.leaf_scale * def.leaf_scale_x) < 1e-7;
     }
@@ -466,8 +476,8 @@ TEST(test_deformer_straight_branch_is_exact_cylinder) {
         if (e > worst) worst = e;
         /* normal = radial unit vector */
         const double h = hypot(pos[3 * i], pos[3 * i + 1]);
-        const double en = fabs(nrm[3 * i] - pos[3 * i] / h) + fabs(nrm[3 * i + 1] - pos[3 * i + 1] / h) +
-                          fabs(nrm[3 * i + 2]);
+        const double en = fabs(nrm[3 * i] - pos[3 * i] / h) +
+                          fabs(nrm[3 * i + 1] - pos[3 * i + 1] / h) + fabs(nrm[3 * i + 2]);
         if (en > worst_n) worst_n = en;
     }
     CHECK_MSG(worst < 1e-5, "mesh radius error %g", worst);
@@ -484,10 +494,10 @@ TEST(test_deformer_radius_matches_eq_2_to_5) {
     for (int i = 0; i <= 50; ++i) {
         for (int k = 0; k < 13; ++k) {
             const double v = i / 50.0, th = 2 * PI * k / 13 + 0.1;
-            const double taper = 0.4 * (1 - 0.8 * pow(v, 2.5));            /* eq. 2 */
-            const double flare = 0.33 / 100 * pow(100, 1 - 8 * v) + 1;      /* eq. 3 */
-            const double bulge = 1 + 0.07 * sin(5 * 2 * PI * v);            /* eq. 4 */
-            const double lobe = 1 + 0.2 * sin(7 * th) * (1 - v * 1);        /* eq. 5 */
+            const double taper = 0.4 * (1 - 0.8 * pow(v, 2.5)); /* eq. 2 */
+            const double flare = 0.33 / 100 * pow(100, 1 - 8 * v) + 1; /* eq. 3 */
+            const double bulge = 1 + 0.07 * sin(5 * 2 * PI * v); /* eq. 4 */
+            const double lobe = 1 + 0.2 * sin(7 * th) * (1 - v * 1); /* eq. 5 */
             const double want = taper * flare * bulge * lobe;
             const double got = tsk_branch_radius(&s, (float)v, (float)th);
             const double e = fabs(got - want) / (fabs(want) + 1e-3);
@@ -533,7 +543,8 @@ TEST(test_deformer_normals_unit_perpendicular_outward) {
             tsk_branch_surface(P, O, &s, (float)v, (float)(th + h), c, NULL);
             tsk_branch_surface(P, O, &s, (float)v, (float)(th - h), e, NULL);
             double tv[3], tt[3], nn[3] = {n[0], n[1], n[2]};
-            for (int q = 0; q < 3; ++q) tv[q] = (a[q] - b[q]) / (2 * h), tt[q] = (c[q] - e[q]) / (2 * h);
+            for (int q = 0; q < 3; ++q)
+                tv[q] = (a[q] - b[q]) / (2 * h), tt[q] = (c[q] - e[q]) / (2 * h);
             const double un = fabs(len3(nn) - 1);
             if (un > worst_unit) worst_unit = un;
             const double p1 = fabs(dot3(nn, tv)) / len3(tv), p2 = fabs(dot3(nn, tt)) / len3(tt);
@@ -602,7 +613,8 @@ TEST(test_mesh_topology_faces_outward_and_uvs) {
     int in_range = 1;
     size_t agree = 0, checked = 0;
     for (size_t f = 0; f < nf; ++f) {
-        for (int c = 0; c < 4; ++c) in_range &= faces[4 * f + c] >= 0 && (size_t)faces[4 * f + c] < nv;
+        for (int c = 0; c < 4; ++c)
+            in_range &= faces[4 * f + c] >= 0 && (size_t)faces[4 * f + c] < nv;
         if (!in_range) break;
         const float *a = pos + 3 * faces[4 * f], *b = pos + 3 * faces[4 * f + 1],
                     *c3 = pos + 3 * faces[4 * f + 3];
@@ -620,7 +632,8 @@ TEST(test_mesh_topology_faces_outward_and_uvs) {
     CHECK_MSG(agree >= checked * 99 / 100 && checked > 0, "%zu of %zu faces agree", agree, checked);
     /* u runs 0..1 around, v grows along */
     int uv_ok = 1;
-    for (size_t f = 0; f < nf; ++f) uv_ok &= uv[8 * f] >= 0 && uv[8 * f] <= 1 && uv[8 * f + 2] <= 1.0f;
+    for (size_t f = 0; f < nf; ++f)
+        uv_ok &= uv[8 * f] >= 0 && uv[8 * f] <= 1 && uv[8 * f + 2] <= 1.0f;
     CHECK(uv_ok);
     free(faces), free(uv), free(pos), free(nrm);
     tsk_tree_destroy(t);
@@ -867,7 +880,7 @@ TEST(test_wind_children_stay_attached) {
  * widest the CPU has (core/simd.h). */
 enum { WIND_PATHS = 4 };
 static const char* const WIND_PATH_NAMES[WIND_PATHS] = {"one branch", "portable", "at most AVX2",
-                                                         "best"};
+                                                        "best"};
 static void set_wind_path(int path) {
     static const int simd[WIND_PATHS] = {TSK_SIMD_BEST, TSK_SIMD_PORTABLE, TSK_SIMD_AT_MOST_AVX2,
                                          TSK_SIMD_BEST};
@@ -954,7 +967,8 @@ TEST(test_wind_reset_of_a_resting_tree_changes_nothing) {
         CHECK(tsk_tree_create(&def, &fresh) == TSK_OK);
         if (fresh) {
             CHECK(tsk_tree_wind_step(fresh, force, &w) == TSK_OK);
-            CHECK_MSG(pose_hash(fresh, FNV_START) == again, "mode %d: a step after a reset differs", mode);
+            CHECK_MSG(pose_hash(fresh, FNV_START) == again, "mode %d: a step after a reset differs",
+                      mode);
             tsk_tree_destroy(fresh);
         }
     }
@@ -987,14 +1001,17 @@ TEST(test_wind_simd_path_equals_scalar_path) {
                 for (int s = 0; s < 4; ++s) {
                     CHECK(tsk_tree_tip_positions(t, tips) == TSK_OK);
                     sines_force(tips, n, 0.25 * s, force);
-                    if (s == 2) for (size_t i = 0; i < 3 * n; i += 7) force[i] = 0; /* mixed lanes */
+                    if (s == 2)
+                        for (size_t i = 0; i < 3 * n; i += 7) force[i] = 0; /* mixed lanes */
                     CHECK(tsk_tree_wind_step(t, force, &w) == TSK_OK);
                 }
                 tree_data d = read_tree(t);
                 const uint64_t h = fnv(d.points, 48 * n, fnv(d.orient, 12 * n, FNV_START));
                 CHECK_MSG(h == WIND_GOLDEN[mode],
-                          "mode %d, %s path (kernel %d), %d threads: the wind's bytes changed: hash %#018llx",
-                          mode, WIND_PATH_NAMES[path], tsk_simd_isa(), threads, (unsigned long long)h);
+                          "mode %d, %s path (kernel %d), %d threads: the wind's bytes changed: "
+                          "hash %#018llx",
+                          mode, WIND_PATH_NAMES[path], tsk_simd_isa(), threads,
+                          (unsigned long long)h);
                 free_tree_data(&d);
                 free(tips), free(force);
                 tsk_tree_destroy(t);
@@ -1139,7 +1156,8 @@ static const int32_t cube_f[6 * 4] = {0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4,
 
 static int has_point(const float* p, size_t n, double x, double y, double z, double tol) {
     for (size_t i = 0; i < n; ++i)
-        if (fabs(p[3 * i] - x) < tol && fabs(p[3 * i + 1] - y) < tol && fabs(p[3 * i + 2] - z) < tol)
+        if (fabs(p[3 * i] - x) < tol && fabs(p[3 * i + 1] - y) < tol &&
+            fabs(p[3 * i + 2] - z) < tol)
             return 1;
     return 0;
 }
@@ -1192,8 +1210,11 @@ static int catmull_clark_by_hand(const float* v, int nv, const int32_t* f, int n
         for (int k = 0; k < 4; ++k) {
             int a = f[4 * i + k], b = f[4 * i + (k + 1) % 4], found = -1;
             for (int e = 0; e < ne; ++e)
-                if ((edges[e][0] == a && edges[e][1] == b) || (edges[e][0] == b && edges[e][1] == a)) found = e;
-            if (found < 0) edges[ne][0] = a, edges[ne][1] = b, edges[ne][2] = i, edges[ne][3] = -1, ++ne;
+                if ((edges[e][0] == a && edges[e][1] == b) ||
+                    (edges[e][0] == b && edges[e][1] == a))
+                    found = e;
+            if (found < 0)
+                edges[ne][0] = a, edges[ne][1] = b, edges[ne][2] = i, edges[ne][3] = -1, ++ne;
             else edges[found][3] = i;
         }
     }
@@ -1203,7 +1224,8 @@ static int catmull_clark_by_hand(const float* v, int nv, const int32_t* f, int n
     for (int e = 0; e < ne; ++e, ++n)
         for (int c = 0; c < 3; ++c)
             out[3 * n + c] = (v[3 * edges[e][0] + c] + v[3 * edges[e][1] + c] + fp[edges[e][2]][c] +
-                              fp[edges[e][3]][c]) / 4.0;
+                              fp[edges[e][3]][c]) /
+                             4.0;
     for (int p = 0; p < nv; ++p, ++n) {
         double Q[3] = {0, 0, 0}, R[3] = {0, 0, 0};
         int nfaces = 0, nedges = 0;
@@ -1215,7 +1237,8 @@ static int catmull_clark_by_hand(const float* v, int nv, const int32_t* f, int n
                 }
         for (int e = 0; e < ne; ++e)
             if (edges[e][0] == p || edges[e][1] == p) {
-                for (int c = 0; c < 3; ++c) R[c] += (v[3 * edges[e][0] + c] + v[3 * edges[e][1] + c]) / 2.0;
+                for (int c = 0; c < 3; ++c)
+                    R[c] += (v[3 * edges[e][0] + c] + v[3 * edges[e][1] + c]) / 2.0;
                 ++nedges;
             }
         const double val = nedges;
@@ -1232,14 +1255,16 @@ TEST(test_subdiv_stencils_on_moved_cage_equal_refining_it) {
         tsk_subdiv* sd1 = NULL;
         CHECK(tsk_subdiv_create(cube_f, 6, 8, 1, &sd1) == TSK_OK);
         float mv[24];
-        for (int i = 0; i < 24; ++i) mv[i] = cube_v[i] * (1.0f + 0.1f * (float)(i % 5)) + 0.3f * (float)(i % 3);
+        for (int i = 0; i < 24; ++i)
+            mv[i] = cube_v[i] * (1.0f + 0.1f * (float)(i % 5)) + 0.3f * (float)(i % 3);
         float got[26 * 3];
         double want[26 * 3];
         CHECK(sd1 && tsk_subdiv_apply(sd1, cube_v, got) == TSK_OK); /* built on the rest cube */
-        CHECK(sd1 && tsk_subdiv_apply(sd1, mv, got) == TSK_OK);     /* applied to the moved one */
+        CHECK(sd1 && tsk_subdiv_apply(sd1, mv, got) == TSK_OK); /* applied to the moved one */
         CHECK(catmull_clark_by_hand(mv, 8, cube_f, 6, want) == 26);
         int all = 1;
-        for (int k = 0; k < 26; ++k) all &= has_point(got, 26, want[3 * k], want[3 * k + 1], want[3 * k + 2], 1e-5);
+        for (int k = 0; k < 26; ++k)
+            all &= has_point(got, 26, want[3 * k], want[3 * k + 1], want[3 * k + 2], 1e-5);
         CHECK(all);
         tsk_subdiv_destroy(sd1);
     }
@@ -1249,7 +1274,8 @@ TEST(test_subdiv_stencils_on_moved_cage_equal_refining_it) {
     CHECK(tsk_subdiv_create(cube_f, 6, 8, 2, &sd) == TSK_OK);
     if (!sd) return;
     float moved[24];
-    for (int i = 0; i < 24; ++i) moved[i] = cube_v[i] * (1.0f + 0.1f * (float)(i % 5)) + 0.3f * (float)(i % 3);
+    for (int i = 0; i < 24; ++i)
+        moved[i] = cube_v[i] * (1.0f + 0.1f * (float)(i % 5)) + 0.3f * (float)(i % 3);
     const size_t n = tsk_subdiv_vertex_count(sd);
     CHECK(n == 98);
     float* a = malloc(3 * n * sizeof(float));
@@ -1360,13 +1386,11 @@ TEST_MAIN(TEST_ENTRY(test_tree_and_mesh_over_memory_budget_are_refused),
           TEST_ENTRY(test_mesh_edges_closed_form_equal_derived_edges),
           TEST_ENTRY(test_mesh_simd_path_equals_scalar_path),
           TEST_ENTRY(test_wind_zero_force_keeps_rest_pose_exactly),
-          TEST_ENTRY(test_wind_bend_matches_eq_16_17),
-          TEST_ENTRY(test_wind_children_stay_attached),
+          TEST_ENTRY(test_wind_bend_matches_eq_16_17), TEST_ENTRY(test_wind_children_stay_attached),
           TEST_ENTRY(test_wind_reset_of_a_resting_tree_changes_nothing),
           TEST_ENTRY(test_wind_at_the_limits_stays_finite),
           TEST_ENTRY(test_wind_simd_path_equals_scalar_path),
-          TEST_ENTRY(test_wind_rejects_bad_force),
-          TEST_ENTRY(test_tree_bad_parameters_are_named),
+          TEST_ENTRY(test_wind_rejects_bad_force), TEST_ENTRY(test_tree_bad_parameters_are_named),
           TEST_ENTRY(test_tree_random_parameters_never_crash),
           TEST_ENTRY(test_subdiv_cube_once_gives_catmull_clark_points),
           TEST_ENTRY(test_subdiv_stencils_on_moved_cage_equal_refining_it),

@@ -177,7 +177,7 @@ TEST(test_gusts_are_raised_cosines_one_per_slot) {
         }
         CHECK_MSG(first >= 0.0, "slot %d has no gust", slot);
         if (first < 0.0) continue;
-        CHECK_NEAR(last - first, 2.0, 2.5 * step);  /* duration */
+        CHECK_NEAR(last - first, 2.0, 2.5 * step); /* duration */
         CHECK(peak >= 1.0 - 1e-3 && peak <= 2.0 + 1e-3); /* strength/2..strength */
         /* shape: peak * (0.5 - 0.5 cos(2 pi (t - start) / duration)) */
         const double start = first - 0.5 * step;
@@ -287,8 +287,9 @@ TEST(test_projection_recovers_the_divergence_free_part) {
     for (int j = 0; j < n + 2; ++j)
         for (int i = 0; i < n + 2; ++i) {
             const int ghost = i == 0 || j == 0 || i == n + 1 || j == n + 1;
-            g[j * (n + 2) + i] = ghost ? 0.0 : 0.4 * tsk_rand01(3, 2, (uint64_t)i, (uint64_t)j) +
-                                                   0.2 * sin(0.3 * i) * sin(0.2 * j);
+            g[j * (n + 2) + i] = ghost ? 0.0
+                                       : 0.4 * tsk_rand01(3, 2, (uint64_t)i, (uint64_t)j) +
+                                             0.2 * sin(0.3 * i) * sin(0.2 * j);
         }
     for (int j = 0; j < n; ++j)
         for (int i = 0; i <= n; ++i) {
@@ -412,8 +413,8 @@ TEST(test_sampling_maps_world_points_to_the_grid) {
     CHECK_MSG(worst_sway < 1e-6, "sway at centres vs grid: %g", worst_sway);
     /* the strongest wind blows along +y near the source */
     CHECK(vy[best] > 0.3f);
-    CHECK_MSG(hypot(px[best] - s.x, py[best] - s.y) < s.radius + 1.5,
-              "strongest at (%g, %g)", (double)px[best], (double)py[best]);
+    CHECK_MSG(hypot(px[best] - s.x, py[best] - s.y) < s.radius + 1.5, "strongest at (%g, %g)",
+              (double)px[best], (double)py[best]);
     tsk_wind_destroy(w);
 }
 
@@ -478,7 +479,8 @@ TEST(test_continuum_pulse_travels_at_c_and_decays_with_gamma) {
     /* every oscillating mode of eq. 4 decays by sqrt(gamma) per step (roots of
      * z^2 - (1 + g - mu) z + g have |z|^2 = g) */
     const double ratio = q2 / p2, expect = pow(gamma, n2 / 2.0);
-    fprintf(stderr, "  continuum: ring speed %.4f m/s (c = %g), damped/undamped %.4f (predicted %.4f)\n",
+    fprintf(stderr,
+            "  continuum: ring speed %.4f m/s (c = %g), damped/undamped %.4f (predicted %.4f)\n",
             speed, (double)c, ratio, expect);
     CHECK_MSG(fabs(ratio - expect) < 0.03 * expect, "damped/undamped %g, predicted %g", ratio,
               expect);
@@ -491,13 +493,14 @@ TEST(test_continuum_pulse_travels_at_c_and_decays_with_gamma) {
  * continuum offset by (di, dj) */
 static double window_energy(tsk_continuum* a, tsk_continuum* ref, int di, int dj, int m) {
     const float *ca = tsk_continuum_cur_x(a), *pa = tsk_continuum_prev_x(a);
-    const float *cr = ref ? tsk_continuum_cur_x(ref) : NULL, *pr = ref ? tsk_continuum_prev_x(ref) : NULL;
+    const float *cr = ref ? tsk_continuum_cur_x(ref) : NULL,
+                *pr = ref ? tsk_continuum_prev_x(ref) : NULL;
     double e = 0.0;
     const double k2 = (double)a->c * a->c / ((double)a->h * a->h), dt2 = (double)a->dt * a->dt;
     for (int j = 0; j < m - 1; ++j)
         for (int i = 0; i < m - 1; ++i) {
-#define VAL(arr, rarr, ii, jj)                                                                 \
-    ((double)arr[tsk_continuum_index(a, ii, jj)] -                                             \
+#define VAL(arr, rarr, ii, jj)                     \
+    ((double)arr[tsk_continuum_index(a, ii, jj)] - \
      (ref ? (double)rarr[tsk_continuum_index(ref, (ii) + di, (jj) + dj)] : 0.0))
             const double v = VAL(ca, cr, i, j), vp = VAL(pa, pr, i, j);
             const double gx = VAL(ca, cr, i + 1, j) - v, gy = VAL(ca, cr, i, j + 1) - v;
@@ -592,7 +595,8 @@ TEST(test_fluid_open_boundary_lets_a_gust_leave) {
     }
     CHECK_MSG(moved > 0.5, "the blob should mostly have left the small window (%g)", moved);
     CHECK_MSG(worst < 0.25, "reflected/perturbed energy fraction %g", worst);
-    fprintf(stderr, "  open fluid boundary: difference energy fraction %.4f (%.2f left)\n", worst, moved);
+    fprintf(stderr, "  open fluid boundary: difference energy fraction %.4f (%.2f left)\n", worst,
+            moved);
     tsk_wind_destroy(ws);
     tsk_wind_destroy(wb);
 }
@@ -756,7 +760,8 @@ TEST(test_bad_parameters_are_refused_with_a_named_argument) {
     CHECK_STATUS(tsk_wind_set_sources(w, NULL, 2), TSK_ERR_ARGUMENT, "sources");
     tsk_wind_sines_def sd = tsk_default_wind_sines_def();
     sd.waves[0].wavelength = 0.0f;
-    CHECK_STATUS(tsk_wind_set_sines(w, &sd, 0.0, 1.0), TSK_ERR_ARGUMENT, "sines.waves[0].wavelength");
+    CHECK_STATUS(tsk_wind_set_sines(w, &sd, 0.0, 1.0), TSK_ERR_ARGUMENT,
+                 "sines.waves[0].wavelength");
     sd = tsk_default_wind_sines_def();
     CHECK_STATUS(tsk_wind_set_sines(w, &sd, 0.0, -1.0), TSK_ERR_ARGUMENT, "blend_time");
     CHECK_STATUS(tsk_wind_step(w, -1), TSK_ERR_ARGUMENT, "steps");
@@ -803,7 +808,8 @@ TEST(test_extreme_but_valid_values_stay_finite) {
     s.interval = 0.0f;
     CHECK(tsk_wind_set_sources(w, &s, 1) == TSK_OK);
     CHECK(tsk_wind_step(w, 5) == TSK_OK);
-    float x[6] = {0.0f, 1e7f, -1e7f, 3.0f, 1e-30f, -5e6f}, y[6] = {0.0f, -1e7f, 1e7f, 1e7f, 0.0f, 7.0f};
+    float x[6] = {0.0f, 1e7f, -1e7f, 3.0f, 1e-30f, -5e6f},
+          y[6] = {0.0f, -1e7f, 1e7f, 1e7f, 0.0f, 7.0f};
     float vx[6], vy[6], sx[6], sy[6];
     const double times[4] = {0.0, 1e12, -1e12, 12345.678};
     int finite = 1;
@@ -811,7 +817,8 @@ TEST(test_extreme_but_valid_values_stay_finite) {
         CHECK(tsk_wind_sample(w, times[k], 6, x, y, vx, vy, sx, sy) == TSK_OK);
         for (int i = 0; i < 6; ++i) {
             finite &= isfinite(vx[i]) && isfinite(vy[i]) && isfinite(sx[i]) && isfinite(sy[i]) &&
-                      fabsf(vx[i]) <= 8 * 100.0f + 2.0f + 100.0f + 100.0f; /* waves, breeze, gust, field */
+                      fabsf(vx[i]) <=
+                          8 * 100.0f + 2.0f + 100.0f + 100.0f; /* waves, breeze, gust, field */
         }
     }
     CHECK(finite);
@@ -1024,7 +1031,8 @@ TEST_MAIN(TEST_ENTRY(test_wind_without_grid_still_checks_dt),
           TEST_ENTRY(test_saved_state_restores_bit_for_bit),
           TEST_ENTRY(test_bad_states_are_refused_and_change_nothing),
           TEST_ENTRY(test_wind_grid_over_memory_budget_is_refused),
-          TEST_ENTRY(test_fast_sin_and_pow_match_libm), TEST_ENTRY(test_wind_sines_match_closed_form),
+          TEST_ENTRY(test_fast_sin_and_pow_match_libm),
+          TEST_ENTRY(test_wind_sines_match_closed_form),
           TEST_ENTRY(test_wind_sines_crests_travel_downwind_at_speed),
           TEST_ENTRY(test_gusts_are_raised_cosines_one_per_slot),
           TEST_ENTRY(test_gust_front_travels_downwind_and_seed_matters),

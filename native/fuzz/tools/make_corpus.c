@@ -123,7 +123,8 @@ int main(void) {
         put(defs[t], "defaults", b, sizeof b);
         for (int k = 0; k < 4; ++k) {
             char name[32];
-            for (size_t i = 0; i < sizeof b; ++i) b[i] = (i % (7 + k) == 0) ? (unsigned char)k : 0x0a;
+            for (size_t i = 0; i < sizeof b; ++i)
+                b[i] = (i % (7 + k) == 0) ? (unsigned char)k : 0x0a;
             snprintf(name, sizeof name, "edges%d", k);
             put(defs[t], name, b, 512 + 512 * k);
         }

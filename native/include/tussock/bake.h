@@ -29,8 +29,7 @@ uint64_t tsk_bake_checksum(const void* data, size_t size);
 /// atomically: a reader sees the old file or the complete new one, never a part. A
 /// read-only folder or a full disk gives TSK_ERR_IO with the system's reason, and leaves
 /// no temporary file behind.
-tsk_status tsk_bake_write_frame(const char* path, int32_t frame, const float* xyz,
-                                uint32_t count);
+tsk_status tsk_bake_write_frame(const char* path, int32_t frame, const float* xyz, uint32_t count);
 
 /// Reads and checks a frame file: its frame number and point count. A missing file gives
 /// TSK_ERR_IO; a file that is not a Tussock frame, of another format version, truncated,
@@ -54,8 +53,8 @@ tsk_status tsk_bake_assemble_pc2(const char* path, const char* const* frame_path
 /// Reads a .pc2 header: point count, start frame, sample rate and sample count, checking
 /// that the file is as long as the header says and that the start frame is finite and the
 /// sample rate positive and finite (else TSK_ERR_FORMAT).
-tsk_status tsk_pc2_info(const char* path, uint32_t* points, float* start_frame,
-                        float* sample_rate, uint32_t* samples);
+tsk_status tsk_pc2_info(const char* path, uint32_t* points, float* start_frame, float* sample_rate,
+                        uint32_t* samples);
 
 /// Reads sample `index` (0-based) of a .pc2 file into xyz (3*points floats). A sample
 /// holding a non-finite value gives TSK_ERR_FORMAT.

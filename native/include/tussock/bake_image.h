@@ -33,8 +33,8 @@ extern "C" {
 /// tsk_bake_image_info refuses and a resumed bake writes again. Same input, same bytes.
 /// A read-only folder or a full disk gives TSK_ERR_IO with the system's reason.
 /// Width and height: TSK_PICTURE_MIN_SIDE..TSK_PICTURE_MAX_SIDE as for pictures.
-tsk_status tsk_bake_write_image(const char* path, int32_t frame, uint64_t key,
-                                const float* rgba, size_t count, int width, int height);
+tsk_status tsk_bake_write_image(const char* path, int32_t frame, uint64_t key, const float* rgba,
+                                size_t count, int width, int height);
 
 /// Verifies an image frame: its sidecar exists, is of this format version, and the EXR
 /// has the size and checksum the sidecar records. Returns the frame, key, width and

@@ -50,27 +50,27 @@ tsk_status tsk_intrinsics_from_fov(int width, int height, float hfov, float vfov
 typedef struct tsk_depth_source tsk_depth_source;
 
 typedef enum tsk_depth_kind {
-    TSK_DEPTH_FILES = 0,  ///< one depth image or a numbered sequence
-    TSK_DEPTH_ONI = 1,    ///< an OpenNI2 recording (.oni)
+    TSK_DEPTH_FILES = 0, ///< one depth image or a numbered sequence
+    TSK_DEPTH_ONI = 1, ///< an OpenNI2 recording (.oni)
     TSK_DEPTH_DEVICE = 2, ///< a live OpenNI2 device
 } tsk_depth_kind;
 
 /// What a source is. Filled by tsk_depth_get_info.
 typedef struct tsk_depth_info {
     tsk_depth_kind kind;
-    int width, height;          ///< pixels of every frame
-    int frame_count;            ///< frames in a file sequence or recording; -1 for a device
-    int first_frame;            ///< number of the first file of a sequence (0 otherwise)
-    int has_device_intrinsics;  ///< 1 if `intrinsics` came from the device/recording
-    tsk_intrinsics intrinsics;  ///< device intrinsics, else tsk_default_intrinsics
-    char description[256];      ///< file pattern, recording path or device URI
+    int width, height; ///< pixels of every frame
+    int frame_count; ///< frames in a file sequence or recording; -1 for a device
+    int first_frame; ///< number of the first file of a sequence (0 otherwise)
+    int has_device_intrinsics; ///< 1 if `intrinsics` came from the device/recording
+    tsk_intrinsics intrinsics; ///< device intrinsics, else tsk_default_intrinsics
+    char description[256]; ///< file pattern, recording path or device URI
 } tsk_depth_info;
 
 /// A frame that tsk_depth_read delivered (or did not).
 typedef struct tsk_depth_frame {
-    int is_new;       ///< 1 if the buffer was written; 0: no new frame (device) or past the end
-    int end;          ///< 1 if a file sequence or recording has no more frames
-    int index;        ///< frame index (0-based position in a sequence/recording; device counter)
+    int is_new; ///< 1 if the buffer was written; 0: no new frame (device) or past the end
+    int end; ///< 1 if a file sequence or recording has no more frames
+    int index; ///< frame index (0-based position in a sequence/recording; device counter)
     double timestamp; ///< seconds (device/recording clock; index/30 for files)
     int invalid_pixels; ///< NaN, inf or negative values that were read as "no data" (EXR)
 } tsk_depth_frame;
@@ -127,34 +127,34 @@ tsk_status tsk_depth_write_exr(const char* path, const float* depth_m, int width
 /// Where the blades of a cluster grow from: the "centre" of seed 000 §4.2 from which
 /// contour distances are measured.
 typedef enum tsk_capture_root {
-    TSK_ROOT_BOTTOM = 0,   ///< centre at the blob's base (bottom of the image): default
+    TSK_ROOT_BOTTOM = 0, ///< centre at the blob's base (bottom of the image): default
     TSK_ROOT_CENTROID = 1, ///< the blob's centroid, literally as in the seed
 } tsk_capture_root;
 
 /// Parameters of the capture pipeline. Get defaults with tsk_default_capture_def().
 typedef struct tsk_capture_def {
-    float near_m, far_m;  ///< depth band in metres, far_m <= 10000; both 0 = automatic
-                          ///< (nearest depth mode)
+    float near_m, far_m; ///< depth band in metres, far_m <= 10000; both 0 = automatic
+        ///< (nearest depth mode)
     tsk_intrinsics intrinsics; ///< all 0 = tsk_default_intrinsics(width, height); else
-                               ///< fx, fy in [0.01, 1e6) px and |cx|, |cy| <= 1e6 px
-    int min_area;         ///< smallest blob kept, pixels (also the speckle size). Default 150
-    int hole_radius;      ///< closing radius that fills dropout holes, pixels. Default 2
-    int open_radius;      ///< opening radius that removes thin speckles, pixels. Default 0
+        ///< fx, fy in [0.01, 1e6) px and |cx|, |cy| <= 1e6 px
+    int min_area; ///< smallest blob kept, pixels (also the speckle size). Default 150
+    int hole_radius; ///< closing radius that fills dropout holes, pixels. Default 2
+    int open_radius; ///< opening radius that removes thin speckles, pixels. Default 0
     float contour_smooth; ///< Gaussian sigma along the contour, pixels. Default 1.5
-    float split_smooth;   ///< Gaussian sigma of the distance function, pixels. Default 3
+    float split_smooth; ///< Gaussian sigma of the distance function, pixels. Default 3
     float split_prominence; ///< a tip must stand this far (pixels) above the splits
-                            ///< beside it, or it is noise. Default 12
+        ///< beside it, or it is noise. Default 12
     tsk_capture_root root; ///< TSK_ROOT_BOTTOM (default) or TSK_ROOT_CENTROID
-    float knot_spacing;   ///< distance between skeleton knots, pixels. Default 2
-    float width_smooth;   ///< Gaussian sigma of widths and depths along the skeleton, knots.
-                          ///< Default 2
-    int depth_window;     ///< half size of the window whose median depth a knot takes. Default 2
-    int min_knots;        ///< blades with fewer knots are dropped. Default 4
-    float root_trim;      ///< skeleton pairs this many median blade widths from the end of
-                          ///< either side (a split or the base) are dropped, because a side
-                          ///< that ends at a split turns onto the neighbour there; the blade
-                          ///< is then continued from where its pairs end, through the part it
-                          ///< shares with its neighbours, down to the base. Default 1
+    float knot_spacing; ///< distance between skeleton knots, pixels. Default 2
+    float width_smooth; ///< Gaussian sigma of widths and depths along the skeleton, knots.
+        ///< Default 2
+    int depth_window; ///< half size of the window whose median depth a knot takes. Default 2
+    int min_knots; ///< blades with fewer knots are dropped. Default 4
+    float root_trim; ///< skeleton pairs this many median blade widths from the end of
+        ///< either side (a split or the base) are dropped, because a side
+        ///< that ends at a split turns onto the neighbour there; the blade
+        ///< is then continued from where its pairs end, through the part it
+        ///< shares with its neighbours, down to the base. Default 1
 } tsk_capture_def;
 
 /// Defaults documented in tsk_capture_def.
@@ -163,10 +163,10 @@ tsk_capture_def tsk_default_capture_def(void);
 /// Flags per blade.
 enum {
     TSK_BLADE_CUT_BY_BORDER = 1u << 0, ///< its contour touches the image border: the blade
-                                       ///< continues outside the picture
+    ///< continues outside the picture
     TSK_BLADE_TIP_AT_BORDER = 1u << 1, ///< the tip itself lies on the border (blade is cut)
-    TSK_BLADE_ASYMMETRIC = 1u << 2,    ///< one side is much longer than the other (merged
-                                       ///< with a neighbour over a long stretch)
+    TSK_BLADE_ASYMMETRIC = 1u << 2, ///< one side is much longer than the other (merged
+    ///< with a neighbour over a long stretch)
 };
 
 /// Proposes a depth band: the nearest significant mode of the histogram of valid depths
@@ -188,8 +188,8 @@ void tsk_capture_destroy(tsk_capture* cap);
 /// (TSK_ERR_ARGUMENT), no valid depth at all (TSK_ERR_FORMAT "all-zero"), a band that
 /// selects no pixel (TSK_ERR_FORMAT "band"). An empty mask after cleaning (nothing above
 /// min_area) is not an error: blade count 0 (tsk_capture_status_message says why).
-tsk_status tsk_capture_process(tsk_capture* cap, const tsk_capture_def* def,
-                               const float* depth_m, int width, int height);
+tsk_status tsk_capture_process(tsk_capture* cap, const tsk_capture_def* def, const float* depth_m,
+                               int width, int height);
 
 /// Number of blades found by the last tsk_capture_process.
 int tsk_capture_blade_count(const tsk_capture* cap);
@@ -205,8 +205,8 @@ const char* tsk_capture_status_message(const tsk_capture* cap);
 
 /// Knot counts (int32, blade_count entries) and flags (uint32, blade_count entries).
 /// Either pointer may be NULL. `count` must equal the blade count.
-tsk_status tsk_capture_get_blades(const tsk_capture* cap, int32_t* knot_counts,
-                                  uint32_t* flags, size_t count);
+tsk_status tsk_capture_get_blades(const tsk_capture* cap, int32_t* knot_counts, uint32_t* flags,
+                                  size_t count);
 
 /// Knots of all blades, blade after blade, each root -> tip. `total` must equal
 /// tsk_capture_knot_total. Any pointer may be NULL:
@@ -222,11 +222,11 @@ tsk_status tsk_capture_get_blade(const tsk_capture* cap, int blade, float* camer
 
 /// Debug images of the last frame, width*height bytes each, for a live preview.
 typedef enum tsk_capture_image {
-    TSK_IMAGE_DEPTH = 0,    ///< depth: 255 near .. 1 far over the band ±50 %, 0 = no data
-    TSK_IMAGE_MASK = 1,     ///< 255 where the cleaned mask is set
-    TSK_IMAGE_LABELS = 2,   ///< blade b (0-based) as b+1 in its region; 255 = mask pixel of no
-                            ///< blade; 0 = background. Wraps above 254 blades.
-    TSK_IMAGE_OVERLAY = 3,  ///< 0 background, 64 mask, 128 contour, 255 skeletons
+    TSK_IMAGE_DEPTH = 0, ///< depth: 255 near .. 1 far over the band ±50 %, 0 = no data
+    TSK_IMAGE_MASK = 1, ///< 255 where the cleaned mask is set
+    TSK_IMAGE_LABELS = 2, ///< blade b (0-based) as b+1 in its region; 255 = mask pixel of no
+    ///< blade; 0 = background. Wraps above 254 blades.
+    TSK_IMAGE_OVERLAY = 3, ///< 0 background, 64 mask, 128 contour, 255 skeletons
 } tsk_capture_image;
 
 tsk_status tsk_capture_get_image(const tsk_capture* cap, tsk_capture_image which, uint8_t* out,

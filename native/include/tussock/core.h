@@ -14,14 +14,14 @@ extern "C" {
 /// Status returned by every fallible function. TSK_OK is zero.
 typedef enum tsk_status {
     TSK_OK = 0,
-    TSK_ERR_ARGUMENT,  ///< a parameter or buffer is invalid (message names it)
-    TSK_ERR_IO,        ///< a file or device could not be read or written
-    TSK_ERR_FORMAT,    ///< data was read but is not of the expected form
-    TSK_ERR_MEMORY,    ///< an allocation failed
-    TSK_ERR_LIMIT,     ///< the request exceeds a documented limit
-    TSK_ERR_DEVICE,    ///< a capture device failed or was lost
+    TSK_ERR_ARGUMENT, ///< a parameter or buffer is invalid (message names it)
+    TSK_ERR_IO, ///< a file or device could not be read or written
+    TSK_ERR_FORMAT, ///< data was read but is not of the expected form
+    TSK_ERR_MEMORY, ///< an allocation failed
+    TSK_ERR_LIMIT, ///< the request exceeds a documented limit
+    TSK_ERR_DEVICE, ///< a capture device failed or was lost
     TSK_ERR_CANCELLED, ///< the caller asked to stop
-    TSK_ERR_INTERNAL,  ///< a bug in Tussock or a library it uses
+    TSK_ERR_INTERNAL, ///< a bug in Tussock or a library it uses
 } tsk_status;
 
 /// Short name of a status ("argument", "io", ...). Never NULL.

@@ -36,9 +36,9 @@ extern "C" {
 /// A blade at rest: its skeleton knots from root to tip and the full blade width at each.
 /// Coordinates in metres, root at the origin, +z up. A plain value type (no allocation).
 typedef struct tsk_blade_model {
-    int32_t knot_count;                       ///< 2..TSK_BLADE_MAX_KNOTS
-    float xyz[3 * TSK_BLADE_MAX_KNOTS];       ///< knot k at xyz[3k..3k+2], metres
-    float width[TSK_BLADE_MAX_KNOTS];         ///< full width at knot k, metres, >= 0
+    int32_t knot_count; ///< 2..TSK_BLADE_MAX_KNOTS
+    float xyz[3 * TSK_BLADE_MAX_KNOTS]; ///< knot k at xyz[3k..3k+2], metres
+    float width[TSK_BLADE_MAX_KNOTS]; ///< full width at knot k, metres, >= 0
 } tsk_blade_model;
 
 /// Sets `model` from `knot_count` knots (xyz, 3 floats each, metres, root first) and widths
@@ -64,8 +64,7 @@ tsk_status tsk_blade_model_default(tsk_blade_model* model, int32_t knot_count);
 /// `total_knots` is the length of `width` (and a third of that of `xyz`) and must equal the
 /// sum of knot_counts. Each model is checked as tsk_blade_model_set does.
 tsk_status tsk_blade_models_set(tsk_blade_model* models, int32_t model_count, const float* xyz,
-                                const float* width, const int32_t* knot_counts,
-                                size_t total_knots);
+                                const float* width, const int32_t* knot_counts, size_t total_knots);
 
 /// Resamples `in` to `knot_count` knots evenly spaced in arc length (positions and widths
 /// linearly interpolated). Root and tip are kept exactly; the same knot count copies `in`.
@@ -82,15 +81,15 @@ void tsk_blade_model_side(const tsk_blade_model* model, float side[3]);
 /// How a patch is made (seed 000 §4.5: "a list of grass blades with some random scaling ...
 /// randomly located in a square which has the same size of grass tile").
 typedef struct tsk_patch_def {
-    int32_t blade_count;  ///< blades in the patch, 1..TSK_PATCH_MAX_BLADES (default 16384)
-    float scale_min;      ///< smallest random scale of a blade, > 0 (default 0.8)
-    float scale_max;      ///< largest random scale, >= scale_min (default 1.2)
-    uint64_t seed;        ///< same seed -> same patch, bit for bit (default 1)
-    int32_t knot_count;   ///< knots per blade, 0 = the most of any model, or 16 for the
-                          ///< default blade (default 0)
+    int32_t blade_count; ///< blades in the patch, 1..TSK_PATCH_MAX_BLADES (default 16384)
+    float scale_min; ///< smallest random scale of a blade, > 0 (default 0.8)
+    float scale_max; ///< largest random scale, >= scale_min (default 1.2)
+    uint64_t seed; ///< same seed -> same patch, bit for bit (default 1)
+    int32_t knot_count; ///< knots per blade, 0 = the most of any model, or 16 for the
+        ///< default blade (default 0)
     const tsk_blade_model* models; ///< models to draw from; NULL/0 -> the default blade
-    int32_t model_count;           ///< 0..TSK_PATCH_MAX_MODELS
-    const float* model_weights;    ///< relative chance of each model (>= 0), NULL = equal
+    int32_t model_count; ///< 0..TSK_PATCH_MAX_MODELS
+    const float* model_weights; ///< relative chance of each model (>= 0), NULL = equal
 } tsk_patch_def;
 
 /// Defaults: 16384 blades, scale 0.8..1.2, seed 1, default blade model.
@@ -196,8 +195,8 @@ double tsk_noise_fbm2(const tsk_noise* noise, double x, double y, int32_t octave
 /// Where a tile's blade count comes from.
 typedef enum tsk_density_kind {
     TSK_DENSITY_UNIFORM = 0, ///< every tile has blades_per_tile blades
-    TSK_DENSITY_NOISE = 1,   ///< Perlin density map (seed 000 §4.5, Fig. 8)
-    TSK_DENSITY_IMAGE = 2,   ///< a caller's float32 image in [0, 1] over the meadow area
+    TSK_DENSITY_NOISE = 1, ///< Perlin density map (seed 000 §4.5, Fig. 8)
+    TSK_DENSITY_IMAGE = 2, ///< a caller's float32 image in [0, 1] over the meadow area
 } tsk_density_kind;
 
 /// How a meadow is laid out. The rectangle [origin.x, origin.x + size.x] x [origin.y,
@@ -206,25 +205,25 @@ typedef enum tsk_density_kind {
 /// +x and +y edges stays empty. Tile (i, j) has index j*tiles_x + i and its corner at
 /// origin + (i, j, 0) * tile_size.
 typedef struct tsk_meadow_def {
-    float origin[3];          ///< metres (default 0, 0, 0)
-    float size[2];            ///< metres, > 0 (default 10 x 10)
-    float tile_size;          ///< metres, > 0 and <= both sizes (default 0.5)
-    int32_t blades_per_tile;  ///< blades where density is 1, 1..65536 (default 64)
-    int32_t patch_blades;     ///< blade count of the patch tiles draw from (default 16384)
-    int32_t chunk_blades;     ///< offsets and counts are multiples of this (default 1);
-                              ///< must divide patch_blades; see tsk_meadow_chunk_instances
-    uint64_t seed;            ///< keys tile offsets and the noise permutation (default 1)
+    float origin[3]; ///< metres (default 0, 0, 0)
+    float size[2]; ///< metres, > 0 (default 10 x 10)
+    float tile_size; ///< metres, > 0 and <= both sizes (default 0.5)
+    int32_t blades_per_tile; ///< blades where density is 1, 1..65536 (default 64)
+    int32_t patch_blades; ///< blade count of the patch tiles draw from (default 16384)
+    int32_t chunk_blades; ///< offsets and counts are multiples of this (default 1);
+        ///< must divide patch_blades; see tsk_meadow_chunk_instances
+    uint64_t seed; ///< keys tile offsets and the noise permutation (default 1)
     tsk_density_kind density; ///< default TSK_DENSITY_NOISE
-    float noise_scale;        ///< metres per noise lattice cell of octave 0, > 0 (default 8)
-    int32_t noise_octaves;    ///< 1..12 (default 3)
-    float noise_persistence;  ///< amplitude ratio of octave o+1 to o, [0, 1] (default 0.5)
-    float noise_contrast;     ///< gain on the noise before the threshold, 0..100 (default 2.5:
-                              ///< fractal Perlin noise mostly stays within +-0.4)
-    float noise_threshold;    ///< [0, 1): noise values below it leave bare ground (default 0.15)
-    const float* image;       ///< density image, row-major, row 0 at origin.y (Blender's
-                              ///< pixel order), read only during tsk_meadow_create
-    int32_t image_width;      ///< pixels, 1..TSK_MEADOW_MAX_IMAGE_SIDE
-    int32_t image_height;     ///< pixels, 1..TSK_MEADOW_MAX_IMAGE_SIDE
+    float noise_scale; ///< metres per noise lattice cell of octave 0, > 0 (default 8)
+    int32_t noise_octaves; ///< 1..12 (default 3)
+    float noise_persistence; ///< amplitude ratio of octave o+1 to o, [0, 1] (default 0.5)
+    float noise_contrast; ///< gain on the noise before the threshold, 0..100 (default 2.5:
+        ///< fractal Perlin noise mostly stays within +-0.4)
+    float noise_threshold; ///< [0, 1): noise values below it leave bare ground (default 0.15)
+    const float* image; ///< density image, row-major, row 0 at origin.y (Blender's
+        ///< pixel order), read only during tsk_meadow_create
+    int32_t image_width; ///< pixels, 1..TSK_MEADOW_MAX_IMAGE_SIDE
+    int32_t image_height; ///< pixels, 1..TSK_MEADOW_MAX_IMAGE_SIDE
 } tsk_meadow_def;
 
 tsk_meadow_def tsk_default_meadow_def(void);
@@ -258,9 +257,9 @@ void tsk_meadow_destroy(tsk_meadow* meadow);
 typedef struct tsk_meadow_info {
     int32_t tiles_x, tiles_y;
     int64_t tile_count;
-    int64_t blade_count;      ///< sum of all tile counts
-    int64_t nonempty_tiles;   ///< tiles with count > 0
-    int64_t chunk_instances;  ///< blade_count / chunk_blades
+    int64_t blade_count; ///< sum of all tile counts
+    int64_t nonempty_tiles; ///< tiles with count > 0
+    int64_t chunk_instances; ///< blade_count / chunk_blades
     int32_t patch_blades, chunk_blades;
     float tile_size;
     float origin[3];
@@ -284,20 +283,20 @@ tsk_status tsk_meadow_instances(const tsk_meadow* meadow, float* origins, int32_
 /// any pointer may be NULL. With the patch mesh split into patch_blades / C chunks (chunk c
 /// is blades [c*C, (c+1)*C), i.e. a run of vertices), instancing chunk `chunk[n]` at
 /// `origins[n]` reproduces the meadow exactly.
-tsk_status tsk_meadow_chunk_instances(const tsk_meadow* meadow, float* origins,
-                                      int32_t* chunk, int32_t* tile);
+tsk_status tsk_meadow_chunk_instances(const tsk_meadow* meadow, float* origins, int32_t* chunk,
+                                      int32_t* tile);
 
 /// Number of blades in tiles [tile_begin, tile_end).
-tsk_status tsk_meadow_blade_count(const tsk_meadow* meadow, int64_t tile_begin,
-                                  int64_t tile_end, int64_t* count);
+tsk_status tsk_meadow_blade_count(const tsk_meadow* meadow, int64_t tile_begin, int64_t tile_end,
+                                  int64_t* count);
 
 /// Writes every blade of tiles [tile_begin, tile_end) explicitly, tile by tile, blade by
 /// blade in patch-run order: xyz (3 floats, root position in metres), turn (radians about
 /// +z), scale, patch_index (int32, the patch blade it is). Buffers hold
 /// tsk_meadow_blade_count elements; any may be NULL. `patch` must have patch_blades blades.
-tsk_status tsk_meadow_realise(const tsk_meadow* meadow, const tsk_patch* patch,
-                              int64_t tile_begin, int64_t tile_end, float* xyz, float* turn,
-                              float* scale, int32_t* patch_index);
+tsk_status tsk_meadow_realise(const tsk_meadow* meadow, const tsk_patch* patch, int64_t tile_begin,
+                              int64_t tile_end, float* xyz, float* turn, float* scale,
+                              int32_t* patch_index);
 
 /// Rest skeletons of every blade of tiles [tile_begin, tile_end) in world space (for the
 /// simulation): knots (3K floats per blade, metres), widths (K floats per blade, scaled) and

@@ -57,8 +57,8 @@ tsk_status tsk_picture_load(const char* path, tsk_picture** out);
 
 /// Makes a picture from straight float RGBA pixels (count = 4*width*height, all finite),
 /// copied. `bottom_up` = 1 when row 0 of `rgba` is the bottom (Blender's Image.pixels).
-tsk_status tsk_picture_create(int width, int height, const float* rgba, size_t count,
-                              int bottom_up, tsk_picture** out);
+tsk_status tsk_picture_create(int width, int height, const float* rgba, size_t count, int bottom_up,
+                              tsk_picture** out);
 
 /// Frees a picture and everything it holds. NULL is ignored.
 void tsk_picture_destroy(tsk_picture* picture);
@@ -74,9 +74,9 @@ tsk_status tsk_picture_read_rgba(const tsk_picture* picture, float* rgba, size_t
 
 /// GrabCut proposal (Rother et al. 2004, seed 004 ref. [41]) of one vegetation mask.
 typedef struct tsk_grabcut_def {
-    int rect_x, rect_y;          ///< rectangle around the vegetation, pixels, top-left origin
+    int rect_x, rect_y; ///< rectangle around the vegetation, pixels, top-left origin
     int rect_width, rect_height; ///< must lie inside the picture and leave some pixels outside
-    int iterations;              ///< GrabCut iterations, 1..50 (default 5)
+    int iterations; ///< GrabCut iterations, 1..50 (default 5)
 } tsk_grabcut_def;
 
 /// Defaults: empty rectangle (must be set), 5 iterations.
@@ -113,17 +113,17 @@ int tsk_picture_layer_count(const tsk_picture* picture);
 /// Inpainting method (OpenCV cv::inpaint).
 typedef enum tsk_inpaint_method {
     TSK_INPAINT_TELEA = 0, ///< fast marching (Telea 2004)
-    TSK_INPAINT_NS = 1,    ///< Navier-Stokes based (Bertalmio et al. 2001)
+    TSK_INPAINT_NS = 1, ///< Navier-Stokes based (Bertalmio et al. 2001)
 } tsk_inpaint_method;
 
 /// How layers are separated from the background.
 typedef struct tsk_layers_def {
     tsk_inpaint_method method; ///< default TSK_INPAINT_TELEA
-    float inpaint_radius;      ///< neighbourhood of each inpainted pixel, pixels, 1..100 (default 5)
-    float grow;                ///< the inpainted region is the mask grown by this, pixels, 0..64
-                               ///< (default 3; removes the colour fringe around vegetation)
-    float feather;             ///< width of the matte's ramp across the mask edge, pixels,
-                               ///< 0..256 (default 4; 0 = hard edge)
+    float inpaint_radius; ///< neighbourhood of each inpainted pixel, pixels, 1..100 (default 5)
+    float grow; ///< the inpainted region is the mask grown by this, pixels, 0..64
+        ///< (default 3; removes the colour fringe around vegetation)
+    float feather; ///< width of the matte's ramp across the mask edge, pixels,
+        ///< 0..256 (default 4; 0 = hard edge)
 } tsk_layers_def;
 
 /// Defaults: Telea, radius 5, grow 3, feather 4.
@@ -145,11 +145,11 @@ tsk_layers_def tsk_default_layers_def(void);
 tsk_status tsk_picture_build(tsk_picture* picture, const tsk_layers_def* def);
 
 /// Copies layer `layer`'s premultiplied RGBA at rest (count = 4*W*H). Needs tsk_picture_build.
-tsk_status tsk_picture_read_layer(const tsk_picture* picture, int layer, float* rgba,
-                                  size_t count, int bottom_up);
+tsk_status tsk_picture_read_layer(const tsk_picture* picture, int layer, float* rgba, size_t count,
+                                  int bottom_up);
 /// Copies layer `layer`'s matte (count = W*H, 0..1, before the picture's own alpha).
-tsk_status tsk_picture_read_matte(const tsk_picture* picture, int layer, float* alpha,
-                                  size_t count, int bottom_up);
+tsk_status tsk_picture_read_matte(const tsk_picture* picture, int layer, float* alpha, size_t count,
+                                  int bottom_up);
 /// Copies the inpainted background plate (premultiplied RGBA, count = 4*W*H).
 tsk_status tsk_picture_read_background(const tsk_picture* picture, float* rgba, size_t count,
                                        int bottom_up);
@@ -162,19 +162,19 @@ tsk_status tsk_picture_read_background(const tsk_picture* picture, float* rgba, 
 /// sits at the cell centre. Sampled bilinearly, clamped to the outermost centres.
 /// A 1x1 field is a uniform velocity.
 typedef struct tsk_picture_field {
-    const float* vx;  ///< width*height values (units of Vp; multiplied by dt in eq. 5)
-    const float* vy;  ///< width*height values
-    int width;        ///< columns, 1..4096
-    int height;       ///< rows, 1..4096
-    int y_up;         ///< 1: row 0 is the bottom and +vy points up (wind module, Blender);
-                      ///< 0: row 0 is the top and +vy points down (image rows)
+    const float* vx; ///< width*height values (units of Vp; multiplied by dt in eq. 5)
+    const float* vy; ///< width*height values
+    int width; ///< columns, 1..4096
+    int height; ///< rows, 1..4096
+    int y_up; ///< 1: row 0 is the bottom and +vy points up (wind module, Blender);
+        ///< 0: row 0 is the top and +vy points down (image rows)
 } tsk_picture_field;
 
 /// Where the vegetation is rooted (seed 004, eq. 6 and Fig. 3-4).
 typedef enum tsk_picture_root {
-    TSK_ROOT_NONE = 0,   ///< every part can move: R = 1
+    TSK_ROOT_NONE = 0, ///< every part can move: R = 1
     TSK_ROOT_BOTTOM = 1, ///< roots at the bottom: displacement grows upwards from the root line
-    TSK_ROOT_TOP = 2,    ///< root line at the top (field seen from above): grows downwards
+    TSK_ROOT_TOP = 2, ///< root line at the top (field seen from above): grows downwards
 } tsk_picture_root;
 
 /// How a warped frame samples its source (the UV pass is the same for both).
@@ -208,18 +208,18 @@ typedef enum tsk_warp_sampling {
 
 /// Warp grid and eq. 5-7 parameters of one layer.
 typedef struct tsk_warp_def {
-    int cell_x, cell_y;       ///< grid cell size sx, sy, pixels, 1..4096 (default 16)
+    int cell_x, cell_y; ///< grid cell size sx, sy, pixels, 1..4096 (default 16)
     float lambda_x, lambda_y; ///< scale factor lambda of eq. 5, in cells per unit of Vp*dt,
-                              ///< |lambda| <= TSK_WARP_MAX_LAMBDA (default 4)
-    float dt;                 ///< simulation step dt of eq. 5, seconds, >= 0 (default 1/24)
-    float rigidity;           ///< r of eq. 6, 0..10 (default 1)
-    tsk_picture_root root;    ///< default TSK_ROOT_BOTTOM
-    int auto_root;            ///< 1: root line and height h from the layer mask's bounding
-                              ///< box (bottom or top edge, box height); 0: use the two
-                              ///< fields below (default 1; the low-level tsk_warp_corners
-                              ///< always uses them)
-    float root_y;             ///< root line, pixels from the top (y of the line)
-    float height;             ///< h of eq. 6, pixels, > 0
+        ///< |lambda| <= TSK_WARP_MAX_LAMBDA (default 4)
+    float dt; ///< simulation step dt of eq. 5, seconds, >= 0 (default 1/24)
+    float rigidity; ///< r of eq. 6, 0..10 (default 1)
+    tsk_picture_root root; ///< default TSK_ROOT_BOTTOM
+    int auto_root; ///< 1: root line and height h from the layer mask's bounding
+        ///< box (bottom or top edge, box height); 0: use the two
+        ///< fields below (default 1; the low-level tsk_warp_corners
+        ///< always uses them)
+    float root_y; ///< root line, pixels from the top (y of the line)
+    float height; ///< h of eq. 6, pixels, > 0
     tsk_warp_sampling sampling; ///< how warped RGBA frames sample (default bilinear)
 } tsk_warp_def;
 
@@ -262,11 +262,10 @@ tsk_status tsk_warp_corners(const tsk_warp_def* def, int width, int height,
 ///    top-first. Because s is clamped to the edge pixels' centres, no sample point falls
 ///    outside the picture (Map UV's filter footprint still may, see TSK_SAMPLE_MAP_UV).
 /// src is read only when dst is given.
-tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_count,
-                          int cell_x, int cell_y, const float* corner_dx,
-                          const float* corner_dy, size_t corner_count,
-                          tsk_warp_sampling sampling, float* dst, size_t dst_count, float* uv,
-                          size_t uv_count, int uv_bottom_up);
+tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_count, int cell_x,
+                          int cell_y, const float* corner_dx, const float* corner_dy,
+                          size_t corner_count, tsk_warp_sampling sampling, float* dst,
+                          size_t dst_count, float* uv, size_t uv_count, int uv_bottom_up);
 
 /* ---- frames of a built picture ---------------------------------------------------------- */
 
@@ -274,11 +273,10 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
 /// and h from the mask when def->auto_root), then tsk_warp_apply on the layer with
 /// def->sampling. `rgba` (premultiplied, top-first) and `uv` as in tsk_warp_apply; either
 /// may be NULL.
-tsk_status tsk_picture_layer_frame(const tsk_picture* picture, int layer,
-                                   const tsk_warp_def* def, const tsk_picture_field* field,
-                                   const float* scale_map, size_t scale_count, float* rgba,
-                                   size_t rgba_count, float* uv, size_t uv_count,
-                                   int uv_bottom_up);
+tsk_status tsk_picture_layer_frame(const tsk_picture* picture, int layer, const tsk_warp_def* def,
+                                   const tsk_picture_field* field, const float* scale_map,
+                                   size_t scale_count, float* rgba, size_t rgba_count, float* uv,
+                                   size_t uv_count, int uv_bottom_up);
 
 /// Composites layers back to front over the background plate with premultiplied "over"
 /// (out = layer + (1 - layer.a) * out, Blender's Alpha Over with Convert Premultiplied off).

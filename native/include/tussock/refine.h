@@ -17,10 +17,10 @@ extern "C" {
 
 /* ==== skeleton refining (Algorithm 1) ================================================= */
 
-#define TSK_REFINE_MIN_TARGET 2      ///< fewest knots a refined blade may have
-#define TSK_REFINE_MAX_TARGET 64     ///< most knots a refined blade may have
-#define TSK_REFINE_MAX_KNOTS 65536   ///< most knots of an input blade (else TSK_ERR_LIMIT)
-#define TSK_REFINE_MAX_FRAMES 65536  ///< most frames of movement data (else TSK_ERR_LIMIT)
+#define TSK_REFINE_MIN_TARGET 2 ///< fewest knots a refined blade may have
+#define TSK_REFINE_MAX_TARGET 64 ///< most knots a refined blade may have
+#define TSK_REFINE_MAX_KNOTS 65536 ///< most knots of an input blade (else TSK_ERR_LIMIT)
+#define TSK_REFINE_MAX_FRAMES 65536 ///< most frames of movement data (else TSK_ERR_LIMIT)
 /// Most knots x frames of one blade (else TSK_ERR_LIMIT): 2^26 samples = 768 MiB of xyz.
 #define TSK_REFINE_MAX_SAMPLES ((size_t)1 << 26)
 
@@ -40,17 +40,17 @@ tsk_refine_def tsk_default_refine_def(void);
 
 /// One input blade. Knots run from the root (index 0) to the tip (index knot_count - 1).
 typedef struct tsk_refine_input {
-    const float* knots;        ///< [knot_count][3] rest positions, metres (any unit works)
-    const float* widths;       ///< [knot_count] full blade width at each knot, >= 0
+    const float* knots; ///< [knot_count][3] rest positions, metres (any unit works)
+    const float* widths; ///< [knot_count] full blade width at each knot, >= 0
     const float* trajectories; ///< [frame_count][knot_count][3] knot positions per frame
-    size_t knot_count;         ///< >= 2, <= TSK_REFINE_MAX_KNOTS
-    size_t frame_count;        ///< >= 1, <= TSK_REFINE_MAX_FRAMES
+    size_t knot_count; ///< >= 2, <= TSK_REFINE_MAX_KNOTS
+    size_t frame_count; ///< >= 1, <= TSK_REFINE_MAX_FRAMES
 } tsk_refine_input;
 
 /// Where one refined blade is written (m = target_knots). Caller-owned buffers.
 typedef struct tsk_refine_output {
-    float* knots;        ///< [m][3] rest positions of the refined knots
-    float* widths;       ///< [m] widths of the refined knots
+    float* knots; ///< [m][3] rest positions of the refined knots
+    float* widths; ///< [m] widths of the refined knots
     /// [m][2] int32: for refined knot k, {first source knot, number of source knots}. The
     /// ranges are contiguous, in order, and partition 0..knot_count-1: knot k stands for
     /// source knots first..first+count-1 ("which knots merged", seed Fig. 6).
@@ -142,27 +142,27 @@ tsk_status tsk_refine_resample(const float* knots, const float* widths, size_t k
 /// 20 cm blade costs ~0.5 s per simulated second at 64 knots, ~4 s at 128 and ~30 s at 256
 /// (about 50-150 ns per knot and step).
 typedef struct tsk_refine_bend_def {
-    float youngs_modulus;  ///< effective Young's modulus, Pa (default 3e9, a grass leaf
-                           ///< whose fold and midrib stiffen it)
-    float thickness;       ///< blade thickness, m (default 4e-4)
-    float density;         ///< kg/m^3 (default 900)
+    float youngs_modulus; ///< effective Young's modulus, Pa (default 3e9, a grass leaf
+        ///< whose fold and midrib stiffen it)
+    float thickness; ///< blade thickness, m (default 4e-4)
+    float density; ///< kg/m^3 (default 900)
     float min_width_ratio; ///< widths below this fraction of the widest are raised to it
-                           ///< for mass and stiffness, so a pointed tip stays defined (0.05)
-    float gravity[3];      ///< m/s^2 (default 0, 0, -9.81: Blender's Z up)
+        ///< for mass and stiffness, so a pointed tip stays defined (0.05)
+    float gravity[3]; ///< m/s^2 (default 0, 0, -9.81: Blender's Z up)
     /// 1 (default): the rest (captured) shape is already the equilibrium under gravity, so
     /// gravity does not sag it further (rest curvature is offset by the gravity moment;
     /// exact when that moment has no twist part, e.g. a blade curving in a vertical plane,
     /// since the model has no twist stiffness); 0: the rest shape is stress-free and sags.
     int gravity_prestress;
-    float air_density;      ///< kg/m^3 (default 1.2)
+    float air_density; ///< kg/m^3 (default 1.2)
     float drag_coefficient; ///< dimensionless (default 1.2, a flat plate across the flow)
-    float damping;          ///< mass-proportional damping, 1/s (default 2)
-    float wind_speed;       ///< mean speed of the standard wind, m/s (default 3)
-    float wind_direction[3];///< direction of the standard wind (normalised; default +x)
-    float gust;             ///< relative gust amplitude in [0, 1] (default 0.5)
-    float fps;              ///< frames per second of the output (default 24)
-    float warmup;           ///< seconds simulated before the first output frame (default 1)
-    float time_step;        ///< seconds; 0 (default) = automatic, stable step
+    float damping; ///< mass-proportional damping, 1/s (default 2)
+    float wind_speed; ///< mean speed of the standard wind, m/s (default 3)
+    float wind_direction[3]; ///< direction of the standard wind (normalised; default +x)
+    float gust; ///< relative gust amplitude in [0, 1] (default 0.5)
+    float fps; ///< frames per second of the output (default 24)
+    float warmup; ///< seconds simulated before the first output frame (default 1)
+    float time_step; ///< seconds; 0 (default) = automatic, stable step
 } tsk_refine_bend_def;
 
 /// Defaults as documented in tsk_refine_bend_def.

@@ -56,54 +56,54 @@ extern "C" {
 typedef struct tsk_blade_sim_def {
     /* tile grid (the same layout as the meadow): tile (i, j) has index j*tiles_x + i and
        covers [origin.x + i*tile_size, +tile_size) x [origin.y + j*tile_size, +tile_size). */
-    float origin[3];          ///< metres (default 0, 0, 0); origin.z is not used, see ground_height
-    float tile_size;          ///< metres, > 0 (default 0.5)
+    float origin[3]; ///< metres (default 0, 0, 0); origin.z is not used, see ground_height
+    float tile_size; ///< metres, > 0 (default 0.5)
     int32_t tiles_x, tiles_y; ///< >= 1 each, product <= TSK_BLADE_SIM_MAX_TILES (default 20 x 20)
-    int32_t knot_count;       ///< knots per blade, 2..64, root first (default 16)
+    int32_t knot_count; ///< knots per blade, 2..64, root first (default 16)
 
     /* forces */
-    float gravity[3];         ///< m/s^2 (default 0, 0, -9.81). The rest pose is taken to be the
-                              ///< shape the blade holds under gravity: see gravity_preload.
-    float gravity_preload;    ///< 0..1 (default 1): fraction of gravity the blade carries in its
-                              ///< rest pose. The carrying force turns with the blade, so a blade
-                              ///< pressed flat droops; 0 = the rest pose sags under gravity.
-    float damping;            ///< 1/s, >= 0 (default 4): velocity decays as exp(-damping t)
-    float wind_drag;          ///< kg/(m^2 s), >= 0 (default 0.2): linear air drag per unit blade
-                              ///< area per unit relative speed
-    float linear_density;     ///< kg/m, > 0 (default 1e-3): mass per metre of blade;
-                              ///< wind_drag / linear_density <= TSK_BLADE_SIM_MAX_DRAG
+    float gravity[3]; ///< m/s^2 (default 0, 0, -9.81). The rest pose is taken to be the
+        ///< shape the blade holds under gravity: see gravity_preload.
+    float gravity_preload; ///< 0..1 (default 1): fraction of gravity the blade carries in its
+        ///< rest pose. The carrying force turns with the blade, so a blade
+        ///< pressed flat droops; 0 = the rest pose sags under gravity.
+    float damping; ///< 1/s, >= 0 (default 4): velocity decays as exp(-damping t)
+    float wind_drag; ///< kg/(m^2 s), >= 0 (default 0.2): linear air drag per unit blade
+        ///< area per unit relative speed
+    float linear_density; ///< kg/m, > 0 (default 1e-3): mass per metre of blade;
+        ///< wind_drag / linear_density <= TSK_BLADE_SIM_MAX_DRAG
 
     /* constraints (Han & Harada 2012) */
     float global_stiffness_root; ///< 1/s, >= 0 (default 30): pull toward the rest pose at the root
-    float global_stiffness_tip;  ///< 1/s, >= 0 (default 1): the same at the tip; the per-step
-                                 ///< fraction is interpolated linearly in arc length between them
-    float local_stiffness;    ///< 1/s, >= 0 (default 120): pull of each segment toward its rest
-                              ///< direction in its parent segment's frame (bending, twisting);
-                              ///< the per-step fraction is capped at 0.95 (beyond, the root-to-tip
-                              ///< sweep overshoots)
-    int32_t iterations;       ///< length + collision iterations per step, 1..64 (default 4)
+    float global_stiffness_tip; ///< 1/s, >= 0 (default 1): the same at the tip; the per-step
+        ///< fraction is interpolated linearly in arc length between them
+    float local_stiffness; ///< 1/s, >= 0 (default 120): pull of each segment toward its rest
+        ///< direction in its parent segment's frame (bending, twisting);
+        ///< the per-step fraction is capped at 0.95 (beyond, the root-to-tip
+        ///< sweep overshoots)
+    int32_t iterations; ///< length + collision iterations per step, 1..64 (default 4)
 
     /* collisions */
-    float ground_height;      ///< metres (default 0): no knot goes below z = ground_height
-    float collision_margin;   ///< metres, >= 0 (default 0.002): added to every collider's radius
-                              ///< (half a blade's thickness, so the surface does not cut through)
+    float ground_height; ///< metres (default 0): no knot goes below z = ground_height
+    float collision_margin; ///< metres, >= 0 (default 0.002): added to every collider's radius
+        ///< (half a blade's thickness, so the surface does not cut through)
 
     /* tile management (Fan et al. 2015) */
-    float activation_margin;  ///< metres, >= 0 (default 0.1): a tile activates when a collider's
-                              ///< bounds grown by this margin touch it
-    float max_blade_height;   ///< metres, > 0 (default 1): height above ground_height that a tile's
-                              ///< blades may reach; colliders entirely above it activate nothing
-    float rest_distance;      ///< metres, > 0 (default 0.002): a tile is quiet when every knot is
-                              ///< closer than this to its rest position ...
-    float rest_speed;         ///< m/s, > 0 (default 0.02): ... and slower than this
-    int32_t rest_frames;      ///< >= 1 (default 30): quiet steps, untouched, before blending back
-    int32_t blend_frames;     ///< >= 1 (default 8): steps over which a quiet tile blends linearly
-                              ///< back to its exact rest pose; then it is released and freed
-    int32_t settle_frames;    ///< >= 1 (default 120): untouched steps after which a tile blends back
-                              ///< even if it never gets quiet (wind keeps its blades bent or
-                              ///< moving, so the simulated set would otherwise only grow) ...
+    float activation_margin; ///< metres, >= 0 (default 0.1): a tile activates when a collider's
+        ///< bounds grown by this margin touch it
+    float max_blade_height; ///< metres, > 0 (default 1): height above ground_height that a tile's
+        ///< blades may reach; colliders entirely above it activate nothing
+    float rest_distance; ///< metres, > 0 (default 0.002): a tile is quiet when every knot is
+        ///< closer than this to its rest position ...
+    float rest_speed; ///< m/s, > 0 (default 0.02): ... and slower than this
+    int32_t rest_frames; ///< >= 1 (default 30): quiet steps, untouched, before blending back
+    int32_t blend_frames; ///< >= 1 (default 8): steps over which a quiet tile blends linearly
+        ///< back to its exact rest pose; then it is released and freed
+    int32_t settle_frames; ///< >= 1 (default 120): untouched steps after which a tile blends back
+        ///< even if it never gets quiet (wind keeps its blades bent or
+        ///< moving, so the simulated set would otherwise only grow) ...
     int32_t settle_blend_frames; ///< >= 1 (default 48): ... over this many steps, longer than
-                              ///< blend_frames: the blades may be far from rest
+        ///< blend_frames: the blades may be far from rest
 } tsk_blade_sim_def;
 
 /// Defaults as documented on each field.
@@ -112,25 +112,25 @@ tsk_blade_sim_def tsk_default_blade_sim_def(void);
 /* ---- colliders ----------------------------------------------------------------------------- */
 
 typedef enum tsk_collider_kind {
-    TSK_COLLIDER_SPHERE = 0,  ///< centre a, radius
+    TSK_COLLIDER_SPHERE = 0, ///< centre a, radius
     TSK_COLLIDER_CAPSULE = 1, ///< segment a-b swept by a sphere of radius
 } tsk_collider_kind;
 
 /// A collider for one step. Positions in metres (world space, like the rest knots).
 typedef struct tsk_blade_collider {
-    int32_t kind;  ///< tsk_collider_kind
-    float radius;  ///< metres, > 0
-    float a[3];    ///< sphere centre, or capsule end a
-    float b[3];    ///< capsule end b (ignored for spheres)
+    int32_t kind; ///< tsk_collider_kind
+    float radius; ///< metres, > 0
+    float a[3]; ///< sphere centre, or capsule end a
+    float b[3]; ///< capsule end b (ignored for spheres)
 } tsk_blade_collider;
 
 /* ---- wind ---------------------------------------------------------------------------------- */
 
 /// How the wind passed to tsk_blade_sim_step is laid out (velocities in m/s, xyz interleaved).
 typedef enum tsk_wind_layout {
-    TSK_WIND_NONE = 0,     ///< no wind (the pointer may be NULL)
-    TSK_WIND_UNIFORM = 1,  ///< 3 floats: one velocity for every knot
-    TSK_WIND_PER_BLADE = 2,///< 3 floats per active blade, in tsk_blade_sim_get_active order
+    TSK_WIND_NONE = 0, ///< no wind (the pointer may be NULL)
+    TSK_WIND_UNIFORM = 1, ///< 3 floats: one velocity for every knot
+    TSK_WIND_PER_BLADE = 2, ///< 3 floats per active blade, in tsk_blade_sim_get_active order
     TSK_WIND_PER_KNOT = 3, ///< 3K floats per active blade, knots root first, same order
 } tsk_wind_layout;
 
@@ -204,12 +204,12 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
 /// Summary of the current state.
 typedef struct tsk_blade_sim_info {
     int32_t knot_count;
-    int32_t active_tiles;     ///< tiles with rest data (including empty ones)
-    int64_t active_blades;    ///< blades in active tiles
-    int32_t pending_tiles;    ///< touched tiles waiting for rest data
-    int32_t blending_tiles;   ///< active tiles blending back to rest
+    int32_t active_tiles; ///< tiles with rest data (including empty ones)
+    int64_t active_blades; ///< blades in active tiles
+    int32_t pending_tiles; ///< touched tiles waiting for rest data
+    int32_t blending_tiles; ///< active tiles blending back to rest
     int32_t collider_count;
-    size_t state_bytes;       ///< bytes of per-tile state held (0 when no tile is active)
+    size_t state_bytes; ///< bytes of per-tile state held (0 when no tile is active)
 } tsk_blade_sim_info;
 
 tsk_status tsk_blade_sim_get_info(const tsk_blade_sim* sim, tsk_blade_sim_info* info);
@@ -231,8 +231,7 @@ tsk_status tsk_blade_sim_get_knots(const tsk_blade_sim* sim, float* knots);
 /// non-finite knot, is reported for the first such blade (its index in widths and sides);
 /// positions are then partly written.
 tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, int64_t count,
-                                     const float* widths, const float* sides,
-                                     float* positions);
+                                     const float* widths, const float* sides, float* positions);
 
 /// Ribbon vertices, as tsk_blade_sim_get_ribbons makes them, of the active blades in
 /// `run_count` runs: run r is the counts[r] blades from active blade starts[r] on. The runs'
@@ -243,8 +242,7 @@ tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, in
 /// in widths and sides.
 tsk_status tsk_blade_sim_get_ribbon_runs(const tsk_blade_sim* sim, const int64_t* starts,
                                          const int64_t* counts, int64_t run_count,
-                                         const float* widths, const float* sides,
-                                         float* positions);
+                                         const float* widths, const float* sides, float* positions);
 
 /// Current knots of one active tile: its blade_count * K * 3 floats. TSK_ERR_ARGUMENT if the
 /// tile is not active.

@@ -29,21 +29,21 @@ extern "C" {
 /// Rotate and Branches of level n describe how stems of level n sit on (and how many grow
 /// from) their level n-1 parent; those of level 0 are unused.
 typedef struct tsk_tree_level_def {
-    float length;        ///< nLength: length as a fraction of the parent's (level 0: of Scale)
-    float length_v;      ///< nLengthV: ± variation of length
-    float taper;         ///< nTaper: 0 = cylinder ... 1 = cone to a point (seed eq. 2 amount)
-    float seg_splits;    ///< nSegSplits: clones per segment (error-diffused), 0 = none
-    float split_angle;   ///< nSplitAngle: degrees between a clone and its stem
+    float length; ///< nLength: length as a fraction of the parent's (level 0: of Scale)
+    float length_v; ///< nLengthV: ± variation of length
+    float taper; ///< nTaper: 0 = cylinder ... 1 = cone to a point (seed eq. 2 amount)
+    float seg_splits; ///< nSegSplits: clones per segment (error-diffused), 0 = none
+    float split_angle; ///< nSplitAngle: degrees between a clone and its stem
     float split_angle_v; ///< nSplitAngleV: ± degrees
-    int curve_res;       ///< nCurveRes: segments along the stem (1..64)
-    float curve;         ///< nCurve: total bend of the stem, degrees
-    float curve_back;    ///< nCurveBack: bend of the second half (S-curve), degrees; 0 = none
-    float curve_v;       ///< nCurveV: ± random bend per stem, degrees
-    float down_angle;    ///< nDownAngle: degrees between a child and its parent
-    float down_angle_v;  ///< nDownAngleV: ± degrees; negative = varies with position on parent
-    float rotate;        ///< nRotate: degrees around the parent between successive children
-    float rotate_v;      ///< nRotateV: ± degrees
-    int branches;        ///< nBranches: most children of a parent of level n-1 (0..10000)
+    int curve_res; ///< nCurveRes: segments along the stem (1..64)
+    float curve; ///< nCurve: total bend of the stem, degrees
+    float curve_back; ///< nCurveBack: bend of the second half (S-curve), degrees; 0 = none
+    float curve_v; ///< nCurveV: ± random bend per stem, degrees
+    float down_angle; ///< nDownAngle: degrees between a child and its parent
+    float down_angle_v; ///< nDownAngleV: ± degrees; negative = varies with position on parent
+    float rotate; ///< nRotate: degrees around the parent between successive children
+    float rotate_v; ///< nRotateV: ± degrees
+    int branches; ///< nBranches: most children of a parent of level n-1 (0..10000)
 } tsk_tree_level_def;
 
 /// Weber–Penn tree shapes (ShapeRatio of the paper).
@@ -61,38 +61,38 @@ typedef enum tsk_tree_shape {
 /// A whole tree: Weber & Penn 1995, Table 1, plus the extra deformer controls of seed 001
 /// (bulges, lobe fade, taper power) and limits.
 typedef struct tsk_tree_def {
-    uint64_t seed;           ///< random seed; the same def gives the same tree, byte for byte
-    int shape;               ///< tsk_tree_shape (0..7)
-    float base_size;         ///< BaseSize: fraction of the trunk without branches (0..1)
-    float scale, scale_v;    ///< Scale, ScaleV: tree size and ± variation (m)
-    float z_scale, z_scale_v;///< ZScale, ZScaleV: vertical stretch of the trunk and ± variation
-    int levels;              ///< Levels: 1..4
-    float ratio;             ///< Ratio: trunk radius / trunk length
-    float ratio_power;       ///< RatioPower: child radius = parent radius * (Lc/Lp)^RatioPower
-    int lobes;               ///< Lobes: lobes around the trunk (seed eq. 5, l_n)
-    float lobe_depth;        ///< LobeDepth: lobe amplitude (l_d)
-    float flare;             ///< Flare: extra trunk radius at the ground (seed eq. 3, f)
-    float scale0, scale0_v;  ///< 0Scale, 0ScaleV: trunk radius multiplier and ± variation
-    int base_splits;         ///< 0BaseSplits: clones of the trunk at the top of its first segment
+    uint64_t seed; ///< random seed; the same def gives the same tree, byte for byte
+    int shape; ///< tsk_tree_shape (0..7)
+    float base_size; ///< BaseSize: fraction of the trunk without branches (0..1)
+    float scale, scale_v; ///< Scale, ScaleV: tree size and ± variation (m)
+    float z_scale, z_scale_v; ///< ZScale, ZScaleV: vertical stretch of the trunk and ± variation
+    int levels; ///< Levels: 1..4
+    float ratio; ///< Ratio: trunk radius / trunk length
+    float ratio_power; ///< RatioPower: child radius = parent radius * (Lc/Lp)^RatioPower
+    int lobes; ///< Lobes: lobes around the trunk (seed eq. 5, l_n)
+    float lobe_depth; ///< LobeDepth: lobe amplitude (l_d)
+    float flare; ///< Flare: extra trunk radius at the ground (seed eq. 3, f)
+    float scale0, scale0_v; ///< 0Scale, 0ScaleV: trunk radius multiplier and ± variation
+    int base_splits; ///< 0BaseSplits: clones of the trunk at the top of its first segment
     tsk_tree_level_def level[TSK_TREE_MAX_LEVELS];
-    int leaves;              ///< Leaves: leaves per stem of the last level (0 = none)
-    int leaf_shape;          ///< LeafShape: 0..9, carried for the material (cards are quads)
-    float leaf_scale;        ///< LeafScale: leaf length (m)
-    float leaf_scale_x;      ///< LeafScaleX: leaf width / leaf length
-    float attraction_up;     ///< AttractionUp: bend of level >= 2 stems toward (+) or away from up
-    float prune_ratio;       ///< PruneRatio: 0 = no pruning ... 1 = full pruning to the envelope
-    float prune_width;       ///< PruneWidth: envelope half width / Scale
-    float prune_width_peak;  ///< PruneWidthPeak: height fraction of the widest envelope point
-    float prune_power_low;   ///< PrunePowerLow: envelope curvature below the peak
-    float prune_power_high;  ///< PrunePowerHigh: envelope curvature above the peak
+    int leaves; ///< Leaves: leaves per stem of the last level (0 = none)
+    int leaf_shape; ///< LeafShape: 0..9, carried for the material (cards are quads)
+    float leaf_scale; ///< LeafScale: leaf length (m)
+    float leaf_scale_x; ///< LeafScaleX: leaf width / leaf length
+    float attraction_up; ///< AttractionUp: bend of level >= 2 stems toward (+) or away from up
+    float prune_ratio; ///< PruneRatio: 0 = no pruning ... 1 = full pruning to the envelope
+    float prune_width; ///< PruneWidth: envelope half width / Scale
+    float prune_width_peak; ///< PruneWidthPeak: height fraction of the widest envelope point
+    float prune_power_low; ///< PrunePowerLow: envelope curvature below the peak
+    float prune_power_high; ///< PrunePowerHigh: envelope curvature above the peak
     /* seed 001 deformer extras (not in Weber–Penn) */
-    float taper_power;       ///< exponent t of seed eq. 2, r(1 - taper v^t); 1 = Weber–Penn
-    float lobe_fade;         ///< l_t of seed eq. 5: 0 = lobes up the whole trunk, 1 = fade to tip
-    int bulges;              ///< b_n of seed eq. 4 (bulges along every stem), 0 = none
-    float bulge_depth;       ///< b_d of seed eq. 4
+    float taper_power; ///< exponent t of seed eq. 2, r(1 - taper v^t); 1 = Weber–Penn
+    float lobe_fade; ///< l_t of seed eq. 5: 0 = lobes up the whole trunk, 1 = fade to tip
+    int bulges; ///< b_n of seed eq. 4 (bulges along every stem), 0 = none
+    float bulge_depth; ///< b_d of seed eq. 4
     /* limits */
-    uint32_t max_branches;   ///< refuse (TSK_ERR_LIMIT) trees with more stems (<= 2^22)
-    uint32_t max_leaves;     ///< refuse trees with more leaves (<= 2^22)
+    uint32_t max_branches; ///< refuse (TSK_ERR_LIMIT) trees with more stems (<= 2^22)
+    uint32_t max_leaves; ///< refuse trees with more leaves (<= 2^22)
 } tsk_tree_def;
 
 /// Defaults: a small two-level tree (every field set; change what you need).
@@ -127,15 +127,15 @@ size_t tsk_tree_level_branch_count(const tsk_tree* tree, int level);
 /// Caller-owned arrays that tsk_tree_get_branches fills; any pointer may be NULL (skipped).
 /// n = tsk_tree_branch_count.
 typedef struct tsk_tree_branches {
-    int32_t* parent;  ///< n: index of the parent branch, -1 for the trunk (parent < index)
-    int32_t* level;   ///< n: Weber–Penn level (clones keep their stem's level)
-    int32_t* depth;   ///< n: steps from the trunk (non-decreasing with the index)
-    float* points;    ///< 12n: P0 P1 P2 P3 (xyz) of the current pose, metres
-    float* rest;      ///< 12n: P0..P3 of the rest pose
-    float* attach;    ///< 3n: v on the parent (0..1), theta around it, alpha down (radians)
-    float* radius;    ///< 2n: radius at the base and at the tip (m, before flare/lobes)
-    float* length;    ///< n: stem length (m)
-    float* orient;    ///< 3n: the orientation vector O of seed eq. 8 (unit), current pose
+    int32_t* parent; ///< n: index of the parent branch, -1 for the trunk (parent < index)
+    int32_t* level; ///< n: Weber–Penn level (clones keep their stem's level)
+    int32_t* depth; ///< n: steps from the trunk (non-decreasing with the index)
+    float* points; ///< 12n: P0 P1 P2 P3 (xyz) of the current pose, metres
+    float* rest; ///< 12n: P0..P3 of the rest pose
+    float* attach; ///< 3n: v on the parent (0..1), theta around it, alpha down (radians)
+    float* radius; ///< 2n: radius at the base and at the tip (m, before flare/lobes)
+    float* length; ///< n: stem length (m)
+    float* orient; ///< 3n: the orientation vector O of seed eq. 8 (unit), current pose
 } tsk_tree_branches;
 
 /// Copies branch data into the caller's arrays.
@@ -161,11 +161,11 @@ typedef enum tsk_tree_wind_mode {
 } tsk_tree_wind_mode;
 
 typedef struct tsk_tree_wind_def {
-    int mode;           ///< tsk_tree_wind_mode
-    float strength;     ///< multiplies every force (default 1)
-    float bend_power;   ///< exponent of the bend factor, seed eq. 16 (default 1.8)
+    int mode; ///< tsk_tree_wind_mode
+    float strength; ///< multiplies every force (default 1)
+    float bend_power; ///< exponent of the bend factor, seed eq. 16 (default 1.8)
     float length_power; ///< the force is divided by l^length_power, l = |P3 - P2| at rest;
-                        ///< 1 = seed eq. 14 (short twigs bend most), 0 = all alike (0..3)
+        ///< 1 = seed eq. 14 (short twigs bend most), 0 = all alike (0..3)
 } tsk_tree_wind_def;
 
 tsk_tree_wind_def tsk_default_tree_wind_def(void);
@@ -192,9 +192,9 @@ tsk_status tsk_tree_attachment_gap(const tsk_tree* tree, double* max_relative_ga
 
 /// How finely branches are meshed. Per level: rings along the stem and vertices around.
 typedef struct tsk_tree_mesh_def {
-    int along[TSK_TREE_MAX_LEVELS];   ///< quads along a stem of each level (1..256)
-    int around[TSK_TREE_MAX_LEVELS];  ///< vertices around a stem of each level (3..256)
-    int leaves;                       ///< 1: add leaf cards (one quad each, after all branches)
+    int along[TSK_TREE_MAX_LEVELS]; ///< quads along a stem of each level (1..256)
+    int around[TSK_TREE_MAX_LEVELS]; ///< vertices around a stem of each level (3..256)
+    int leaves; ///< 1: add leaf cards (one quad each, after all branches)
 } tsk_tree_mesh_def;
 
 /* Smooth option: build a tsk_subdiv (below) once from the cage topology and apply it to
@@ -219,8 +219,8 @@ tsk_status tsk_tree_mesh_topology(const tsk_tree* tree, const tsk_tree_mesh_def*
 /// tsk_tree_mesh_topology (corner_edges: 4 * quads; the edge from that corner to the next)
 /// and *edge_count. The same edges as tsk_mesh_edges derives from the faces, in closed form
 /// (a tube of A quads along and C around has (2A + 1) C edges), so no hashing.
-tsk_status tsk_tree_mesh_edges(const tsk_tree* tree, const tsk_tree_mesh_def* mesh,
-                               int32_t* edges, int32_t* corner_edges, size_t* edge_count);
+tsk_status tsk_tree_mesh_edges(const tsk_tree* tree, const tsk_tree_mesh_def* mesh, int32_t* edges,
+                               int32_t* corner_edges, size_t* edge_count);
 
 /// Deforms the cage for the current pose: positions and unit normals (3 floats per vertex
 /// each; normals may be NULL). Seed eq. 1–10.

@@ -23,11 +23,11 @@ extern "C" {
 #endif
 
 enum {
-    TSK_WIND_MAX_WAVES = 8,       ///< sine waves per parameter set
-    TSK_WIND_MAX_SOURCES = 64,    ///< fluid sources per handle
-    TSK_WIND_MAX_GRID = 1024,     ///< cells per side of the fluid grid (TSK_ERR_LIMIT above)
-    TSK_WIND_MIN_GRID = 4,        ///< cells per side of the fluid grid (TSK_ERR_ARGUMENT below)
-    TSK_WIND_BLEND_HISTORY = 4,   ///< parameter sets kept for cross-fading (oldest dropped)
+    TSK_WIND_MAX_WAVES = 8, ///< sine waves per parameter set
+    TSK_WIND_MAX_SOURCES = 64, ///< fluid sources per handle
+    TSK_WIND_MAX_GRID = 1024, ///< cells per side of the fluid grid (TSK_ERR_LIMIT above)
+    TSK_WIND_MIN_GRID = 4, ///< cells per side of the fluid grid (TSK_ERR_ARGUMENT below)
+    TSK_WIND_BLEND_HISTORY = 4, ///< parameter sets kept for cross-fading (oldest dropped)
     TSK_WIND_MAX_ITERATIONS = 10000, ///< pressure solver iterations per step
 };
 
@@ -42,13 +42,13 @@ enum {
 /// Evaluated in float: points more than ~1e5 wavelengths from the origin lose phase detail
 /// (the result stays bounded).
 typedef struct tsk_wind_wave {
-    float amplitude;   ///< A, peak wind speed of this wave, m/s, 0..100
-    float dir_x;       ///< D, direction on the ground plane (normalised internally, not 0)
+    float amplitude; ///< A, peak wind speed of this wave, m/s, 0..100
+    float dir_x; ///< D, direction on the ground plane (normalised internally, not 0)
     float dir_y;
-    float wavelength;  ///< L, distance between crests, m, > 0 (0.01..1e5)
-    float speed;       ///< s, crest speed along D, m/s (negative: crests move upwind), |s| <= 1000
-    float phase;       ///< phase offset, radians, |phase| <= 1e4
-    float power;       ///< k, peak sharpness (seed 001 eq. 14), 0.1..64; 1 = plain sine
+    float wavelength; ///< L, distance between crests, m, > 0 (0.01..1e5)
+    float speed; ///< s, crest speed along D, m/s (negative: crests move upwind), |s| <= 1000
+    float phase; ///< phase offset, radians, |phase| <= 1e4
+    float power; ///< k, peak sharpness (seed 001 eq. 14), 0.1..64; 1 = plain sine
 } tsk_wind_wave;
 
 /// Gusts: short, smooth speed boosts along a direction, at deterministic random times.
@@ -59,20 +59,20 @@ typedef struct tsk_wind_wave {
 /// across the ground along D at `front_speed`: a point p feels the gust of local time
 /// t - (D . p) / front_speed. Randomness: tsk_rand01(seed, slot, ...).
 typedef struct tsk_wind_gust_def {
-    float strength;     ///< peak extra speed, m/s, 0..100 (0 = no gusts)
-    float interval;     ///< slot length, the mean time between gusts, s, > 0
-    float duration;     ///< s, 0 < duration <= interval
-    float dir_x;        ///< D (normalised internally, not 0)
+    float strength; ///< peak extra speed, m/s, 0..100 (0 = no gusts)
+    float interval; ///< slot length, the mean time between gusts, s, > 0
+    float duration; ///< s, 0 < duration <= interval
+    float dir_x; ///< D (normalised internally, not 0)
     float dir_y;
-    float front_speed;  ///< m/s, 0 or 0.001..1e4; 0 = the whole scene feels the gust at once
+    float front_speed; ///< m/s, 0 or 0.001..1e4; 0 = the whole scene feels the gust at once
     uint64_t seed;
 } tsk_wind_gust_def;
 
 /// The analytic part of the wind: a steady breeze, sine waves and gusts.
 typedef struct tsk_wind_sines_def {
-    float base_x;       ///< steady wind, m/s (|base| <= 100)
+    float base_x; ///< steady wind, m/s (|base| <= 100)
     float base_y;
-    int wave_count;     ///< 0..TSK_WIND_MAX_WAVES
+    int wave_count; ///< 0..TSK_WIND_MAX_WAVES
     tsk_wind_wave waves[TSK_WIND_MAX_WAVES];
     tsk_wind_gust_def gust;
 } tsk_wind_sines_def;
@@ -82,17 +82,17 @@ typedef struct tsk_wind_sines_def {
 /// m/s in the world. Boundaries are open: pressure 0 outside the grid (Dirichlet), so flow
 /// leaves and enters freely, and values beyond the edge repeat the edge (zero gradient).
 typedef struct tsk_wind_fluid_def {
-    int nx, ny;                 ///< cells; 0 and 0 = no fluid grid; else 4..1024 each
-    float origin_x, origin_y;   ///< world position of the grid's corner, m
-    float cell_size;            ///< m, > 0
-    float dt;                   ///< s per step, 1e-4..1 (fixed so that steps are reproducible)
-    float speed;                ///< m/s that a normalised velocity of 1 means, 0..100
-    float viscosity;            ///< m^2/s, >= 0 (0 skips the diffusion solve)
-    float decay;                ///< 1/s, >= 0: velocity falls by exp(-decay dt) per step
-    int pressure_iterations;    ///< Jacobi iterations per step, 1..TSK_WIND_MAX_ITERATIONS
-    float pressure_tolerance;   ///< 0 = always run all iterations; > 0 = stop early when
-                                ///< max |divergence| (normalised velocity per cell) < this
-    int diffusion_iterations;   ///< Jacobi iterations of the viscosity solve, 1..1000
+    int nx, ny; ///< cells; 0 and 0 = no fluid grid; else 4..1024 each
+    float origin_x, origin_y; ///< world position of the grid's corner, m
+    float cell_size; ///< m, > 0
+    float dt; ///< s per step, 1e-4..1 (fixed so that steps are reproducible)
+    float speed; ///< m/s that a normalised velocity of 1 means, 0..100
+    float viscosity; ///< m^2/s, >= 0 (0 skips the diffusion solve)
+    float decay; ///< 1/s, >= 0: velocity falls by exp(-decay dt) per step
+    int pressure_iterations; ///< Jacobi iterations per step, 1..TSK_WIND_MAX_ITERATIONS
+    float pressure_tolerance; ///< 0 = always run all iterations; > 0 = stop early when
+        ///< max |divergence| (normalised velocity per cell) < this
+    int diffusion_iterations; ///< Jacobi iterations of the viscosity solve, 1..1000
 } tsk_wind_fluid_def;
 
 /// The vegetation continuum (seed 004, eq. 3-4): a 2D wave on the fluid grid (same cells),
@@ -101,11 +101,11 @@ typedef struct tsk_wind_fluid_def {
 /// scheme needs dt^2 (8 c^2 / cell^2 + drive) < 2 (1 + gamma); otherwise creation fails.
 /// Edges absorb outgoing waves (Mur's first-order condition).
 typedef struct tsk_wind_continuum_def {
-    int enabled;    ///< 0 = no continuum (requires a fluid grid when 1)
-    float c;        ///< wave speed, m/s, >= 0 (seed 004 used 1..10 grid units)
-    float gamma;    ///< seed 004 eq. 4 gamma, 0..1: share of the last step's change kept
-                    ///< (1 = undamped; amplitudes fall by sqrt(gamma) per step)
-    float drive;    ///< 1/s^2, >= 0: spring pulling Vp to the wind; (2 pi f)^2 sways at f Hz
+    int enabled; ///< 0 = no continuum (requires a fluid grid when 1)
+    float c; ///< wave speed, m/s, >= 0 (seed 004 used 1..10 grid units)
+    float gamma; ///< seed 004 eq. 4 gamma, 0..1: share of the last step's change kept
+        ///< (1 = undamped; amplitudes fall by sqrt(gamma) per step)
+    float drive; ///< 1/s^2, >= 0: spring pulling Vp to the wind; (2 pi f)^2 sways at f Hz
 } tsk_wind_continuum_def;
 
 /// Everything a wind handle needs.
@@ -118,14 +118,14 @@ typedef struct tsk_wind_def {
 /// A fluid source (seed 004, III-C): at each push it sets the fluid velocity inside its
 /// radius towards strength * D, weighted by the smooth falloff (1 - (r/R)^2)^2.
 typedef struct tsk_wind_source {
-    float x, y;         ///< world position on the ground plane, m
+    float x, y; ///< world position on the ground plane, m
     float dir_x, dir_y; ///< push direction (normalised internally, not 0)
-    float strength;     ///< 0..1, normalised speed set at the centre
-    float radius;       ///< m, > 0
-    float interval;     ///< s between pushes, >= 0 (0 = every step); the "frequency" of
-                        ///< seed 004. A push happens in the step [t, t + dt) that
-                        ///< contains a time start + n * interval (n = 0, 1, ...).
-    float start;        ///< s, time of the first push
+    float strength; ///< 0..1, normalised speed set at the centre
+    float radius; ///< m, > 0
+    float interval; ///< s between pushes, >= 0 (0 = every step); the "frequency" of
+        ///< seed 004. A push happens in the step [t, t + dt) that
+        ///< contains a time start + n * interval (n = 0, 1, ...).
+    float start; ///< s, time of the first push
 } tsk_wind_source;
 
 typedef struct tsk_wind tsk_wind;

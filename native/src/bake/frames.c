@@ -39,8 +39,8 @@ tsk_status tsk_bake_write_parts(const char* path, const void* const* parts, cons
     snprintf(tmp, n + 32, "%s.tmp%ld", path, (long)getpid());
     int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd < 0) {
-        tsk_status s = tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path,
-                                     strerror(errno));
+        tsk_status s =
+            tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path, strerror(errno));
         free(tmp);
         return s;
     }
@@ -78,8 +78,7 @@ tsk_status tsk_bake_write_parts(const char* path, const void* const* parts, cons
     return TSK_OK;
 }
 
-tsk_status tsk_bake_write_frame(const char* path, int32_t frame, const float* xyz,
-                                uint32_t count) {
+tsk_status tsk_bake_write_frame(const char* path, int32_t frame, const float* xyz, uint32_t count) {
     if (count > TSK_BAKE_MAX_POINTS)
         return tsk_error_arg(TSK_ERR_LIMIT, "count", "%u points exceed the limit %u", count,
                              TSK_BAKE_MAX_POINTS);
@@ -189,8 +188,8 @@ tsk_status tsk_bake_read_frame(const char* path, float* xyz, uint32_t count) {
     if (s != TSK_OK) return s;
     if (n != count) {
         fclose(f);
-        return tsk_error_arg(TSK_ERR_FORMAT, "count", "'%s' holds %u points, expected %u", path,
-                             n, count);
+        return tsk_error_arg(TSK_ERR_FORMAT, "count", "'%s' holds %u points, expected %u", path, n,
+                             count);
     }
     s = read_data(f, path, xyz, n, sum);
     fclose(f);

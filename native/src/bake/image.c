@@ -55,8 +55,7 @@ static tsk_status file_checksum(const char* path, uint64_t* size, uint64_t* sum)
         if (r < 0) {
             int err = errno;
             close(fd);
-            return tsk_error_arg(TSK_ERR_IO, "path", "cannot read '%s': %s", path,
-                                 strerror(err));
+            return tsk_error_arg(TSK_ERR_IO, "path", "cannot read '%s': %s", path, strerror(err));
         }
         if (r == 0) break;
         h = checksum_more(h, buf, (size_t)r);
@@ -72,8 +71,8 @@ static tsk_status file_checksum(const char* path, uint64_t* size, uint64_t* sum)
  * syncs it to disk. OpenCV gives no reason for a failed write, so the folder is tried
  * first (a read-only folder gets the system's message) and a failed write is diagnosed
  * from the free space left. */
-static tsk_status write_exr_synced(const char* path, const char* tmp, const float* rgba,
-                                   int width, int height, uint64_t* size, uint64_t* sum) {
+static tsk_status write_exr_synced(const char* path, const char* tmp, const float* rgba, int width,
+                                   int height, uint64_t* size, uint64_t* sum) {
     int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd < 0)
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path, strerror(errno));
@@ -113,8 +112,8 @@ static tsk_status write_exr_synced(const char* path, const char* tmp, const floa
     return TSK_OK;
 }
 
-tsk_status tsk_bake_write_image(const char* path, int32_t frame, uint64_t key,
-                                const float* rgba, size_t count, int width, int height) {
+tsk_status tsk_bake_write_image(const char* path, int32_t frame, uint64_t key, const float* rgba,
+                                size_t count, int width, int height) {
     if (path == NULL || !ends_with_exr(path))
         return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "must end in .exr, got '%s'",
                              path ? path : "(null)");
@@ -122,9 +121,9 @@ tsk_status tsk_bake_write_image(const char* path, int32_t frame, uint64_t key,
         width > TSK_PICTURE_MAX_SIDE || height > TSK_PICTURE_MAX_SIDE ||
         (long long)width * height > TSK_PICTURE_MAX_PIXELS)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "width, height",
-                             "%dx%d is outside %dx%d..%dx%d (or over %lld pixels)", width,
-                             height, TSK_PICTURE_MIN_SIDE, TSK_PICTURE_MIN_SIDE,
-                             TSK_PICTURE_MAX_SIDE, TSK_PICTURE_MAX_SIDE, TSK_PICTURE_MAX_PIXELS);
+                             "%dx%d is outside %dx%d..%dx%d (or over %lld pixels)", width, height,
+                             TSK_PICTURE_MIN_SIDE, TSK_PICTURE_MIN_SIDE, TSK_PICTURE_MAX_SIDE,
+                             TSK_PICTURE_MAX_SIDE, TSK_PICTURE_MAX_PIXELS);
     const size_t n = (size_t)width * (size_t)height * 4;
     if (rgba == NULL || count != n)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "rgba", "must hold 4*%d*%d = %zu floats, got %zu",
@@ -175,8 +174,8 @@ tsk_status tsk_bake_image_info(const char* path, int32_t* frame, uint64_t* key, 
     unsigned char h[SIDECAR_SIZE];
     FILE* f = fopen(spath, "rb");
     if (f == NULL) {
-        tsk_status s = tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s': %s", spath,
-                                     strerror(errno));
+        tsk_status s =
+            tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s': %s", spath, strerror(errno));
         tsk_free(spath);
         return s;
     }
@@ -184,8 +183,8 @@ tsk_status tsk_bake_image_info(const char* path, int32_t* frame, uint64_t* key, 
     int extra = fgetc(f) != EOF;
     fclose(f);
     if (got != SIDECAR_SIZE || extra || memcmp(h, MAGIC, 8) != 0) {
-        tsk_status s = tsk_error_arg(TSK_ERR_FORMAT, "path",
-                                     "'%s' is not a Tussock image sidecar", spath);
+        tsk_status s =
+            tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is not a Tussock image sidecar", spath);
         tsk_free(spath);
         return s;
     }

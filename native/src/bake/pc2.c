@@ -63,8 +63,8 @@ tsk_status tsk_bake_assemble_pc2(const char* path, const char* const* frame_path
     memcpy(buf + 24, &sample_rate, 4);
     memcpy(buf + 28, &samples, 4);
     for (int32_t i = 0; i < frame_count && s == TSK_OK; ++i)
-        s = tsk_bake_read_frame(frame_paths[i], (float*)(void*)(buf + PC2_HEADER + frame_bytes * (size_t)i),
-                                points);
+        s = tsk_bake_read_frame(
+            frame_paths[i], (float*)(void*)(buf + PC2_HEADER + frame_bytes * (size_t)i), points);
     if (s == TSK_OK) {
         const void* parts[1] = {buf};
         const size_t sizes[1] = {total};
@@ -74,8 +74,8 @@ tsk_status tsk_bake_assemble_pc2(const char* path, const char* const* frame_path
     return s;
 }
 
-tsk_status tsk_pc2_info(const char* path, uint32_t* points, float* start_frame,
-                        float* sample_rate, uint32_t* samples) {
+tsk_status tsk_pc2_info(const char* path, uint32_t* points, float* start_frame, float* sample_rate,
+                        uint32_t* samples) {
     if (path == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is NULL");
     FILE* f = fopen(path, "rb");
     if (f == NULL)

@@ -59,19 +59,22 @@ extern "C" tsk_status tsk_cvb_read_depth(const char* path, int* width, int* heig
                 if (cv::countNonZero(diff) > 0)
                     return tsk_error_arg(TSK_ERR_FORMAT, "path",
                                          "'%s' is a colour OpenEXR; depth must be one channel "
-                                         "of metres", path);
+                                         "of metres",
+                                         path);
             }
             img = planes[0];
         }
         if (img.channels() != 1)
             return tsk_error_arg(TSK_ERR_FORMAT, "path",
                                  "'%s' has %d channels; depth must be a single-channel image "
-                                 "(16-bit PNG in mm or float OpenEXR in m)", path, img.channels());
+                                 "(16-bit PNG in mm or float OpenEXR in m)",
+                                 path, img.channels());
         if (img.depth() != CV_16U && img.depth() != CV_32F)
-            return tsk_error_arg(TSK_ERR_FORMAT, "path",
-                                 "'%s' is %s; depth must be 16-bit PNG in mm or 32-bit float "
-                                 "OpenEXR in m", path,
-                                 img.depth() == CV_8U ? "an 8-bit image" : "of an unsupported type");
+            return tsk_error_arg(
+                TSK_ERR_FORMAT, "path",
+                "'%s' is %s; depth must be 16-bit PNG in mm or 32-bit float "
+                "OpenEXR in m",
+                path, img.depth() == CV_8U ? "an 8-bit image" : "of an unsupported type");
         if (!valid_image(img.cols, img.rows))
             return tsk_error_arg(TSK_ERR_LIMIT, "path", "'%s' has an invalid size", path);
         const size_t elem = img.depth() == CV_16U ? 2 : 4;
@@ -94,7 +97,8 @@ extern "C" tsk_status tsk_cvb_read_depth(const char* path, int* width, int* heig
     }
 }
 
-static tsk_status write_image(const char* path, const cv::Mat& img, const std::vector<int>& params) {
+static tsk_status write_image(const char* path, const cv::Mat& img,
+                              const std::vector<int>& params) {
     try {
         enable_exr_once();
         if (!cv::imwrite(path, img, params))
@@ -122,7 +126,7 @@ extern "C" tsk_status tsk_cvb_write_exr(const char* path, const float* data, int
 }
 
 extern "C" tsk_status tsk_cvb_write_png8(const char* path, const uint8_t* data, int width,
-                                        int height, int channels) {
+                                         int height, int channels) {
     if (!valid_image(width, height) || (channels != 1 && channels != 3))
         return tsk_error_arg(TSK_ERR_ARGUMENT, "size", "invalid");
     cv::Mat img(height, width, CV_8UC(channels), const_cast<uint8_t*>(data));
@@ -136,21 +140,17 @@ extern "C" tsk_status tsk_cvb_morphology(uint8_t* mask, int width, int height, i
         if (close_radius > 0) {
             cv::Mat k = cv::getStructuringElement(
                 cv::MORPH_ELLIPSE, cv::Size(2 * close_radius + 1, 2 * close_radius + 1));
-            cv::morphologyEx(m, m, cv::MORPH_CLOSE, k, cv::Point(-1, -1), 1,
-                             cv::BORDER_REPLICATE);
+            cv::morphologyEx(m, m, cv::MORPH_CLOSE, k, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
         }
         if (open_radius > 0) {
             cv::Mat k = cv::getStructuringElement(
                 cv::MORPH_ELLIPSE, cv::Size(2 * open_radius + 1, 2 * open_radius + 1));
-            cv::morphologyEx(m, m, cv::MORPH_OPEN, k, cv::Point(-1, -1), 1,
-                             cv::BORDER_REPLICATE);
+            cv::morphologyEx(m, m, cv::MORPH_OPEN, k, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
         }
         return TSK_OK;
     } catch (const std::exception& e) {
         return from_exception(e.what(), "morphology");
-    } catch (...) {
-        return tsk_error(TSK_ERR_INTERNAL, "unknown exception in morphology");
-    }
+    } catch (...) { return tsk_error(TSK_ERR_INTERNAL, "unknown exception in morphology"); }
 }
 
 extern "C" void tsk_cvb_contours_free(tsk_cvb_contours* c) {
@@ -215,23 +215,21 @@ static std::vector<cv::Point> to_points(const float* xy, int n) {
     return pts;
 }
 
-extern "C" tsk_status tsk_cvb_fill_poly(uint8_t* img, int width, int height, const float* xy,
-                                        int n, uint8_t value) {
+extern "C" tsk_status tsk_cvb_fill_poly(uint8_t* img, int width, int height, const float* xy, int n,
+                                        uint8_t value) {
     try {
         if (n < 3) return TSK_OK;
         cv::Mat m(height, width, CV_8UC1, img);
         std::vector<std::vector<cv::Point>> polys{to_points(xy, n)};
         cv::fillPoly(m, polys, cv::Scalar(value), cv::LINE_8);
         return TSK_OK;
-    } catch (const std::exception& e) {
-        return from_exception(e.what(), "fillPoly");
-    } catch (...) {
+    } catch (const std::exception& e) { return from_exception(e.what(), "fillPoly"); } catch (...) {
         return tsk_error(TSK_ERR_INTERNAL, "unknown exception in fillPoly");
     }
 }
 
-extern "C" tsk_status tsk_cvb_polyline(uint8_t* img, int width, int height, const float* xy,
-                                       int n, uint8_t value) {
+extern "C" tsk_status tsk_cvb_polyline(uint8_t* img, int width, int height, const float* xy, int n,
+                                       uint8_t value) {
     try {
         if (n < 2) return TSK_OK;
         cv::Mat m(height, width, CV_8UC1, img);
@@ -240,9 +238,7 @@ extern "C" tsk_status tsk_cvb_polyline(uint8_t* img, int width, int height, cons
         return TSK_OK;
     } catch (const std::exception& e) {
         return from_exception(e.what(), "polylines");
-    } catch (...) {
-        return tsk_error(TSK_ERR_INTERNAL, "unknown exception in polylines");
-    }
+    } catch (...) { return tsk_error(TSK_ERR_INTERNAL, "unknown exception in polylines"); }
 }
 
 extern "C" void tsk_cvb_set_threads(int threads) {
@@ -253,6 +249,5 @@ extern "C" void tsk_cvb_set_threads(int threads) {
     try {
         cv::setNumThreads(threads);
         current = threads;
-    } catch (...) {
-    }
+    } catch (...) {}
 }

@@ -20,8 +20,8 @@ typedef enum tsk_cvb_depth_type { TSK_CVB_U16 = 1, TSK_CVB_F32 = 2 } tsk_cvb_dep
 /// allocated with tsk_alloc (caller frees). Enables OpenCV's OpenEXR codec (env var
 /// OPENCV_IO_ENABLE_OPENEXR=1) before the first decode when the caller has not set it.
 /// Colour or 8-bit images give TSK_ERR_FORMAT; undecodable files TSK_ERR_FORMAT.
-tsk_status tsk_cvb_read_depth(const char* path, int* width, int* height,
-                              tsk_cvb_depth_type* type, void** data);
+tsk_status tsk_cvb_read_depth(const char* path, int* width, int* height, tsk_cvb_depth_type* type,
+                              void** data);
 
 /// Encodes `data` (width*height, row-major) as 16-bit PNG.
 tsk_status tsk_cvb_write_png16(const char* path, const uint16_t* data, int width, int height);
@@ -41,8 +41,8 @@ tsk_status tsk_cvb_morphology(uint8_t* mask, int width, int height, int close_ra
 /// xy[2*start[k] .. 2*start[k+1]), integers in pixel coordinates. Arrays are tsk_alloc'd.
 typedef struct tsk_cvb_contours {
     int count;
-    int* start;   ///< count + 1 offsets into the point list
-    int32_t* xy;  ///< 2 * start[count] coordinates
+    int* start; ///< count + 1 offsets into the point list
+    int32_t* xy; ///< 2 * start[count] coordinates
     double* area; ///< count areas in pixels
 } tsk_cvb_contours;
 

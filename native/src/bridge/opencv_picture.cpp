@@ -52,8 +52,8 @@ extern "C" tsk_status tsk_cvp_decode(const char* path, int width, int height, fl
                                  "'%s' could not be decoded (truncated or corrupt image?)", name);
         if (img.cols != width || img.rows != height)
             return tsk_error_arg(TSK_ERR_FORMAT, "path",
-                                 "'%s' decodes to %dx%d but its header says %dx%d", name,
-                                 img.cols, img.rows, width, height);
+                                 "'%s' decodes to %dx%d but its header says %dx%d", name, img.cols,
+                                 img.rows, width, height);
         const int ch = img.channels(), depth = img.depth();
         if (ch < 1 || ch > 4)
             return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' has %d channels (1-4 expected)",
@@ -69,28 +69,32 @@ extern "C" tsk_status tsk_cvp_decode(const char* path, int width, int height, fl
         img.convertTo(f, CV_MAKETYPE(CV_32F, ch), scale);
         cv::Mat out(height, width, CV_32FC4, rgba);
         switch (ch) {
-        case 1: cv::cvtColor(f, out, cv::COLOR_GRAY2RGBA); break;
-        case 2: {
-            /* grey + alpha: OpenCV 4.6 has no conversion, copy by hand */
-            for (int y = 0; y < height; ++y) {
-                const float* s = f.ptr<float>(y);
-                float* d = out.ptr<float>(y);
-                for (int x = 0; x < width; ++x) {
-                    d[4 * x + 0] = d[4 * x + 1] = d[4 * x + 2] = s[2 * x];
-                    d[4 * x + 3] = s[2 * x + 1];
+            case 1:
+                cv::cvtColor(f, out, cv::COLOR_GRAY2RGBA);
+                break;
+            case 2: {
+                /* grey + alpha: OpenCV 4.6 has no conversion, copy by hand */
+                for (int y = 0; y < height; ++y) {
+                    const float* s = f.ptr<float>(y);
+                    float* d = out.ptr<float>(y);
+                    for (int x = 0; x < width; ++x) {
+                        d[4 * x + 0] = d[4 * x + 1] = d[4 * x + 2] = s[2 * x];
+                        d[4 * x + 3] = s[2 * x + 1];
+                    }
                 }
+                break;
             }
-            break;
-        }
-        case 3: cv::cvtColor(f, out, cv::COLOR_BGR2RGBA); break;
-        case 4: cv::cvtColor(f, out, cv::COLOR_BGRA2RGBA); break;
+            case 3:
+                cv::cvtColor(f, out, cv::COLOR_BGR2RGBA);
+                break;
+            case 4:
+                cv::cvtColor(f, out, cv::COLOR_BGRA2RGBA);
+                break;
         }
         if (out.data != (uchar*)rgba) return opencv_failed("decode", "output was reallocated");
         /* cvtColor(GRAY/BGR -> RGBA) sets alpha to 1.0 for float images */
         return TSK_OK;
-    } catch (const std::exception& e) {
-        return opencv_failed("decode", e.what());
-    } catch (...) {
+    } catch (const std::exception& e) { return opencv_failed("decode", e.what()); } catch (...) {
         return opencv_failed("decode", "unknown exception");
     }
 }
@@ -136,9 +140,7 @@ extern "C" tsk_status tsk_cvp_grabcut(const float* rgba, int width, int height, 
             mask[i] = (l == cv::GC_FGD || l == cv::GC_PR_FGD) ? 255 : 0;
         }
         return TSK_OK;
-    } catch (const std::exception& e) {
-        return opencv_failed("grabCut", e.what());
-    } catch (...) {
+    } catch (const std::exception& e) { return opencv_failed("grabCut", e.what()); } catch (...) {
         return opencv_failed("grabCut", "unknown exception");
     }
 }
@@ -173,15 +175,13 @@ extern "C" tsk_status tsk_cvp_inpaint(float* rgba, int width, int height, const 
         merged.copyTo(img);
         if (img.data != (uchar*)rgba) return opencv_failed("inpaint", "output was reallocated");
         return TSK_OK;
-    } catch (const std::exception& e) {
-        return opencv_failed("inpaint", e.what());
-    } catch (...) {
+    } catch (const std::exception& e) { return opencv_failed("inpaint", e.what()); } catch (...) {
         return opencv_failed("inpaint", "unknown exception");
     }
 }
 
-extern "C" tsk_status tsk_cvp_distances(const uint8_t* mask, int width, int height,
-                                        float* inside, float* outside) {
+extern "C" tsk_status tsk_cvp_distances(const uint8_t* mask, int width, int height, float* inside,
+                                        float* outside) {
     try {
         cv::Mat m(height, width, CV_8U, const_cast<uint8_t*>(mask));
         cv::Mat in_bin = m != 0, out_bin = m == 0;
@@ -193,9 +193,7 @@ extern "C" tsk_status tsk_cvp_distances(const uint8_t* mask, int width, int heig
         return TSK_OK;
     } catch (const std::exception& e) {
         return opencv_failed("distanceTransform", e.what());
-    } catch (...) {
-        return opencv_failed("distanceTransform", "unknown exception");
-    }
+    } catch (...) { return opencv_failed("distanceTransform", "unknown exception"); }
 }
 
 extern "C" tsk_status tsk_cvp_remap(const float* src, int width, int height, const float* map_x,
@@ -211,9 +209,7 @@ extern "C" tsk_status tsk_cvp_remap(const float* src, int width, int height, con
         cv::setNumThreads(saved);
         if (d.data != (uchar*)dst) return opencv_failed("remap", "output was reallocated");
         return TSK_OK;
-    } catch (const std::exception& e) {
-        return opencv_failed("remap", e.what());
-    } catch (...) {
+    } catch (const std::exception& e) { return opencv_failed("remap", e.what()); } catch (...) {
         return opencv_failed("remap", "unknown exception");
     }
 }
@@ -244,9 +240,7 @@ extern "C" tsk_status tsk_cvp_encode(const char* path, const float* rgba, int wi
         return TSK_OK;
     } catch (const std::exception& e) {
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path, e.what());
-    } catch (...) {
-        return opencv_failed("imwrite", "unknown exception");
-    }
+    } catch (...) { return opencv_failed("imwrite", "unknown exception"); }
 }
 
 extern "C" tsk_status tsk_cvp_write_exr(const char* path, const float* rgba, int width,
@@ -265,9 +259,6 @@ extern "C" tsk_status tsk_cvp_write_exr(const char* path, const float* rgba, int
             return tsk_error_arg(TSK_ERR_IO, "path", "OpenCV could not write '%s'", path);
         return TSK_OK;
     } catch (const std::exception& e) {
-        return tsk_error_arg(TSK_ERR_IO, "path", "OpenCV could not write '%s': %s", path,
-                             e.what());
-    } catch (...) {
-        return opencv_failed("imwrite", "unknown exception");
-    }
+        return tsk_error_arg(TSK_ERR_IO, "path", "OpenCV could not write '%s': %s", path, e.what());
+    } catch (...) { return opencv_failed("imwrite", "unknown exception"); }
 }

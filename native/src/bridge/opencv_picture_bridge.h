@@ -20,13 +20,13 @@ extern "C" {
 tsk_status tsk_cvp_decode(const char* path, int width, int height, float* rgba);
 
 /// GrabCut on straight RGBA (top-first). strokes may be NULL. mask receives 255 / 0.
-tsk_status tsk_cvp_grabcut(const float* rgba, int width, int height, int rx, int ry, int rw,
-                           int rh, int iterations, const uint8_t* strokes, uint8_t* mask);
+tsk_status tsk_cvp_grabcut(const float* rgba, int width, int height, int rx, int ry, int rw, int rh,
+                           int iterations, const uint8_t* strokes, uint8_t* mask);
 
 /// Inpaints, channel by channel, the pixels of `rgba` (4 interleaved float channels) where
 /// region != 0. method 0 = Telea, 1 = Navier-Stokes. `channels` = 3 leaves alpha alone.
-tsk_status tsk_cvp_inpaint(float* rgba, int width, int height, const uint8_t* region,
-                           float radius, int method, int channels);
+tsk_status tsk_cvp_inpaint(float* rgba, int width, int height, const uint8_t* region, float radius,
+                           int method, int channels);
 
 /// Exact Euclidean distances (pixels, centre to centre) of every pixel to the nearest pixel
 /// with mask == 0 (`inside`, 0 where mask == 0) and to the nearest pixel with mask != 0
@@ -42,8 +42,8 @@ tsk_status tsk_cvp_remap(const float* src, int width, int height, const float* m
 /// Writes straight RGBA (top-first) to an image file whose extension picks the format:
 /// `channels` 1 (grey from red), 3 or 4 of `bits` 8, 16 or 32 (32: EXR only). Used by the
 /// tests to make files and available to tools that export layers.
-tsk_status tsk_cvp_encode(const char* path, const float* rgba, int width, int height,
-                          int channels, int bits);
+tsk_status tsk_cvp_encode(const char* path, const float* rgba, int width, int height, int channels,
+                          int bits);
 
 /// Writes straight float RGBA (top-first) to `path` as OpenEXR: 32-bit float R, G, B, A
 /// channels, lossless ZIP compression. Same pixels, same bytes. OpenCV reports no reason

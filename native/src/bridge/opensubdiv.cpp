@@ -22,7 +22,7 @@ using StencilFactory = Far::StencilTableFactoryReal<float>;
 
 struct tsk_osd {
     const Stencils* stencils = nullptr;
-    std::vector<int32_t> faces;  // refined quads
+    std::vector<int32_t> faces; // refined quads
     size_t cage_vertices = 0;
     size_t refined_vertices = 0;
     ~tsk_osd() { delete stencils; }
@@ -60,7 +60,7 @@ void apply_range(size_t b, size_t e, size_t chunk, void* vctx) {
     }
 }
 
-}  // namespace
+} // namespace
 
 extern "C" tsk_status tsk_osd_create(const int32_t* quads, size_t face_count, size_t vertex_count,
                                      int levels, tsk_osd** out) {
@@ -95,8 +95,9 @@ extern "C" tsk_status tsk_osd_create(const int32_t* quads, size_t face_count, si
             static_cast<size_t>(h->stencils->GetNumStencils()) != h->refined_vertices) {
             delete h;
             delete refiner;
-            return tsk_error(TSK_ERR_INTERNAL, "OpenSubdiv stencil table does not match the "
-                                               "refined level");
+            return tsk_error(TSK_ERR_INTERNAL,
+                             "OpenSubdiv stencil table does not match the "
+                             "refined level");
         }
         const int nf = last.GetNumFaces();
         h->faces.reserve(4 * static_cast<size_t>(nf));
@@ -128,20 +129,19 @@ extern "C" tsk_status tsk_osd_create(const int32_t* quads, size_t face_count, si
 extern "C" void tsk_osd_destroy(tsk_osd* osd) {
     try {
         delete osd;
-    } catch (...) {
-    }
+    } catch (...) {}
 }
 
-extern "C" size_t tsk_osd_vertex_count(const tsk_osd* osd) { return osd ? osd->refined_vertices : 0; }
+extern "C" size_t tsk_osd_vertex_count(const tsk_osd* osd) {
+    return osd ? osd->refined_vertices : 0;
+}
 extern "C" size_t tsk_osd_face_count(const tsk_osd* osd) { return osd ? osd->faces.size() / 4 : 0; }
 
 extern "C" tsk_status tsk_osd_faces(const tsk_osd* osd, int32_t* quads) {
     try {
         if (!osd->faces.empty()) std::memcpy(quads, osd->faces.data(), osd->faces.size() * 4);
         return TSK_OK;
-    } catch (...) {
-        return tsk_error(TSK_ERR_INTERNAL, "OpenSubdiv: unknown exception");
-    }
+    } catch (...) { return tsk_error(TSK_ERR_INTERNAL, "OpenSubdiv: unknown exception"); }
 }
 
 extern "C" tsk_status tsk_osd_apply(const tsk_osd* osd, const float* cage, float* refined) {
@@ -151,7 +151,5 @@ extern "C" tsk_status tsk_osd_apply(const tsk_osd* osd, const float* cage, float
         return TSK_OK;
     } catch (const std::exception& e) {
         return tsk_error(TSK_ERR_INTERNAL, "OpenSubdiv: %s", e.what());
-    } catch (...) {
-        return tsk_error(TSK_ERR_INTERNAL, "OpenSubdiv: unknown exception");
-    }
+    } catch (...) { return tsk_error(TSK_ERR_INTERNAL, "OpenSubdiv: unknown exception"); }
 }

@@ -12,12 +12,12 @@
 #include "capture_internal.h"
 
 #define TWO_PI 6.283185307179586
-#define FIT_MIN 6          /* fewest samples a fit uses */
-#define FIT_MAX 512        /* most samples a fit uses */
-#define MISS_MAX 2         /* consecutive steps outside the mask that end a walk */
-#define TIP_GAP_MAX 6      /* half-pixel steps off the mask a tip walk crosses */
+#define FIT_MIN 6 /* fewest samples a fit uses */
+#define FIT_MAX 512 /* most samples a fit uses */
+#define MISS_MAX 2 /* consecutive steps outside the mask that end a walk */
+#define TIP_GAP_MAX 6 /* half-pixel steps off the mask a tip walk crosses */
 #define HEADING_SHARE 0.75f /* the root-most share of the matched skeleton the heading fits */
-#define SKIP_WIDTHS 0.5      /* blade widths next to the cut the heading fit leaves out */
+#define SKIP_WIDTHS 0.5 /* blade widths next to the cut the heading fit leaves out */
 #define CURVE_TURN_MAX 0.6 /* radians the fitted heading change may add over the walk */
 
 static int mask_at(const tsk_capture* cap, float x, float y) {
@@ -212,9 +212,8 @@ int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, 
     return out;
 }
 
-int tsk_capture_extend_tip(const tsk_capture* cap, const float* x, const float* y,
-                           const float* w, int count, int max_out, float* ox, float* oy,
-                           float* ow) {
+int tsk_capture_extend_tip(const tsk_capture* cap, const float* x, const float* y, const float* w,
+                           int count, int max_out, float* ox, float* oy, float* ow) {
     if (count < 4 || max_out <= 0) return 0;
     const int back = count > 6 ? 6 : count - 1;
     float dx = x[0] - x[back], dy = y[0] - y[back];

@@ -24,8 +24,8 @@ static int ring_alloc(tsk_capture* cap, int m) {
     return 1;
 }
 
-tsk_status tsk_capture_make_ring(tsk_capture* cap, const tsk_capture_def* def,
-                                 const int32_t* xy, int n) {
+tsk_status tsk_capture_make_ring(tsk_capture* cap, const tsk_capture_def* def, const int32_t* xy,
+                                 int n) {
     if (!tsk_cap_grow((void**)&cap->tmp, &cap->tmp_cap, 4 * (size_t)n + 8, sizeof(float),
                       "contour"))
         return TSK_ERR_MEMORY;
@@ -68,9 +68,9 @@ tsk_status tsk_capture_make_ring(tsk_capture* cap, const tsk_capture_def* def,
         float y = (float)(sy[seg] + f * (sy[j] - sy[seg]));
         cap->ring.x[i] = x;
         cap->ring.y[i] = y;
-        cap->ring.edge[i] = (uint8_t)(x <= EDGE_PX || y <= EDGE_PX ||
-                                      x >= (float)(cap->width - 1) - EDGE_PX ||
-                                      y >= (float)(cap->height - 1) - EDGE_PX);
+        cap->ring.edge[i] =
+            (uint8_t)(x <= EDGE_PX || y <= EDGE_PX || x >= (float)(cap->width - 1) - EDGE_PX ||
+                      y >= (float)(cap->height - 1) - EDGE_PX);
     }
     cap->ring.n = m;
     /* the centre (seed 000 §4.2): the blob's centroid, or its base */
@@ -79,8 +79,8 @@ tsk_status tsk_capture_make_ring(tsk_capture* cap, const tsk_capture_def* def,
         double a = 0.0, gx = 0.0, gy = 0.0;
         for (int i = 0; i < m; ++i) {
             int j = (i + 1) % m;
-            double c = (double)cap->ring.x[i] * cap->ring.y[j] -
-                       (double)cap->ring.x[j] * cap->ring.y[i];
+            double c =
+                (double)cap->ring.x[i] * cap->ring.y[j] - (double)cap->ring.x[j] * cap->ring.y[i];
             a += c;
             gx += (cap->ring.x[i] + cap->ring.x[j]) * c;
             gy += (cap->ring.y[i] + cap->ring.y[j]) * c;
@@ -152,12 +152,11 @@ int tsk_capture_partition(tsk_capture* cap, const tsk_capture_def* def) {
         int best = 0;
         for (int i = 1; i < n; ++i)
             if (d[i] > d[best]) best = i;
-        if (!tsk_cap_grow((void**)&cap->peaks, &cap->peaks_cap, 1, sizeof(int), "peaks"))
-            return -1;
+        if (!tsk_cap_grow((void**)&cap->peaks, &cap->peaks_cap, 1, sizeof(int), "peaks")) return -1;
         cap->peaks[kept++] = best;
     }
-    if (!tsk_cap_grow((void**)&cap->spans, &cap->spans_cap, (size_t)kept,
-                      sizeof(tsk_blade_span), "blades"))
+    if (!tsk_cap_grow((void**)&cap->spans, &cap->spans_cap, (size_t)kept, sizeof(tsk_blade_span),
+                      "blades"))
         return -1;
     /* split after peak a: the minimum of d strictly between peak a and the next peak */
     for (int a = 0; a < kept; ++a) {

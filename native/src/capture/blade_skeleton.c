@@ -59,8 +59,8 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
     const int root_max = cap->width + cap->height;
     const int slots = pairs_max + root_max + TIP_EXT_MAX;
     /* scratch: 3 arrays of pairs (x, y, w) + 3 smoothed + arc */
-    if (!tsk_cap_grow((void**)&cap->skel, &cap->skel_cap, 7 * (size_t)slots + 8,
-                      sizeof(float), "skeleton"))
+    if (!tsk_cap_grow((void**)&cap->skel, &cap->skel_cap, 7 * (size_t)slots + 8, sizeof(float),
+                      "skeleton"))
         return TSK_ERR_MEMORY;
     float* px = cap->skel;
     float* py = px + slots;
@@ -130,8 +130,7 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
      * neighbours down to the base, and out to the last pixel of its tip. The raw pairs are
      * no longer needed: px, py, pw hold the root part. */
     const int matched = count;
-    const int rn = tsk_capture_extend_root(cap, def, qx, qy, qw, count, root_max, px, py,
-                                           pw);
+    const int rn = tsk_capture_extend_root(cap, def, qx, qy, qw, count, root_max, px, py, pw);
     float tx[TIP_EXT_MAX], ty[TIP_EXT_MAX], tw[TIP_EXT_MAX];
     const int tn = tsk_capture_extend_tip(cap, qx, qy, qw, count, TIP_EXT_MAX, tx, ty, tw);
     memmove(qx + tn, qx, (size_t)count * sizeof(float));
@@ -246,12 +245,12 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
     if (b >= TSK_CAPTURE_MAX_BLADES) return TSK_OK;
     const int k0 = cap->knot_start[b];
     const size_t need = (size_t)k0 + (size_t)knots;
-    if (!tsk_cap_grow((void**)&cap->knot_start, &cap->knot_start_cap, (size_t)b + 2,
-                      sizeof(int), "blades") ||
+    if (!tsk_cap_grow((void**)&cap->knot_start, &cap->knot_start_cap, (size_t)b + 2, sizeof(int),
+                      "blades") ||
         !tsk_cap_grow((void**)&cap->flags, &cap->flags_cap, (size_t)b + 1, sizeof(uint32_t),
                       "blades") ||
-        !tsk_cap_grow((void**)&cap->poly_start, &cap->poly_start_cap, (size_t)b + 2,
-                      sizeof(int), "blades") ||
+        !tsk_cap_grow((void**)&cap->poly_start, &cap->poly_start_cap, (size_t)b + 2, sizeof(int),
+                      "blades") ||
         !tsk_cap_grow((void**)&cap->xyz, &cap->xyz_cap, 3 * need, sizeof(float), "knots") ||
         !tsk_cap_grow((void**)&cap->uv, &cap->uv_cap, 2 * need, sizeof(float), "knots") ||
         !tsk_cap_grow((void**)&cap->width_m, &cap->width_cap, need, sizeof(float), "knots"))

@@ -50,7 +50,8 @@ static tsk_status check_def(const tsk_capture_def* d) {
         return tsk_error_arg(TSK_ERR_ARGUMENT, "intrinsics",
                              "fx, fy must be in [0.01, 1e6) and |cx|, |cy| <= 1e6 (all 0 = "
                              "defaults), got "
-                             "fx=%g fy=%g cx=%g cy=%g", K->fx, K->fy, K->cx, K->cy);
+                             "fx=%g fy=%g cx=%g cy=%g",
+                             K->fx, K->fy, K->cx, K->cy);
     if (d->min_area < 1 || d->min_area > 1 << 26)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "min_area", "must be in 1..2^26, got %d",
                              d->min_area);
@@ -101,11 +102,11 @@ tsk_status tsk_capture_create(tsk_capture** out) {
 
 void tsk_capture_destroy(tsk_capture* cap) {
     if (cap == NULL) return;
-    void* arrays[] = {cap->depth,  cap->mask,       cap->contour_start, cap->contour_xy,
-                      cap->knot_start, cap->flags,  cap->xyz,           cap->width_m,
-                      cap->uv,     cap->poly_start, cap->poly_xy,       cap->ring.x,
-                      cap->ring.y, cap->ring.d,     cap->ring.edge,     cap->tmp,
-                      cap->skel,   cap->knots,      cap->spans,         cap->peaks,
+    void* arrays[] = {cap->depth,      cap->mask,       cap->contour_start, cap->contour_xy,
+                      cap->knot_start, cap->flags,      cap->xyz,           cap->width_m,
+                      cap->uv,         cap->poly_start, cap->poly_xy,       cap->ring.x,
+                      cap->ring.y,     cap->ring.d,     cap->ring.edge,     cap->tmp,
+                      cap->skel,       cap->knots,      cap->spans,         cap->peaks,
                       cap->pair_j};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i) tsk_free(arrays[i]);
     tsk_free(cap);
@@ -119,8 +120,8 @@ static void reset_result(tsk_capture* cap) {
     if (cap->contour_start) cap->contour_start[0] = 0;
 }
 
-tsk_status tsk_capture_process(tsk_capture* cap, const tsk_capture_def* def,
-                               const float* depth_m, int width, int height) {
+tsk_status tsk_capture_process(tsk_capture* cap, const tsk_capture_def* def, const float* depth_m,
+                               int width, int height) {
     if (cap == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "capture", "is NULL");
     reset_result(cap);
     cap->width = cap->height = 0;
@@ -131,8 +132,8 @@ tsk_status tsk_capture_process(tsk_capture* cap, const tsk_capture_def* def,
         return tsk_error_arg(TSK_ERR_ARGUMENT, "width", "size %dx%d must be positive", width,
                              height);
     if (width > TSK_DEPTH_MAX_SIDE || height > TSK_DEPTH_MAX_SIDE)
-        return tsk_error_arg(TSK_ERR_LIMIT, "width", "size %dx%d exceeds the limit %dx%d",
-                             width, height, TSK_DEPTH_MAX_SIDE, TSK_DEPTH_MAX_SIDE);
+        return tsk_error_arg(TSK_ERR_LIMIT, "width", "size %dx%d exceeds the limit %dx%d", width,
+                             height, TSK_DEPTH_MAX_SIDE, TSK_DEPTH_MAX_SIDE);
     tsk_status s = check_def(def);
     if (s != TSK_OK) return s;
     /* memory budget: the depth copy, masks, labels and distance images of one frame */
@@ -156,8 +157,8 @@ tsk_status tsk_capture_process(tsk_capture* cap, const tsk_capture_def* def,
         if (!isfinite(d) || d < 0.0f)
             return tsk_error_arg(TSK_ERR_ARGUMENT, "depth_m",
                                  "value %g at pixel (%d, %d): depth must be finite metres >= 0 "
-                                 "(0 = no data)", d, (int)(i % (size_t)width),
-                                 (int)(i / (size_t)width));
+                                 "(0 = no data)",
+                                 d, (int)(i % (size_t)width), (int)(i / (size_t)width));
         valid += d > 0.0f;
     }
     if (valid == 0)
@@ -202,10 +203,10 @@ tsk_status tsk_capture_process(tsk_capture* cap, const tsk_capture_def* def,
         return TSK_OK;
     }
     const size_t total_pts = (size_t)cont.start[cont.count];
-    if (!tsk_cap_grow((void**)&cap->contour_start, &cap->contour_start_cap,
-                      (size_t)cont.count + 1, sizeof(int), "contours") ||
-        !tsk_cap_grow((void**)&cap->contour_xy, &cap->contour_xy_cap, 2 * total_pts,
-                      sizeof(float), "contours")) {
+    if (!tsk_cap_grow((void**)&cap->contour_start, &cap->contour_start_cap, (size_t)cont.count + 1,
+                      sizeof(int), "contours") ||
+        !tsk_cap_grow((void**)&cap->contour_xy, &cap->contour_xy_cap, 2 * total_pts, sizeof(float),
+                      "contours")) {
         tsk_cvb_contours_free(&cont);
         return TSK_ERR_MEMORY;
     }
@@ -236,7 +237,8 @@ tsk_status tsk_capture_process(tsk_capture* cap, const tsk_capture_def* def,
         return s;
     }
     int cut = 0;
-    for (int b = 0; b < cap->blade_count; ++b) cut += (cap->flags[b] & TSK_BLADE_CUT_BY_BORDER) != 0;
+    for (int b = 0; b < cap->blade_count; ++b)
+        cut += (cap->flags[b] & TSK_BLADE_CUT_BY_BORDER) != 0;
     snprintf(cap->message, sizeof cap->message, "%d blade%s in %d blob%s, band [%.3f, %.3f] m%s%s",
              cap->blade_count, cap->blade_count == 1 ? "" : "s", cap->contour_count,
              cap->contour_count == 1 ? "" : "s", near_m, far_m,
@@ -265,8 +267,8 @@ const char* tsk_capture_status_message(const tsk_capture* cap) {
     return cap ? cap->message : "no capture";
 }
 
-tsk_status tsk_capture_get_blades(const tsk_capture* cap, int32_t* knot_counts,
-                                  uint32_t* flags, size_t count) {
+tsk_status tsk_capture_get_blades(const tsk_capture* cap, int32_t* knot_counts, uint32_t* flags,
+                                  size_t count) {
     if (cap == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "capture", "is NULL");
     if (count != (size_t)cap->blade_count)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "count", "must equal the blade count %d, got %zu",
@@ -290,8 +292,8 @@ tsk_status tsk_capture_get_knots(const tsk_capture* cap, float* camera_xyz, floa
     if (cap == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "capture", "is NULL");
     const int t = tsk_capture_knot_total(cap);
     if (total != (size_t)t)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "total", "must equal the knot total %d, got %zu",
-                             t, total);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "total", "must equal the knot total %d, got %zu", t,
+                             total);
     copy_knots(cap, 0, t, camera_xyz, width_m, pixel_uv);
     return TSK_OK;
 }
@@ -318,56 +320,56 @@ tsk_status tsk_capture_get_image(const tsk_capture* cap, tsk_capture_image which
         return tsk_error_arg(TSK_ERR_ARGUMENT, "capture", "no frame was processed successfully");
     const size_t npix = (size_t)cap->width * (size_t)cap->height;
     if (count != npix)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "count", "must be width*height = %zu, got %zu",
-                             npix, count);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "count", "must be width*height = %zu, got %zu", npix,
+                             count);
     const int w = cap->width, h = cap->height;
     tsk_status s = TSK_OK;
     switch (which) {
-    case TSK_IMAGE_DEPTH: {
-        const float span = cap->far_m - cap->near_m;
-        const float lo = cap->near_m - 0.5f * span, hi = cap->far_m + 0.5f * span;
-        for (size_t i = 0; i < npix; ++i) {
-            const float d = cap->depth[i];
-            if (!(d > 0.0f)) {
-                out[i] = 0;
-                continue;
+        case TSK_IMAGE_DEPTH: {
+            const float span = cap->far_m - cap->near_m;
+            const float lo = cap->near_m - 0.5f * span, hi = cap->far_m + 0.5f * span;
+            for (size_t i = 0; i < npix; ++i) {
+                const float d = cap->depth[i];
+                if (!(d > 0.0f)) {
+                    out[i] = 0;
+                    continue;
+                }
+                float t = (d - lo) / (hi - lo);
+                t = t < 0.0f ? 0.0f : (t > 1.0f ? 1.0f : t);
+                out[i] = (uint8_t)(255.0f - 254.0f * t + 0.5f);
             }
-            float t = (d - lo) / (hi - lo);
-            t = t < 0.0f ? 0.0f : (t > 1.0f ? 1.0f : t);
-            out[i] = (uint8_t)(255.0f - 254.0f * t + 0.5f);
+            return TSK_OK;
         }
-        return TSK_OK;
-    }
-    case TSK_IMAGE_MASK:
-        memcpy(out, cap->mask, npix);
-        return TSK_OK;
-    case TSK_IMAGE_LABELS:
-        memset(out, 0, npix);
-        for (int b = 0; b < cap->blade_count && s == TSK_OK; ++b) {
-            const int p0 = cap->poly_start[b], n = cap->poly_start[b + 1] - p0;
-            s = tsk_cvb_fill_poly(out, w, h, cap->poly_xy + 2 * (size_t)p0, n,
-                                  (uint8_t)(b % 254 + 1));
-        }
-        for (size_t i = 0; i < npix; ++i) {
-            if (!cap->mask[i]) out[i] = 0;
-            else if (out[i] == 0) out[i] = 255;
-        }
-        return s;
-    case TSK_IMAGE_OVERLAY:
-        for (size_t i = 0; i < npix; ++i) out[i] = cap->mask[i] ? 64 : 0;
-        for (int c = 0; c < cap->contour_count; ++c) {
-            const int c0 = cap->contour_start[c], n = cap->contour_start[c + 1] - c0;
-            for (int k = 0; k < n; ++k) {
-                const int x = (int)cap->contour_xy[2 * (size_t)(c0 + k)];
-                const int y = (int)cap->contour_xy[2 * (size_t)(c0 + k) + 1];
-                out[(size_t)y * (size_t)w + (size_t)x] = 128;
+        case TSK_IMAGE_MASK:
+            memcpy(out, cap->mask, npix);
+            return TSK_OK;
+        case TSK_IMAGE_LABELS:
+            memset(out, 0, npix);
+            for (int b = 0; b < cap->blade_count && s == TSK_OK; ++b) {
+                const int p0 = cap->poly_start[b], n = cap->poly_start[b + 1] - p0;
+                s = tsk_cvb_fill_poly(out, w, h, cap->poly_xy + 2 * (size_t)p0, n,
+                                      (uint8_t)(b % 254 + 1));
             }
-        }
-        for (int b = 0; b < cap->blade_count && s == TSK_OK; ++b) {
-            const int k0 = cap->knot_start[b], n = cap->knot_start[b + 1] - k0;
-            s = tsk_cvb_polyline(out, w, h, cap->uv + 2 * (size_t)k0, n, 255);
-        }
-        return s;
+            for (size_t i = 0; i < npix; ++i) {
+                if (!cap->mask[i]) out[i] = 0;
+                else if (out[i] == 0) out[i] = 255;
+            }
+            return s;
+        case TSK_IMAGE_OVERLAY:
+            for (size_t i = 0; i < npix; ++i) out[i] = cap->mask[i] ? 64 : 0;
+            for (int c = 0; c < cap->contour_count; ++c) {
+                const int c0 = cap->contour_start[c], n = cap->contour_start[c + 1] - c0;
+                for (int k = 0; k < n; ++k) {
+                    const int x = (int)cap->contour_xy[2 * (size_t)(c0 + k)];
+                    const int y = (int)cap->contour_xy[2 * (size_t)(c0 + k) + 1];
+                    out[(size_t)y * (size_t)w + (size_t)x] = 128;
+                }
+            }
+            for (int b = 0; b < cap->blade_count && s == TSK_OK; ++b) {
+                const int k0 = cap->knot_start[b], n = cap->knot_start[b + 1] - k0;
+                s = tsk_cvb_polyline(out, w, h, cap->uv + 2 * (size_t)k0, n, 255);
+            }
+            return s;
     }
     return tsk_error_arg(TSK_ERR_ARGUMENT, "which", "unknown image %d", (int)which);
 }

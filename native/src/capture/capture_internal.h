@@ -11,10 +11,10 @@
 typedef struct tsk_ring {
     float* x;
     float* y;
-    float* d;      /* smoothed distance to the cluster centre */
+    float* d; /* smoothed distance to the cluster centre */
     uint8_t* edge; /* 1 if the sample lies on the image border */
     int n;
-    float cx, cy;  /* the cluster centre the distances are measured from */
+    float cx, cy; /* the cluster centre the distances are measured from */
 } tsk_ring;
 
 /* One blade's part of a ring: the tip sample and the split samples before and after it
@@ -80,8 +80,8 @@ void tsk_smooth_open(const float* in, float* out, int n, float sigma);
 
 /* Builds cap->ring from integer contour points: smoothing, 1-pixel resampling, border
  * marks, and the distance to the centre (root mode), smoothed. */
-tsk_status tsk_capture_make_ring(tsk_capture* cap, const tsk_capture_def* def,
-                                 const int32_t* xy, int n);
+tsk_status tsk_capture_make_ring(tsk_capture* cap, const tsk_capture_def* def, const int32_t* xy,
+                                 int n);
 
 /* Finds the blades of cap->ring: significant peaks of the distance and the splits between
  * them (seed 000 §4.2). Writes spans into cap->spans, returns their count (>= 1) or -1. */
@@ -103,8 +103,7 @@ int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, 
                             float* oy, float* ow);
 /* The same beyond the tip: along the last direction to the edge of the last mask pixel,
  * in 0.5 px steps (nearest the tip first), widths tapering to 0. */
-int tsk_capture_extend_tip(const tsk_capture* cap, const float* x, const float* y,
-                           const float* w, int count, int max_out, float* ox, float* oy,
-                           float* ow);
+int tsk_capture_extend_tip(const tsk_capture* cap, const float* x, const float* y, const float* w,
+                           int count, int max_out, float* ox, float* oy, float* ow);
 
 #endif

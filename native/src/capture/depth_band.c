@@ -5,10 +5,10 @@
 
 #include "capture_internal.h"
 
-#define BAND_BIN_M 0.01f   /* histogram bin: 1 cm */
-#define BAND_BINS 2000     /* 0 .. 20 m; farther depths are never proposed */
-#define BAND_WINDOW 10     /* a mode's mass is counted over 10 cm */
-#define BAND_GAP 2         /* a band may bridge up to 2 empty bins */
+#define BAND_BIN_M 0.01f /* histogram bin: 1 cm */
+#define BAND_BINS 2000 /* 0 .. 20 m; farther depths are never proposed */
+#define BAND_WINDOW 10 /* a mode's mass is counted over 10 cm */
+#define BAND_GAP 2 /* a band may bridge up to 2 empty bins */
 
 tsk_status tsk_capture_propose_band(const float* depth_m, int width, int height, int min_pixels,
                                     float* near_m, float* far_m) {
@@ -47,7 +47,8 @@ tsk_status tsk_capture_propose_band(const float* depth_m, int width, int height,
     if (start < 0)
         return tsk_error_arg(TSK_ERR_FORMAT, "depth_m",
                              "no significant depth: no 10 cm slice nearer than 20 m holds %d "
-                             "pixels", min_pixels);
+                             "pixels",
+                             min_pixels);
     /* its peak within 20 cm, then widen to 5 % of the peak, bridging small gaps */
     int peak = start;
     for (int b = start; b < start + 2 * BAND_WINDOW && b < BAND_BINS; ++b)

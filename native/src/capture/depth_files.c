@@ -42,11 +42,13 @@ tsk_status tsk_depth_check_header(const char* path, int* w, int* h) {
         if (colour != 0)
             return tsk_error_arg(TSK_ERR_FORMAT, "path",
                                  "'%s' is a colour PNG; depth must be a 16-bit grey PNG in "
-                                 "millimetres", path);
+                                 "millimetres",
+                                 path);
         if (bit_depth != 16)
             return tsk_error_arg(TSK_ERR_FORMAT, "path",
                                  "'%s' is a %d-bit PNG; depth must be a 16-bit grey PNG in "
-                                 "millimetres", path, bit_depth);
+                                 "millimetres",
+                                 path, bit_depth);
     } else if (n >= 8 && buf[0] == 0x76 && buf[1] == 0x2f && buf[2] == 0x31 && buf[3] == 0x01) {
         /* the whole header, as OpenEXR will read it: its buffers are sized from it */
         tsk_exr_header eh;
@@ -60,12 +62,11 @@ tsk_status tsk_depth_check_header(const char* path, int* w, int* h) {
                                  width, height, TSK_DEPTH_MAX_SIDE, TSK_DEPTH_MAX_SIDE);
         if (eh.channels > 4)
             return tsk_error_arg(TSK_ERR_FORMAT, "path",
-                                 "'%s' has %d channels; depth must be one channel of metres",
-                                 path, eh.channels);
+                                 "'%s' has %d channels; depth must be one channel of metres", path,
+                                 eh.channels);
     } else {
-        return tsk_error_arg(TSK_ERR_FORMAT, "path",
-                             "'%s' is neither a PNG nor an OpenEXR file%s", path,
-                             n == 0 ? " (it is empty)" : "");
+        return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is neither a PNG nor an OpenEXR file%s",
+                             path, n == 0 ? " (it is empty)" : "");
     }
     if (width <= 0 || height <= 0)
         return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' has size %lldx%lld", path, width,
@@ -112,7 +113,8 @@ tsk_status tsk_files_read(tsk_depth_source* src, int index, float* depth_m, size
                 frame_path(src, 0, path, sizeof path);
                 return tsk_error_arg(TSK_ERR_IO, "path",
                                      "no file of the sequence '%s' exists (tried '%s' and "
-                                     "higher numbers)", src->pattern, path);
+                                     "higher numbers)",
+                                     src->pattern, path);
             }
             int n = 1;
             while (first + n < TSK_DEPTH_MAX_FRAMES) {

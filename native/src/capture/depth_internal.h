@@ -17,7 +17,7 @@ struct tsk_depth_source {
     tsk_intrinsics K;
     char description[256];
     /* files */
-    char* pattern;     /* path with the '#' run (or a plain path) */
+    char* pattern; /* path with the '#' run (or a plain path) */
     int hash_pos, hash_len; /* position and length of the '#' run; len 0 = single file */
     /* OpenNI2, in this process (devices; recordings inside the recording reader) */
     tsk_oni_state* oni;

@@ -36,7 +36,7 @@ extern char** environ;
 
 struct tsk_oni_proxy {
     int fd;
-    pid_t pid;  /* -1 when there is no process (tsk_oni_proxy_attach for tests) */
+    pid_t pid; /* -1 when there is no process (tsk_oni_proxy_attach for tests) */
     int broken; /* the conversation failed: every later call fails */
     char broken_why[TSK_ONI_MESSAGE + 256];
 };
@@ -63,8 +63,7 @@ static void reap(tsk_oni_proxy* p, double grace, char* how, size_t cap) {
     while ((r = waitpid(p->pid, &st, WNOHANG)) == 0 && now_s() - t0 < grace) sleep_s(0.002);
     if (r == 0) {
         kill(p->pid, SIGKILL);
-        while ((r = waitpid(p->pid, &st, 0)) < 0 && errno == EINTR) {
-        }
+        while ((r = waitpid(p->pid, &st, 0)) < 0 && errno == EINTR) {}
         if (how && cap) snprintf(how, cap, "did not answer and was stopped");
     } else if (r > 0 && how && cap) {
         if (WIFSIGNALED(st))
@@ -142,8 +141,7 @@ tsk_status tsk_oni_proxy_attach(tsk_depth_source* src, int fd, int pid, const ch
     p->pid = pid > 0 ? pid : -1;
     src->proxy = p;
     tsk_oni_hello h;
-    if (recv_all(fd, &h, sizeof h, now_s() + OPEN_TIMEOUT_S) != 0)
-        return fail(p, path, "opening");
+    if (recv_all(fd, &h, sizeof h, now_s() + OPEN_TIMEOUT_S) != 0) return fail(p, path, "opening");
     h.message[sizeof h.message - 1] = '\0';
     if (memcmp(h.magic, TSK_ONI_MAGIC, sizeof h.magic) != 0 || !valid_status(h.status))
         return fail(p, path, "opening (it answered in another format)");

@@ -20,7 +20,7 @@ typedef struct _OniRecorder _OniRecorder;
 
 #include "depth_internal.h"
 
-#define TSK_ONI_STALL_S 5.0   /* a started device silent this long is lost */
+#define TSK_ONI_STALL_S 5.0 /* a started device silent this long is lost */
 #define TSK_ONI_FILE_WAIT_MS 3000 /* a recording that gives no frame this long is broken */
 #define MAX_OPEN 32
 
@@ -33,7 +33,7 @@ struct tsk_oni_state {
     int pixel_format;
     atomic_int arrived; /* frames announced by the new-frame callback */
     atomic_int lost;
-    int seen;           /* value of `arrived` at the last read */
+    int seen; /* value of `arrived` at the last read */
     int arrived_at_start;
     int frames_read;
     double last_frame_s;
@@ -128,8 +128,7 @@ tsk_status tsk_oni_open(tsk_depth_source* src, const char* uri, int is_file) {
     memset(&info, 0, sizeof info);
     if (oniDeviceGetInfo(st->dev, &info) == ONI_STATUS_OK)
         snprintf(st->uri, sizeof st->uri, "%s", info.uri);
-    else
-        snprintf(st->uri, sizeof st->uri, "%s", open_uri ? open_uri : "");
+    else snprintf(st->uri, sizeof st->uri, "%s", open_uri ? open_uri : "");
     (void)size;
     if (oniDeviceCreateStream(st->dev, ONI_SENSOR_DEPTH, &st->stream) != ONI_STATUS_OK) {
         st->stream = NULL;
@@ -147,10 +146,10 @@ tsk_status tsk_oni_open(tsk_depth_source* src, const char* uri, int is_file) {
         return tsk_error_arg(TSK_ERR_FORMAT, "uri",
                              "'%s': depth pixel format %d is not millimetres or 100 µm", st->uri,
                              (int)mode.pixelFormat);
-    if (mode.resolutionX <= 0 || mode.resolutionY <= 0 ||
-        mode.resolutionX > TSK_DEPTH_MAX_SIDE || mode.resolutionY > TSK_DEPTH_MAX_SIDE)
-        return tsk_error_arg(TSK_ERR_LIMIT, "uri", "'%s': depth size %dx%d outside 1..%d",
-                             st->uri, mode.resolutionX, mode.resolutionY, TSK_DEPTH_MAX_SIDE);
+    if (mode.resolutionX <= 0 || mode.resolutionY <= 0 || mode.resolutionX > TSK_DEPTH_MAX_SIDE ||
+        mode.resolutionY > TSK_DEPTH_MAX_SIDE)
+        return tsk_error_arg(TSK_ERR_LIMIT, "uri", "'%s': depth size %dx%d outside 1..%d", st->uri,
+                             mode.resolutionX, mode.resolutionY, TSK_DEPTH_MAX_SIDE);
     st->pixel_format = mode.pixelFormat;
     src->width = mode.resolutionX;
     src->height = mode.resolutionY;

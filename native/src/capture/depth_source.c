@@ -49,8 +49,7 @@ static tsk_depth_source* new_source(tsk_depth_kind kind) {
 tsk_status tsk_depth_open_files(const char* path, tsk_depth_source** out) {
     if (out == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out", "is NULL");
     *out = NULL;
-    if (path == NULL || path[0] == '\0')
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
+    if (path == NULL || path[0] == '\0') return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
     const size_t len = strlen(path);
     if (len > 4000) return tsk_error_arg(TSK_ERR_LIMIT, "path", "longer than 4000 characters");
     tsk_depth_source* src = new_source(TSK_DEPTH_FILES);
@@ -86,12 +85,10 @@ tsk_status tsk_depth_open_files(const char* path, tsk_depth_source** out) {
     return TSK_OK;
 }
 
-static tsk_status open_recording(const char* path, tsk_depth_source** out,
-                                 int in_process) {
+static tsk_status open_recording(const char* path, tsk_depth_source** out, int in_process) {
     if (out == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out", "is NULL");
     *out = NULL;
-    if (path == NULL || path[0] == '\0')
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
+    if (path == NULL || path[0] == '\0') return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
     FILE* f = NULL; /* a FIFO would block OpenNI2's player */
     const tsk_status opened = tsk_fopen_regular(path, "path", &f);
     if (opened != TSK_OK) return opened;
@@ -206,8 +203,8 @@ tsk_status tsk_depth_read(tsk_depth_source* src, float* depth_m, size_t count,
     if (depth_m == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "depth_m", "is NULL");
     const size_t npix = (size_t)src->width * (size_t)src->height;
     if (count != npix)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "count", "must be width*height = %zu, got %zu",
-                             npix, count);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "count", "must be width*height = %zu, got %zu", npix,
+                             count);
     if (src->proxy) return tsk_oni_proxy_read(src, depth_m, count, frame);
     if (src->kind != TSK_DEPTH_FILES) return tsk_oni_read(src, depth_m, count, frame);
     frame->index = src->cursor;

@@ -11,15 +11,24 @@ static _Thread_local char g_message[TSK_ERROR_CAPACITY];
 
 const char* tsk_status_name(tsk_status status) {
     switch (status) {
-    case TSK_OK: return "ok";
-    case TSK_ERR_ARGUMENT: return "argument";
-    case TSK_ERR_IO: return "io";
-    case TSK_ERR_FORMAT: return "format";
-    case TSK_ERR_MEMORY: return "memory";
-    case TSK_ERR_LIMIT: return "limit";
-    case TSK_ERR_DEVICE: return "device";
-    case TSK_ERR_CANCELLED: return "cancelled";
-    case TSK_ERR_INTERNAL: return "internal";
+        case TSK_OK:
+            return "ok";
+        case TSK_ERR_ARGUMENT:
+            return "argument";
+        case TSK_ERR_IO:
+            return "io";
+        case TSK_ERR_FORMAT:
+            return "format";
+        case TSK_ERR_MEMORY:
+            return "memory";
+        case TSK_ERR_LIMIT:
+            return "limit";
+        case TSK_ERR_DEVICE:
+            return "device";
+        case TSK_ERR_CANCELLED:
+            return "cancelled";
+        case TSK_ERR_INTERNAL:
+            return "internal";
     }
     return "unknown";
 }

@@ -19,12 +19,14 @@ static int fixed_size(const char* type) {
     static const struct {
         const char* type;
         int size;
-    } sizes[] = {{"box2i", 16},    {"box2f", 16},     {"chromaticities", 32}, {"compression", 1},
-                 {"double", 8},    {"envmap", 1},     {"float", 4},           {"int", 4},
-                 {"keycode", 28},  {"lineOrder", 1},  {"m33f", 36},           {"m33d", 72},
-                 {"m44f", 64},     {"m44d", 128},     {"rational", 8},        {"tiledesc", 9},
-                 {"timecode", 8},  {"v2i", 8},        {"v2f", 8},             {"v2d", 16},
-                 {"v3i", 12},      {"v3f", 12},       {"v3d", 24},            {"deepImageState", 1}};
+    } sizes[] = {{"box2i", 16},      {"box2f", 16},   {"chromaticities", 32},
+                 {"compression", 1}, {"double", 8},   {"envmap", 1},
+                 {"float", 4},       {"int", 4},      {"keycode", 28},
+                 {"lineOrder", 1},   {"m33f", 36},    {"m33d", 72},
+                 {"m44f", 64},       {"m44d", 128},   {"rational", 8},
+                 {"tiledesc", 9},    {"timecode", 8}, {"v2i", 8},
+                 {"v2f", 8},         {"v2d", 16},     {"v3i", 12},
+                 {"v3f", 12},        {"v3d", 24},     {"deepImageState", 1}};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; ++i)
         if (strcmp(type, sizes[i].type) == 0) return sizes[i].size;
     return -1;
@@ -69,8 +71,7 @@ static tsk_status parse_channels(const uint8_t* v, size_t size, size_t max_name,
     return TSK_OK;
 }
 
-tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name,
-                                tsk_exr_header* out) {
+tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name, tsk_exr_header* out) {
     memset(out, 0, sizeof *out);
     if (n < 8 || b[0] != 0x76 || b[1] != 0x2f || b[2] != 0x31 || b[3] != 0x01)
         return bad(name, "no OpenEXR magic number");
@@ -79,7 +80,8 @@ tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name,
     if (flags & 0x1800u)
         return tsk_error_arg(TSK_ERR_FORMAT, "path",
                              "'%s' is a multi-part or deep OpenEXR file; only single-part "
-                             "images are read", name);
+                             "images are read",
+                             name);
     const size_t max_name = (flags & 0x400u) ? 255 : 31; /* long names flag */
     out->tiled = (flags & 0x200u) != 0;
     int have_window = 0, have_channels = 0, have_tiles = 0, have_compression = 0;
@@ -90,8 +92,7 @@ tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name,
     uint32_t tile_x = 0, tile_y = 0;
     size_t at = 8;
     for (;;) {
-        if (at >= n)
-            return bad(name, "header longer than the bytes read, or truncated");
+        if (at >= n) return bad(name, "header longer than the bytes read, or truncated");
         if (b[at] == 0) break; /* the empty name that ends the header */
         const char* attr = (const char*)(b + at);
         const size_t an = strnlen(attr, n - at);
@@ -121,7 +122,8 @@ tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name,
                 if ((size_t)size - q < 4) return bad(name, "bad string vector");
                 const int32_t len = le32(v + q);
                 q += 4;
-                if (len < 0 || (size_t)len > (size_t)size - q) return bad(name, "bad string vector");
+                if (len < 0 || (size_t)len > (size_t)size - q)
+                    return bad(name, "bad string vector");
                 q += (size_t)len;
             }
         }
@@ -157,8 +159,8 @@ tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name,
     if (block_lines(compression) == 0) return bad(name, "unknown compression");
     long long line_bytes = 0;
     if (have_channels) {
-        tsk_status st = parse_channels(chan_value, chan_size, max_name, out->width, name,
-                                       &channels, &line_bytes, &pixel_bytes);
+        tsk_status st = parse_channels(chan_value, chan_size, max_name, out->width, name, &channels,
+                                       &line_bytes, &pixel_bytes);
         if (st != TSK_OK) return st;
     }
     out->channels = channels;

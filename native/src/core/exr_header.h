@@ -28,7 +28,6 @@ typedef struct tsk_exr_header {
 /// float vector or string vector (OpenEXR makes room for each string length it reads); and
 /// with TSK_ERR_LIMIT a line block or tile over TSK_EXR_MAX_BLOCK_BYTES. The caller
 /// checks width and height against its own limits.
-tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name,
-                                tsk_exr_header* out);
+tsk_status tsk_exr_check_header(const uint8_t* b, size_t n, const char* name, tsk_exr_header* out);
 
 #endif

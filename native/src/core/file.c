@@ -27,8 +27,8 @@ tsk_status tsk_fopen_regular(const char* path, const char* arg, FILE** out) {
         const int e = errno;
         struct stat st;
         if (e == ENXIO && stat(path, &st) == 0)
-            return tsk_error_arg(TSK_ERR_IO, arg, "'%s' is %s, not a file Tussock can read",
-                                 path, kind_of(st.st_mode));
+            return tsk_error_arg(TSK_ERR_IO, arg, "'%s' is %s, not a file Tussock can read", path,
+                                 kind_of(st.st_mode));
         return tsk_error_arg(TSK_ERR_IO, arg, "cannot open '%s' (%s)", path, strerror(e));
     }
     struct stat st;
@@ -40,8 +40,7 @@ tsk_status tsk_fopen_regular(const char* path, const char* arg, FILE** out) {
     }
     /* a regular file: reads block as usual from here on */
     const int flags = fcntl(fd, F_GETFL);
-    FILE* f = flags >= 0 && fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) == 0 ? fdopen(fd, "rb")
-                                                                          : NULL;
+    FILE* f = flags >= 0 && fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) == 0 ? fdopen(fd, "rb") : NULL;
     if (f == NULL) {
         close(fd);
         return tsk_error_arg(TSK_ERR_IO, arg, "cannot read '%s'", path);

@@ -10,8 +10,7 @@
 #define TSK_ASSERTS_ON 1
 /* Prints the condition and where it failed to stderr and aborts. */
 _Noreturn void tsk_assert_fail(const char* cond, const char* file, int line, const char* func);
-#define TSK_ASSERT(cond) \
-    ((cond) ? (void)0 : tsk_assert_fail(#cond, __FILE__, __LINE__, __func__))
+#define TSK_ASSERT(cond) ((cond) ? (void)0 : tsk_assert_fail(#cond, __FILE__, __LINE__, __func__))
 #else
 #define TSK_ASSERTS_ON 0
 /* sizeof: the condition is type-checked and its variables count as used, but not evaluated */

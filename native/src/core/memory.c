@@ -39,14 +39,10 @@ void tsk_set_memory_budget(uint64_t bytes) { atomic_store(&g_budget, bytes); }
 
 /* "12 MiB", "3.5 GiB", "40 KiB": a size a person reads at a glance */
 static void human(double bytes, char* out, size_t n) {
-    if (bytes >= 1073741824.0 * 1024.0)
-        snprintf(out, n, "%.0f GiB", bytes / 1073741824.0);
-    else if (bytes >= 1073741824.0)
-        snprintf(out, n, "%.1f GiB", bytes / 1073741824.0);
-    else if (bytes >= 1048576.0)
-        snprintf(out, n, "%.0f MiB", bytes / 1048576.0);
-    else
-        snprintf(out, n, "%.0f KiB", bytes / 1024.0);
+    if (bytes >= 1073741824.0 * 1024.0) snprintf(out, n, "%.0f GiB", bytes / 1073741824.0);
+    else if (bytes >= 1073741824.0) snprintf(out, n, "%.1f GiB", bytes / 1073741824.0);
+    else if (bytes >= 1048576.0) snprintf(out, n, "%.0f MiB", bytes / 1048576.0);
+    else snprintf(out, n, "%.0f KiB", bytes / 1024.0);
 }
 
 tsk_status tsk_memory_check(double bytes, const char* what) {

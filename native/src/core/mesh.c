@@ -19,8 +19,7 @@ tsk_status tsk_mesh_edges(const int32_t* corners, size_t face_count, int face_si
     if (face_size < 3 || face_size > 64)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "face_size", "%d is not in 3..64", face_size);
     if (vertex_count < 0)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "vertex_count", "%d is negative",
-                             (int)vertex_count);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "vertex_count", "%d is negative", (int)vertex_count);
     if (face_count > (size_t)INT32_MAX / (size_t)face_size)
         return tsk_error_arg(TSK_ERR_LIMIT, "face_count", "%zu faces of %d corners are too many",
                              face_count, face_size);
@@ -65,7 +64,7 @@ tsk_status tsk_mesh_edges(const int32_t* corners, size_t face_count, int face_si
         }
     for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
     for (size_t c = 0; c < n; ++c) slot[start[first[c]]++] = (int32_t)c; /* start: bucket ends */
-    for (size_t v = nv; v > 0; --v) start[v] = start[v - 1];               /* back to starts */
+    for (size_t v = nv; v > 0; --v) start[v] = start[v - 1]; /* back to starts */
     start[0] = 0;
     for (size_t v = 0; v < nv; ++v) seen[v] = -1;
     for (size_t v = 0; v < nv; ++v) {

@@ -22,17 +22,17 @@ typedef struct job {
     void* ctx;
     size_t count, grain, chunks;
     atomic_size_t next; /* next chunk to take */
-    int max_workers;    /* workers that may join (threads - 1) */
-    int joined;         /* workers that joined (under g_mutex) */
-    int active;         /* workers inside the job (under g_mutex) */
+    int max_workers; /* workers that may join (threads - 1) */
+    int joined; /* workers that joined (under g_mutex) */
+    int active; /* workers inside the job (under g_mutex) */
 } job;
 
 static int g_threads = 0; /* 0: not set yet, use all cores */
 
-static pthread_mutex_t g_mutex = PTHREAD_MUTEX_INITIALIZER;   /* guards everything below */
-static pthread_cond_t g_work = PTHREAD_COND_INITIALIZER;      /* a new job was posted */
-static pthread_cond_t g_done = PTHREAD_COND_INITIALIZER;      /* a worker left a job */
-static pthread_mutex_t g_caller = PTHREAD_MUTEX_INITIALIZER;  /* one parallel loop at a time */
+static pthread_mutex_t g_mutex = PTHREAD_MUTEX_INITIALIZER; /* guards everything below */
+static pthread_cond_t g_work = PTHREAD_COND_INITIALIZER; /* a new job was posted */
+static pthread_cond_t g_done = PTHREAD_COND_INITIALIZER; /* a worker left a job */
+static pthread_mutex_t g_caller = PTHREAD_MUTEX_INITIALIZER; /* one parallel loop at a time */
 static job* g_job = NULL;
 static unsigned long g_generation = 0;
 static int g_workers = 0; /* started worker threads */

@@ -26,8 +26,8 @@ enum { BOUNDS_GRAIN = 65536 };
 
 typedef struct bounds_ctx {
     const float* xyz;
-    float* part;        /* 6 floats per chunk: lo xyz, hi xyz */
-    size_t* first_bad;  /* per chunk: its first non-finite point, or count */
+    float* part; /* 6 floats per chunk: lo xyz, hi xyz */
+    size_t* first_bad; /* per chunk: its first non-finite point, or count */
     size_t count;
 } bounds_ctx;
 
@@ -41,8 +41,8 @@ static void bounds_fold(float lo[3], float hi[3], const float plo[3], const floa
 
 /* min/max of points [begin, end) into lo/hi; the index of the first non-finite point, or
  * `bad_none` when all are finite. */
-static size_t bounds_scalar(const float* xyz, size_t begin, size_t end, float lo[3],
-                            float hi[3], size_t bad_none) {
+static size_t bounds_scalar(const float* xyz, size_t begin, size_t end, float lo[3], float hi[3],
+                            size_t bad_none) {
     for (size_t i = begin; i < end; ++i) {
         const float* p = &xyz[3 * i];
         if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) return i;
@@ -90,7 +90,8 @@ static void bounds_range(size_t begin, size_t end, size_t chunk, void* vctx) {
 }
 
 tsk_status tsk_vec3_bounds(const float* xyz, size_t count, float lo[3], float hi[3]) {
-    if (lo == NULL || hi == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, lo ? "hi" : "lo", "is NULL");
+    if (lo == NULL || hi == NULL)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, lo ? "hi" : "lo", "is NULL");
     if (count == 0) return tsk_error_arg(TSK_ERR_ARGUMENT, "count", "is 0: no points, no bounds");
     if (xyz == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "xyz", "is NULL");
     const size_t chunks = tsk_chunk_count(count, BOUNDS_GRAIN);

@@ -14,8 +14,8 @@ tsk_status tsk_blade_model_set(tsk_blade_model* model, const float* xyz, const f
                              "%d knots exceed the limit of %d (refine the blade first)",
                              (int)knot_count, TSK_BLADE_MAX_KNOTS);
     if (knot_count < 2)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "knot_count", "a blade needs at least 2 knots, got %d",
-                             (int)knot_count);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "knot_count",
+                             "a blade needs at least 2 knots, got %d", (int)knot_count);
     if (xyz == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "xyz", "is NULL");
     if (width == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "width", "is NULL");
     for (int32_t k = 0; k < knot_count; ++k) {
@@ -33,7 +33,8 @@ tsk_status tsk_blade_model_set(tsk_blade_model* model, const float* xyz, const f
     }
     double length = 0.0;
     for (int32_t k = 1; k < knot_count; ++k) {
-        double dx = (double)xyz[3 * k] - xyz[3 * k - 3], dy = (double)xyz[3 * k + 1] - xyz[3 * k - 2],
+        double dx = (double)xyz[3 * k] - xyz[3 * k - 3],
+               dy = (double)xyz[3 * k + 1] - xyz[3 * k - 2],
                dz = (double)xyz[3 * k + 2] - xyz[3 * k - 1];
         length += sqrt(dx * dx + dy * dy + dz * dz);
     }
@@ -169,7 +170,7 @@ tsk_status tsk_blade_models_set(tsk_blade_model* models, int32_t model_count, co
         first += (size_t)n;
     }
     if (first != total_knots)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "knot_counts",
-                             "sum to %zu knots but %zu were given", first, total_knots);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "knot_counts", "sum to %zu knots but %zu were given",
+                             first, total_knots);
     return TSK_OK;
 }

@@ -44,8 +44,8 @@ static void knot_frame(float tx, float ty, float tz, const float s0[3], float* T
     S[0] = sx, S[EXPAND_ROOM] = sy, S[2 * EXPAND_ROOM] = sz;
 }
 
-static void blade_frames(const float* knots, int32_t n, const float s0[3],
-                         float T[3 * EXPAND_ROOM], float S[3 * EXPAND_ROOM]) {
+static void blade_frames(const float* knots, int32_t n, const float s0[3], float T[3 * EXPAND_ROOM],
+                         float S[3 * EXPAND_ROOM]) {
     float D[3][EXPAND_ROOM]; /* knot b - knot a, per axis */
     for (int32_t k = 0; k < n; ++k) {
         const int32_t a = k > 0 ? k - 1 : 0, b = k < n - 1 ? k + 1 : n - 1;
@@ -56,25 +56,26 @@ static void blade_frames(const float* knots, int32_t n, const float s0[3],
     const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), eps = _mm_set1_ps(1e-12f);
     const __m128 sx0 = _mm_set1_ps(s0[0]), sy0 = _mm_set1_ps(s0[1]), sz0 = _mm_set1_ps(s0[2]);
     for (; k + 4 <= n; k += 4) {
-        __m128 tx = _mm_loadu_ps(&D[0][k]), ty = _mm_loadu_ps(&D[1][k]), tz = _mm_loadu_ps(&D[2][k]);
-        const __m128 tl2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(tx, tx), _mm_mul_ps(ty, ty)),
-                                      _mm_mul_ps(tz, tz));
+        __m128 tx = _mm_loadu_ps(&D[0][k]), ty = _mm_loadu_ps(&D[1][k]),
+               tz = _mm_loadu_ps(&D[2][k]);
+        const __m128 tl2 =
+            _mm_add_ps(_mm_add_ps(_mm_mul_ps(tx, tx), _mm_mul_ps(ty, ty)), _mm_mul_ps(tz, tz));
         const __m128 tok = _mm_cmpgt_ps(tl2, zero);
         /* lanes with tl2 <= 0 take (0, 0, 1); their quotient is never used */
-        const __m128 tinv = _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(tok, tl2),
-                                                                  _mm_andnot_ps(tok, one))));
+        const __m128 tinv =
+            _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(tok, tl2), _mm_andnot_ps(tok, one))));
         tx = _mm_and_ps(tok, _mm_mul_ps(tx, tinv));
         ty = _mm_and_ps(tok, _mm_mul_ps(ty, tinv));
         tz = _mm_or_ps(_mm_and_ps(tok, _mm_mul_ps(tz, tinv)), _mm_andnot_ps(tok, one));
-        const __m128 d = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx0, tx), _mm_mul_ps(sy0, ty)),
-                                    _mm_mul_ps(sz0, tz));
+        const __m128 d =
+            _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx0, tx), _mm_mul_ps(sy0, ty)), _mm_mul_ps(sz0, tz));
         __m128 sx = _mm_sub_ps(sx0, _mm_mul_ps(d, tx)), sy = _mm_sub_ps(sy0, _mm_mul_ps(d, ty)),
                sz = _mm_sub_ps(sz0, _mm_mul_ps(d, tz));
-        const __m128 ssl2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx, sx), _mm_mul_ps(sy, sy)),
-                                       _mm_mul_ps(sz, sz));
+        const __m128 ssl2 =
+            _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx, sx), _mm_mul_ps(sy, sy)), _mm_mul_ps(sz, sz));
         const __m128 sok = _mm_cmpgt_ps(ssl2, eps);
-        const __m128 sinv = _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(sok, ssl2),
-                                                                  _mm_andnot_ps(sok, one))));
+        const __m128 sinv =
+            _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(sok, ssl2), _mm_andnot_ps(sok, one))));
         sx = _mm_or_ps(_mm_and_ps(sok, _mm_mul_ps(sx, sinv)), _mm_andnot_ps(sok, sx0));
         sy = _mm_or_ps(_mm_and_ps(sok, _mm_mul_ps(sy, sinv)), _mm_andnot_ps(sok, sy0));
         sz = _mm_or_ps(_mm_and_ps(sok, _mm_mul_ps(sz, sinv)), _mm_andnot_ps(sok, sz0));
@@ -99,7 +100,8 @@ static void expand_blade(const float* knots, const float* widths, int32_t n, con
     if (uv) {
         seg[0] = 0.0f;
         for (int32_t k = 1; k < n; ++k) {
-            const float dx = knots[3 * k] - knots[3 * k - 3], dy = knots[3 * k + 1] - knots[3 * k - 2],
+            const float dx = knots[3 * k] - knots[3 * k - 3],
+                        dy = knots[3 * k + 1] - knots[3 * k - 2],
                         dz = knots[3 * k + 2] - knots[3 * k - 1];
             seg[k] = sqrtf(dx * dx + dy * dy + dz * dz);
             total += seg[k];
@@ -179,11 +181,15 @@ tsk_status tsk_blade_expand(const float* knots, const float* widths, int32_t kno
     if (side == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "side", "is NULL");
     size_t k = 0;
     switch (bad_input(knots, widths, side, (size_t)knot_count, &k)) {
-    case BAD_KNOT: return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %d is not finite", (int)k);
-    case BAD_WIDTH:
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "width %d must be finite and >= 0", (int)k);
-    case BAD_SIDE: return tsk_error_arg(TSK_ERR_ARGUMENT, "side", "must be a finite non-zero vector");
-    default: break;
+        case BAD_KNOT:
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %d is not finite", (int)k);
+        case BAD_WIDTH:
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "width %d must be finite and >= 0",
+                                 (int)k);
+        case BAD_SIDE:
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "side", "must be a finite non-zero vector");
+        default:
+            break;
     }
     expand_blade(knots, widths, knot_count, side, positions, normals, uvs);
     return TSK_OK;
@@ -209,15 +215,17 @@ tsk_status tsk_ribbon_report_bad(const float* knots, const float* widths, const 
                                  size_t K, size_t b) {
     size_t k = 0;
     switch (bad_input(knots, widths, side, K, &k)) {
-    case BAD_KNOT:
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %zu of blade %zu is not finite", k, b);
-    case BAD_WIDTH:
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
-                             "width %zu of blade %zu must be finite and >= 0", k, b);
-    case BAD_SIDE:
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "sides",
-                             "side of blade %zu must be a finite non-zero vector", b);
-    default: return TSK_OK;
+        case BAD_KNOT:
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "knot %zu of blade %zu is not finite",
+                                 k, b);
+        case BAD_WIDTH:
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
+                                 "width %zu of blade %zu must be finite and >= 0", k, b);
+        case BAD_SIDE:
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "sides",
+                                 "side of blade %zu must be a finite non-zero vector", b);
+        default:
+            return TSK_OK;
     }
 }
 
@@ -275,7 +283,8 @@ tsk_status tsk_blades_expand(const float* knots, const float* widths, const floa
     for (size_t i = 0; i < chunks && bad == blade_count; ++i) bad = first_bad[i];
     tsk_free(first_bad);
     if (bad < blade_count)
-        return tsk_ribbon_report_bad(&knots[3 * K * bad], &widths[K * bad], &sides[3 * bad], K, bad);
+        return tsk_ribbon_report_bad(&knots[3 * K * bad], &widths[K * bad], &sides[3 * bad], K,
+                                     bad);
     many_ctx c = {knots, widths, sides, knot_count, positions, normals, uvs};
     tsk_parallel_for(blade_count, 256, expand_many, &c);
     return TSK_OK;
@@ -310,10 +319,10 @@ tsk_status tsk_blades_indices(int32_t knot_count, size_t blade_count, int32_t* t
     return TSK_OK;
 }
 
-tsk_status tsk_patch_mesh_counts(const tsk_patch* p, size_t* vertex_count,
-                                 size_t* triangle_count) {
+tsk_status tsk_patch_mesh_counts(const tsk_patch* p, size_t* vertex_count, size_t* triangle_count) {
     if (p == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "patch", "is NULL");
-    if (vertex_count) *vertex_count = (size_t)p->blade_count * tsk_blade_vertex_count(p->knot_count);
+    if (vertex_count)
+        *vertex_count = (size_t)p->blade_count * tsk_blade_vertex_count(p->knot_count);
     if (triangle_count)
         *triangle_count = (size_t)p->blade_count * tsk_blade_triangle_count(p->knot_count);
     return TSK_OK;
@@ -349,12 +358,12 @@ static void expand_range(size_t begin, size_t end, size_t chunk, void* vctx) {
     }
 }
 
-tsk_status tsk_patch_expand(const tsk_patch* p, float tile_size, float* positions,
-                            float* normals, float* uvs, int32_t* tris, int32_t* blade_index) {
+tsk_status tsk_patch_expand(const tsk_patch* p, float tile_size, float* positions, float* normals,
+                            float* uvs, int32_t* tris, int32_t* blade_index) {
     if (p == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "patch", "is NULL");
     if (!isfinite(tile_size) || !(tile_size > 0.0f) || tile_size > 1e6f)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "tile_size", "must be finite, > 0 and <= 1000 km, got %g",
-                             (double)tile_size);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "tile_size",
+                             "must be finite, > 0 and <= 1000 km, got %g", (double)tile_size);
     expand_ctx c = {p, tile_size, positions, normals, uvs, tris, blade_index};
     tsk_parallel_for((size_t)p->blade_count, 256, expand_range, &c);
     return TSK_OK;

@@ -126,9 +126,11 @@ static void fill_blades(size_t begin, size_t end, size_t chunk, void* vctx) {
                 const tsk_blade_model* bm = &p->models[p->model[b]];
                 const float co = cosf(p->turn[b]), si = sinf(p->turn[b]);
                 if (c->knots)
-                    tsk_meadow_place_knots(bm, co, si, p->scale[b], root, &c->knots[3 * (size_t)o * K]);
+                    tsk_meadow_place_knots(bm, co, si, p->scale[b], root,
+                                           &c->knots[3 * (size_t)o * K]);
                 if (c->widths)
-                    for (int32_t q = 0; q < K; ++q) c->widths[(size_t)o * K + q] = bm->width[q] * p->scale[b];
+                    for (int32_t q = 0; q < K; ++q)
+                        c->widths[(size_t)o * K + q] = bm->width[q] * p->scale[b];
                 if (c->sides) {
                     const float* s = &p->model_side[3 * p->model[b]];
                     c->sides[3 * o] = co * s[0] - si * s[1];
@@ -159,8 +161,7 @@ tsk_status tsk_meadow_realise(const tsk_meadow* m, const tsk_patch* p, int64_t t
 }
 
 tsk_status tsk_meadow_realise_knots(const tsk_meadow* m, const tsk_patch* p, int64_t tile_begin,
-                                    int64_t tile_end, float* knots, float* widths,
-                                    float* sides) {
+                                    int64_t tile_end, float* knots, float* widths, float* sides) {
     tsk_status s = check_range(m, p, tile_begin, tile_end);
     if (s != TSK_OK) return s;
     inst_ctx c = {0};

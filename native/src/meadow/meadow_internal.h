@@ -10,13 +10,13 @@ struct tsk_patch {
     int32_t blade_count;
     int32_t knot_count;
     int32_t model_count;
-    float* x;      /* [blade_count] unit square */
-    float* y;      /* [blade_count] */
-    float* turn;   /* [blade_count] radians in [0, 2pi) */
-    float* scale;  /* [blade_count] */
-    int32_t* model;            /* [blade_count] */
-    tsk_blade_model* models;   /* [model_count], all with knot_count knots */
-    float* model_side;         /* [3 * model_count] rest side vector of each model */
+    float* x; /* [blade_count] unit square */
+    float* y; /* [blade_count] */
+    float* turn; /* [blade_count] radians in [0, 2pi) */
+    float* scale; /* [blade_count] */
+    int32_t* model; /* [blade_count] */
+    tsk_blade_model* models; /* [model_count], all with knot_count knots */
+    float* model_side; /* [3 * model_count] rest side vector of each model */
 };
 
 /* The meadow grid with every tile's count, offset and density (arrays of tile_count). */

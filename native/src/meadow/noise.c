@@ -27,14 +27,22 @@ static inline double lerp(double t, double a, double b) { return a + t * (b - a)
 static inline double grad(int h, double x, double y) {
     static const double R2 = 1.4142135623730950488;
     switch (h & 7) {
-    case 0: return R2 * x;
-    case 1: return x + y;
-    case 2: return R2 * y;
-    case 3: return -x + y;
-    case 4: return -R2 * x;
-    case 5: return -x - y;
-    case 6: return -R2 * y;
-    default: return x - y;
+        case 0:
+            return R2 * x;
+        case 1:
+            return x + y;
+        case 2:
+            return R2 * y;
+        case 3:
+            return -x + y;
+        case 4:
+            return -R2 * x;
+        case 5:
+            return -x - y;
+        case 6:
+            return -R2 * y;
+        default:
+            return x - y;
     }
 }
 

@@ -66,9 +66,8 @@ tsk_status tsk_patch_create(const tsk_patch_def* def, tsk_patch** out) {
     *out = NULL;
     if (def == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "def", "is NULL");
     if (def->blade_count > TSK_PATCH_MAX_BLADES)
-        return tsk_error_arg(TSK_ERR_LIMIT, "blade_count",
-                             "%d blades exceed the patch limit of %d", (int)def->blade_count,
-                             TSK_PATCH_MAX_BLADES);
+        return tsk_error_arg(TSK_ERR_LIMIT, "blade_count", "%d blades exceed the patch limit of %d",
+                             (int)def->blade_count, TSK_PATCH_MAX_BLADES);
     if (def->blade_count < 1)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "blade_count", "must be at least 1, got %d",
                              (int)def->blade_count);
@@ -77,23 +76,21 @@ tsk_status tsk_patch_create(const tsk_patch_def* def, tsk_patch** out) {
                              (double)def->scale_min);
     if (!isfinite(def->scale_max) || def->scale_max < def->scale_min)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "scale_max",
-                             "must be finite and >= scale_min (%g), got %g",
-                             (double)def->scale_min, (double)def->scale_max);
+                             "must be finite and >= scale_min (%g), got %g", (double)def->scale_min,
+                             (double)def->scale_max);
     if (def->scale_max > 1000.0f)
         return tsk_error_arg(TSK_ERR_LIMIT, "scale_max", "%g is over the limit of 1000",
                              (double)def->scale_max);
     if (def->model_count < 0 || def->model_count > TSK_PATCH_MAX_MODELS)
-        return tsk_error_arg(def->model_count < 0 ? TSK_ERR_ARGUMENT : TSK_ERR_LIMIT,
-                             "model_count", "must be 0..%d, got %d", TSK_PATCH_MAX_MODELS,
-                             (int)def->model_count);
+        return tsk_error_arg(def->model_count < 0 ? TSK_ERR_ARGUMENT : TSK_ERR_LIMIT, "model_count",
+                             "must be 0..%d, got %d", TSK_PATCH_MAX_MODELS, (int)def->model_count);
     if (def->model_count > 0 && def->models == NULL)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "models", "is NULL but model_count is %d",
                              (int)def->model_count);
     if (def->knot_count != 0 && (def->knot_count < 2 || def->knot_count > TSK_BLADE_MAX_KNOTS))
-        return tsk_error_arg(def->knot_count > TSK_BLADE_MAX_KNOTS ? TSK_ERR_LIMIT
-                                                                   : TSK_ERR_ARGUMENT,
-                             "knot_count", "must be 0 (automatic) or 2..%d, got %d",
-                             TSK_BLADE_MAX_KNOTS, (int)def->knot_count);
+        return tsk_error_arg(
+            def->knot_count > TSK_BLADE_MAX_KNOTS ? TSK_ERR_LIMIT : TSK_ERR_ARGUMENT, "knot_count",
+            "must be 0 (automatic) or 2..%d, got %d", TSK_BLADE_MAX_KNOTS, (int)def->knot_count);
 
     const int32_t nm = def->model_count > 0 ? def->model_count : 1;
     int32_t knots = def->knot_count;
@@ -162,8 +159,7 @@ tsk_status tsk_patch_create(const tsk_patch_def* def, tsk_patch** out) {
         if (def->model_count > 0)
             s = tsk_blade_model_set(&src, def->models[m].xyz, def->models[m].width,
                                     def->models[m].knot_count);
-        else
-            s = tsk_blade_model_default(&src, knots);
+        else s = tsk_blade_model_default(&src, knots);
         if (s == TSK_OK) s = tsk_blade_model_resample(&src, knots, &p->models[m]);
         if (s != TSK_OK) {
             tsk_patch_destroy(p);

@@ -41,15 +41,16 @@ static tsk_status check_def(const tsk_meadow_def* d) {
     for (int a = 0; a < 3; ++a)
         if (!isfinite(d->origin[a]) || fabsf(d->origin[a]) > 1e7f)
             return tsk_error_arg(TSK_ERR_ARGUMENT, origin_names[a],
-                                 "must be finite and within 10,000 km, got %g", (double)d->origin[a]);
+                                 "must be finite and within 10,000 km, got %g",
+                                 (double)d->origin[a]);
     static const char* size_names[2] = {"size.x", "size.y"};
     for (int a = 0; a < 2; ++a) {
         if (!isfinite(d->size[a]) || !(d->size[a] > 0.0f))
-            return tsk_error_arg(TSK_ERR_ARGUMENT, size_names[a], "must be finite and > 0 m, got %g",
-                                 (double)d->size[a]);
+            return tsk_error_arg(TSK_ERR_ARGUMENT, size_names[a],
+                                 "must be finite and > 0 m, got %g", (double)d->size[a]);
         if (d->size[a] > 1e7f)
-            return tsk_error_arg(TSK_ERR_LIMIT, size_names[a], "%g m exceeds the limit of 10,000 km",
-                                 (double)d->size[a]);
+            return tsk_error_arg(TSK_ERR_LIMIT, size_names[a],
+                                 "%g m exceeds the limit of 10,000 km", (double)d->size[a]);
     }
     if (!isfinite(d->tile_size) || !(d->tile_size > 0.0f))
         return tsk_error_arg(TSK_ERR_ARGUMENT, "tile_size", "must be finite and > 0 m, got %g",
@@ -87,8 +88,8 @@ static tsk_status check_def(const tsk_meadow_def* d) {
     const double ny = floor((double)d->size[1] / (double)d->tile_size);
     if (nx * ny > (double)TSK_MEADOW_MAX_TILES)
         return tsk_error_arg(TSK_ERR_LIMIT, "tile_size",
-                             "%.0f x %.0f tiles exceed the limit of %d tiles; use larger tiles",
-                             nx, ny, TSK_MEADOW_MAX_TILES);
+                             "%.0f x %.0f tiles exceed the limit of %d tiles; use larger tiles", nx,
+                             ny, TSK_MEADOW_MAX_TILES);
     if (nx * ny * (double)d->blades_per_tile > (double)TSK_MEADOW_MAX_BLADES)
         return tsk_error_arg(TSK_ERR_LIMIT, "blades_per_tile",
                              "%.0f tiles x %d blades = %.0f blades exceed the meadow limit of "
@@ -101,7 +102,7 @@ static tsk_status check_def(const tsk_meadow_def* d) {
 typedef struct tiles_ctx {
     tsk_meadow* m;
     tsk_noise noise;
-    int64_t* chunk_sums;    /* blades per chunk of tiles */
+    int64_t* chunk_sums; /* blades per chunk of tiles */
     int64_t* chunk_nonempty;
 } tiles_ctx;
 

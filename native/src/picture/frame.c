@@ -31,9 +31,8 @@ tsk_status tsk_picture_layer_frame(const tsk_picture* p, int layer, const tsk_wa
     float* dy = dx + nc;
     s = tsk_warp_corners(&d, p->width, p->height, field, scale_map, scale_count, dx, dy, nc);
     if (s == TSK_OK)
-        s = tsk_warp_apply(p->width, p->height, L->rgba, (size_t)p->width * p->height * 4,
-                           d.cell_x, d.cell_y, dx, dy, nc, d.sampling, rgba, rgba_count, uv,
-                           uv_count,
+        s = tsk_warp_apply(p->width, p->height, L->rgba, (size_t)p->width * p->height * 4, d.cell_x,
+                           d.cell_y, dx, dy, nc, d.sampling, rgba, rgba_count, uv, uv_count,
                            uv_bottom_up);
     tsk_free(dx);
     return s;

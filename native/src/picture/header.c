@@ -82,17 +82,17 @@ tsk_status tsk_picture_header_size(const uint8_t* b, size_t n, const char* name,
     long long w = 0, h = 0;
     tsk_status s;
     if (n >= 8 && memcmp(b, png_sig, 8) == 0) s = png_size(b, n, name, &w, &h);
-    else if (n >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF) s = jpeg_size(b, n, name, &w, &h);
+    else if (n >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF)
+        s = jpeg_size(b, n, name, &w, &h);
     else if (n >= 8 && memcmp(b, exr_sig, 4) == 0) s = exr_size(b, n, name, &w, &h);
     else
-        return tsk_error_arg(TSK_ERR_FORMAT, "path",
-                             "'%s' is not a PNG, JPEG or OpenEXR file (%s)", name,
-                             n == 0 ? "it is empty" : "unknown signature");
+        return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is not a PNG, JPEG or OpenEXR file (%s)",
+                             name, n == 0 ? "it is empty" : "unknown signature");
     if (s != TSK_OK) return s;
     if (w < TSK_PICTURE_MIN_SIDE || h < TSK_PICTURE_MIN_SIDE)
         return tsk_error_arg(TSK_ERR_FORMAT, "path",
-                             "'%s' is %lldx%lld pixels; a picture needs at least %dx%d", name, w,
-                             h, TSK_PICTURE_MIN_SIDE, TSK_PICTURE_MIN_SIDE);
+                             "'%s' is %lldx%lld pixels; a picture needs at least %dx%d", name, w, h,
+                             TSK_PICTURE_MIN_SIDE, TSK_PICTURE_MIN_SIDE);
     if (w > TSK_PICTURE_MAX_SIDE || h > TSK_PICTURE_MAX_SIDE || w * h > TSK_PICTURE_MAX_PIXELS)
         return tsk_error_arg(TSK_ERR_LIMIT, "path",
                              "'%s' is %lldx%lld pixels; the limit is %d per side and %lld in all",

@@ -29,16 +29,15 @@ tsk_status tsk_picture_propose_mask(const tsk_picture* p, const tsk_grabcut_def*
         return tsk_error_arg(TSK_ERR_ARGUMENT, "mask", "must have %d*%d = %zu values, got %zu",
                              p->width, p->height, n, mask_count);
     if (strokes != NULL && stroke_count != n)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "strokes",
-                             "must have %d*%d = %zu values, got %zu", p->width, p->height, n,
-                             stroke_count);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "strokes", "must have %d*%d = %zu values, got %zu",
+                             p->width, p->height, n, stroke_count);
     if (def->rect_width < 1 || def->rect_height < 1 || def->rect_x < 0 || def->rect_y < 0 ||
         def->rect_x > p->width - def->rect_width || def->rect_y > p->height - def->rect_height)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "rect",
                              "(%d, %d, %d, %d) must be a non-empty rectangle inside the %dx%d "
                              "picture",
-                             def->rect_x, def->rect_y, def->rect_width, def->rect_height,
-                             p->width, p->height);
+                             def->rect_x, def->rect_y, def->rect_width, def->rect_height, p->width,
+                             p->height);
     if (def->iterations < 1 || def->iterations > 50)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "iterations", "must be 1..50, got %d",
                              def->iterations);
@@ -49,8 +48,8 @@ tsk_status tsk_picture_propose_mask(const tsk_picture* p, const tsk_grabcut_def*
                                      "value %u at pixel %zu is not 0 (none), 1 (foreground) or "
                                      "2 (background)",
                                      strokes[i], i);
-    return tsk_cvp_grabcut(p->rgba, p->width, p->height, def->rect_x, def->rect_y,
-                           def->rect_width, def->rect_height, def->iterations, strokes, mask);
+    return tsk_cvp_grabcut(p->rgba, p->width, p->height, def->rect_x, def->rect_y, def->rect_width,
+                           def->rect_height, def->iterations, strokes, mask);
 }
 
 /* Takes ownership of `bin` (W*H, 0/1) as a new layer. */
@@ -106,8 +105,7 @@ static tsk_status check_add(tsk_picture* p, const void* mask, size_t count) {
     return tsk_memory_check(px * (p->layer_count + 1) * 21.0 + px * 48.0 + px * 25.0, "mask");
 }
 
-tsk_status tsk_picture_add_layer_u8(tsk_picture* p, const uint8_t* mask, size_t count,
-                                    int* index) {
+tsk_status tsk_picture_add_layer_u8(tsk_picture* p, const uint8_t* mask, size_t count, int* index) {
     tsk_status s = check_add(p, mask, count);
     if (s != TSK_OK) return s;
     uint8_t* bin = tsk_alloc(count, "layer mask");
@@ -126,8 +124,7 @@ tsk_status tsk_picture_add_layer_u8(tsk_picture* p, const uint8_t* mask, size_t 
     return add_layer(p, bin, index);
 }
 
-tsk_status tsk_picture_add_layer_f32(tsk_picture* p, const float* mask, size_t count,
-                                     int* index) {
+tsk_status tsk_picture_add_layer_f32(tsk_picture* p, const float* mask, size_t count, int* index) {
     tsk_status s = check_add(p, mask, count);
     if (s != TSK_OK) return s;
     for (size_t i = 0; i < count; ++i)
@@ -232,8 +229,8 @@ tsk_status tsk_picture_build(tsk_picture* p, const tsk_layers_def* def) {
     }
     /* the background plate: every layer removed at once */
     memcpy(current, p->rgba, n * 4 * sizeof(float));
-    s = tsk_cvp_inpaint(current, p->width, p->height, region, def->inpaint_radius,
-                        (int)def->method, has_alpha ? 4 : 3);
+    s = tsk_cvp_inpaint(current, p->width, p->height, region, def->inpaint_radius, (int)def->method,
+                        has_alpha ? 4 : 3);
     if (s != TSK_OK) goto done;
     if (p->background == NULL) p->background = tsk_alloc(n * 4 * sizeof(float), "background");
     if (p->background == NULL) {

@@ -23,8 +23,8 @@ enum { EWA_STEPS = 256 };
 typedef struct map_uv_ctx {
     int width, height;
     const float* src; /* premultiplied RGBA, rows top-first */
-    const float* uv;  /* the UV pass, rows bottom-up (Blender's order) */
-    float* dst;       /* rows top-first */
+    const float* uv; /* the UV pass, rows bottom-up (Blender's order) */
+    float* dst; /* rows top-first */
     float weights[EWA_STEPS];
 } map_uv_ctx;
 
@@ -50,8 +50,7 @@ static float ellipse_angle(float A, float B, float C) {
 }
 
 /* The implicit ellipse from squared radii and angle (inverse of ellipse_axes). */
-static void ellipse_implicit(float a2, float b2, float th, float* A, float* B, float* C,
-                             float* F) {
+static void ellipse_implicit(float a2, float b2, float th, float* A, float* B, float* C, float* F) {
     float c2 = cosf(th);
     const float s2 = 1.0f - c2 * c2;
     c2 *= c2;

@@ -41,8 +41,8 @@ static tsk_status new_picture(int width, int height, tsk_picture** out) {
     return TSK_OK;
 }
 
-tsk_status tsk_picture_create(int width, int height, const float* rgba, size_t count,
-                              int bottom_up, tsk_picture** out) {
+tsk_status tsk_picture_create(int width, int height, const float* rgba, size_t count, int bottom_up,
+                              tsk_picture** out) {
     if (out == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out", "is NULL");
     *out = NULL;
     tsk_status s = tsk_picture_check_size(width, height, TSK_PICTURE_MIN_SIDE, "width, height");
@@ -63,8 +63,7 @@ tsk_status tsk_picture_create(int width, int height, const float* rgba, size_t c
 tsk_status tsk_picture_load(const char* path, tsk_picture** out) {
     if (out == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out", "is NULL");
     *out = NULL;
-    if (path == NULL || path[0] == '\0')
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
+    if (path == NULL || path[0] == '\0') return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
     FILE* f = NULL;
     const tsk_status opened = tsk_fopen_regular(path, "path", &f);
     if (opened != TSK_OK) return opened;
@@ -76,8 +75,8 @@ tsk_status tsk_picture_load(const char* path, tsk_picture** out) {
     }
     if (size > TSK_PICTURE_MAX_FILE_BYTES) {
         fclose(f);
-        return tsk_error_arg(TSK_ERR_LIMIT, "path", "'%s' has %lld bytes; the limit is %lld",
-                             path, size, TSK_PICTURE_MAX_FILE_BYTES);
+        return tsk_error_arg(TSK_ERR_LIMIT, "path", "'%s' has %lld bytes; the limit is %lld", path,
+                             size, TSK_PICTURE_MAX_FILE_BYTES);
     }
     /* Read the header first so that a huge picture is refused before it is decoded. */
     uint8_t head[65536];

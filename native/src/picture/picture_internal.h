@@ -5,15 +5,15 @@
 #include "tussock/picture.h"
 
 typedef struct tsk_picture_layer {
-    uint8_t* mask;  /* W*H, 1 = vegetation */
-    float* matte;   /* W*H, 0..1 (built) */
-    float* rgba;    /* 4*W*H premultiplied colour at rest (built) */
+    uint8_t* mask; /* W*H, 1 = vegetation */
+    float* matte; /* W*H, 0..1 (built) */
+    float* rgba; /* 4*W*H premultiplied colour at rest (built) */
     int box_x0, box_y0, box_x1, box_y1; /* mask bounding box, pixels, [x0, x1) x [y0, y1) */
 } tsk_picture_layer;
 
 struct tsk_picture {
     int width, height;
-    float* rgba;       /* 4*W*H straight, top-first */
+    float* rgba; /* 4*W*H straight, top-first */
     float* background; /* 4*W*H premultiplied (built) */
     int layer_count;
     int built;
@@ -21,8 +21,8 @@ struct tsk_picture {
 };
 
 /* Reads a picture file's width and height from its header (PNG, JPEG, EXR). */
-tsk_status tsk_picture_header_size(const uint8_t* bytes, size_t size, const char* name,
-                                   int* width, int* height);
+tsk_status tsk_picture_header_size(const uint8_t* bytes, size_t size, const char* name, int* width,
+                                   int* height);
 
 /* Checks W and H against min_side and the limits; `arg` names the argument in the message. */
 tsk_status tsk_picture_check_size(int width, int height, int min_side, const char* arg);

@@ -192,7 +192,7 @@ typedef struct warp_ctx {
     int uv_bottom_up;
     const float* ufrac; /* cell_x values: (k + 0.5) / cell_x, the local u of a pixel centre */
     int reach_x, reach_y; /* whole pixels at least as far as any source point is from its pixel */
-    atomic_int failed;    /* set when a chunk of rows could not get its scratch */
+    atomic_int failed; /* set when a chunk of rows could not get its scratch */
 } warp_ctx;
 
 enum { WARP_GRAIN = 8 };
@@ -234,8 +234,8 @@ static void row_sources(const warp_ctx* c, int j, float* restrict sxs, float* re
 
 /* A row whose source points are sxs[i], sys[i], bilinearly sampled into out, streamed past
  * the cache when `stream` (out 16-byte aligned) */
-static void sample_row(const warp_ctx* c, const float* sxs, const float* sys,
-                       float* restrict out, int stream) {
+static void sample_row(const warp_ctx* c, const float* sxs, const float* sys, float* restrict out,
+                       int stream) {
     const int W = c->width, H = c->height;
     const float* restrict src = c->src;
     int i = 0;
@@ -260,20 +260,18 @@ static void sample_row(const warp_ctx* c, const float* sxs, const float* sys,
         _mm_storeu_si128((__m128i*)xi, _mm_cvttps_epi32(x0f));
         _mm_storeu_si128((__m128i*)yi, _mm_cvttps_epi32(y0f));
         float* o = out + (size_t)4 * i;
-#define TSK_WARP_PIXEL(k)                                                                      \
-    do {                                                                                       \
-        const float* a = src + ((size_t)yi[k] * W + xi[k]) * 4;                                \
-        const __m128 top = _mm_add_ps(                                                         \
-            _mm_mul_ps(_mm_shuffle_ps(w00, w00, _MM_SHUFFLE(k, k, k, k)), _mm_loadu_ps(a)),    \
-            _mm_mul_ps(_mm_shuffle_ps(w10, w10, _MM_SHUFFLE(k, k, k, k)),                      \
-                       _mm_loadu_ps(a + ox4)));                                                \
-        const __m128 bot = _mm_add_ps(                                                         \
-            _mm_mul_ps(_mm_shuffle_ps(w01, w01, _MM_SHUFFLE(k, k, k, k)),                      \
-                       _mm_loadu_ps(a + oy4)),                                                 \
-            _mm_mul_ps(_mm_shuffle_ps(w11, w11, _MM_SHUFFLE(k, k, k, k)),                      \
-                       _mm_loadu_ps(a + oy4 + ox4)));                                          \
-        if (stream) _mm_stream_ps(o + 4 * (k), _mm_add_ps(top, bot));                          \
-        else _mm_storeu_ps(o + 4 * (k), _mm_add_ps(top, bot));                                 \
+#define TSK_WARP_PIXEL(k)                                                                          \
+    do {                                                                                           \
+        const float* a = src + ((size_t)yi[k] * W + xi[k]) * 4;                                    \
+        const __m128 top = _mm_add_ps(                                                             \
+            _mm_mul_ps(_mm_shuffle_ps(w00, w00, _MM_SHUFFLE(k, k, k, k)), _mm_loadu_ps(a)),        \
+            _mm_mul_ps(_mm_shuffle_ps(w10, w10, _MM_SHUFFLE(k, k, k, k)), _mm_loadu_ps(a + ox4))); \
+        const __m128 bot = _mm_add_ps(                                                             \
+            _mm_mul_ps(_mm_shuffle_ps(w01, w01, _MM_SHUFFLE(k, k, k, k)), _mm_loadu_ps(a + oy4)),  \
+            _mm_mul_ps(_mm_shuffle_ps(w11, w11, _MM_SHUFFLE(k, k, k, k)),                          \
+                       _mm_loadu_ps(a + oy4 + ox4)));                                              \
+        if (stream) _mm_stream_ps(o + 4 * (k), _mm_add_ps(top, bot));                              \
+        else _mm_storeu_ps(o + 4 * (k), _mm_add_ps(top, bot));                                     \
     } while (0)
         TSK_WARP_PIXEL(0);
         TSK_WARP_PIXEL(1);
@@ -419,11 +417,10 @@ static void warp_rows(size_t row_begin, size_t row_end, size_t chunk, void* vctx
     tsk_free(heap);
 }
 
-tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_count,
-                          int cell_x, int cell_y, const float* corner_dx,
-                          const float* corner_dy, size_t corner_count,
-                          tsk_warp_sampling sampling, float* dst, size_t dst_count, float* uv,
-                          size_t uv_count, int uv_bottom_up) {
+tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_count, int cell_x,
+                          int cell_y, const float* corner_dx, const float* corner_dy,
+                          size_t corner_count, tsk_warp_sampling sampling, float* dst,
+                          size_t dst_count, float* uv, size_t uv_count, int uv_bottom_up) {
     int cx, cy;
     tsk_status s = tsk_warp_grid_size(width, height, cell_x, cell_y, &cx, &cy);
     if (s != TSK_OK) return s;
@@ -466,10 +463,21 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
     if (ufrac == NULL) return TSK_ERR_MEMORY;
     for (int k = 0; k < cell_x; ++k) ufrac[k] = ((float)k + 0.5f) / (float)cell_x;
     /* a pixel's displacement blends its cell's corners, so it is no larger than theirs */
-    warp_ctx c = {width, height, cell_x, cell_y, cx, src, corner_dx, corner_dy, dst, uv,
-                  uv_bottom_up != 0, ufrac,
+    warp_ctx c = {width,
+                  height,
+                  cell_x,
+                  cell_y,
+                  cx,
+                  src,
+                  corner_dx,
+                  corner_dy,
+                  dst,
+                  uv,
+                  uv_bottom_up != 0,
+                  ufrac,
                   (int)fminf(ceilf(reach_x) + 1.0f, (float)width),
-                  (int)fminf(ceilf(reach_y) + 1.0f, (float)height), 0};
+                  (int)fminf(ceilf(reach_y) + 1.0f, (float)height),
+                  0};
     if (dst != NULL && sampling != TSK_SAMPLE_BILINEAR) {
         /* Map UV needs the whole UV pass (bottom-up) before it samples */
         float* uvb = uv != NULL && uv_bottom_up ? uv : tsk_alloc(n4 * sizeof(float), "uv pass");
@@ -484,8 +492,7 @@ tsk_status tsk_warp_apply(int width, int height, const float* src, size_t src_co
             if (!atomic_load(&c.failed)) {
                 if (sampling == TSK_SAMPLE_MAP_UV_5)
                     tsk_picture_map_uv_5(width, height, src, uvb, dst);
-                else
-                    tsk_picture_map_uv(width, height, src, uvb, dst);
+                else tsk_picture_map_uv(width, height, src, uvb, dst);
             }
             if (uvb != uv) {
                 tsk_free(uvb);

@@ -73,16 +73,13 @@ int tsk_py_handle_close(PyObject* obj, const tsk_py_kind* kind) {
     if (ptr == NULL) return 1; /* closing twice is harmless */
     h->ptr = NULL;
     /* closing a device may wait for its thread: not with the GIL held */
-    Py_BEGIN_ALLOW_THREADS
-    kind->destroy(ptr);
-    Py_END_ALLOW_THREADS
-    return 1;
+    Py_BEGIN_ALLOW_THREADS kind->destroy(ptr);
+    Py_END_ALLOW_THREADS return 1;
 }
 
 /* ---- field tables ---------------------------------------------------------------------- */
 
-static int read_int(PyObject* value, const char* key, long long lo, long long hi,
-                    long long* out) {
+static int read_int(PyObject* value, const char* key, long long lo, long long hi, long long* out) {
     /* an integer, numpy's included; a float is refused rather than truncated */
     PyObject* i = PyNumber_Index(value);
     if (i == NULL) {
@@ -135,57 +132,60 @@ static int read_choice(PyObject* value, const tsk_py_field* f, int* out) {
 static int set_value(const tsk_py_field* f, char* p, PyObject* value, void* def) {
     long long v;
     switch (f->type) {
-    case TSK_PY_FLOAT: return read_float(value, f->name, (float*)p);
-    case TSK_PY_INT:
-        if (!read_int(value, f->name, INT32_MIN, INT32_MAX, &v)) return 0;
-        *(int32_t*)p = (int32_t)v;
-        return 1;
-    case TSK_PY_U32:
-        if (!read_int(value, f->name, 0, UINT32_MAX, &v)) return 0;
-        *(uint32_t*)p = (uint32_t)v;
-        return 1;
-    case TSK_PY_U64: {
-        PyObject* i = PyNumber_Index(value);
-        if (i == NULL) {
-            PyErr_Clear();
-            tsk_py_raise_arg(f->name, "must be an integer");
-            return 0;
+        case TSK_PY_FLOAT:
+            return read_float(value, f->name, (float*)p);
+        case TSK_PY_INT:
+            if (!read_int(value, f->name, INT32_MIN, INT32_MAX, &v)) return 0;
+            *(int32_t*)p = (int32_t)v;
+            return 1;
+        case TSK_PY_U32:
+            if (!read_int(value, f->name, 0, UINT32_MAX, &v)) return 0;
+            *(uint32_t*)p = (uint32_t)v;
+            return 1;
+        case TSK_PY_U64: {
+            PyObject* i = PyNumber_Index(value);
+            if (i == NULL) {
+                PyErr_Clear();
+                tsk_py_raise_arg(f->name, "must be an integer");
+                return 0;
+            }
+            *(uint64_t*)p = (uint64_t)PyLong_AsUnsignedLongLongMask(i);
+            Py_DECREF(i);
+            return !PyErr_Occurred();
         }
-        *(uint64_t*)p = (uint64_t)PyLong_AsUnsignedLongLongMask(i);
-        Py_DECREF(i);
-        return !PyErr_Occurred();
-    }
-    case TSK_PY_BOOL: {
-        const int t = PyObject_IsTrue(value);
-        if (t < 0) return 0;
-        *(int*)p = t;
-        return 1;
-    }
-    case TSK_PY_VEC2:
-    case TSK_PY_VEC3: {
-        const Py_ssize_t n = f->type == TSK_PY_VEC2 ? 2 : 3;
-        float x[3];
-        if (!PySequence_Check(value) || PySequence_Size(value) != n) {
-            PyErr_Clear();
-            tsk_py_raise_arg(f->name, "must be a sequence of %zd numbers", n);
-            return 0;
+        case TSK_PY_BOOL: {
+            const int t = PyObject_IsTrue(value);
+            if (t < 0) return 0;
+            *(int*)p = t;
+            return 1;
         }
-        for (Py_ssize_t c = 0; c < n; ++c) {
-            PyObject* item = PySequence_GetItem(value, c);
-            const double d = item ? PyFloat_AsDouble(item) : -1.0;
-            Py_XDECREF(item);
-            if (d == -1.0 && PyErr_Occurred()) {
+        case TSK_PY_VEC2:
+        case TSK_PY_VEC3: {
+            const Py_ssize_t n = f->type == TSK_PY_VEC2 ? 2 : 3;
+            float x[3];
+            if (!PySequence_Check(value) || PySequence_Size(value) != n) {
                 PyErr_Clear();
                 tsk_py_raise_arg(f->name, "must be a sequence of %zd numbers", n);
                 return 0;
             }
-            x[c] = (float)d;
+            for (Py_ssize_t c = 0; c < n; ++c) {
+                PyObject* item = PySequence_GetItem(value, c);
+                const double d = item ? PyFloat_AsDouble(item) : -1.0;
+                Py_XDECREF(item);
+                if (d == -1.0 && PyErr_Occurred()) {
+                    PyErr_Clear();
+                    tsk_py_raise_arg(f->name, "must be a sequence of %zd numbers", n);
+                    return 0;
+                }
+                x[c] = (float)d;
+            }
+            memcpy(p, x, (size_t)n * sizeof x[0]);
+            return 1;
         }
-        memcpy(p, x, (size_t)n * sizeof x[0]);
-        return 1;
-    }
-    case TSK_PY_CHOICE: return read_choice(value, f, (int*)p);
-    case TSK_PY_CUSTOM: return f->read(value, def);
+        case TSK_PY_CHOICE:
+            return read_choice(value, f, (int*)p);
+        case TSK_PY_CUSTOM:
+            return f->read(value, def);
     }
     return 0;
 }
@@ -244,34 +244,39 @@ fail:
 static PyObject* field_value(const tsk_py_field* f, const void* def) {
     const char* p = (const char*)def + f->offset;
     switch (f->type) {
-    case TSK_PY_FLOAT: return PyFloat_FromDouble(*(const float*)p);
-    case TSK_PY_INT: return PyLong_FromLong(*(const int32_t*)p);
-    case TSK_PY_U32: return PyLong_FromUnsignedLong(*(const uint32_t*)p);
-    case TSK_PY_U64: return PyLong_FromUnsignedLongLong(*(const uint64_t*)p);
-    case TSK_PY_BOOL: return PyBool_FromLong(*(const int*)p);
-    case TSK_PY_VEC2: {
-        const float* x = (const float*)p;
-        return Py_BuildValue("(dd)", (double)x[0], (double)x[1]);
-    }
-    case TSK_PY_VEC3: {
-        const float* x = (const float*)p;
-        return Py_BuildValue("(ddd)", (double)x[0], (double)x[1], (double)x[2]);
-    }
-    case TSK_PY_CHOICE: {
-        const int v = *(const int*)p;
-        int n = 0;
-        while (f->choices[n] != NULL) ++n;
-        if (v < 0 || v >= n) return PyLong_FromLong(v);
-        return PyUnicode_FromString(f->choices[v]);
-    }
-    case TSK_PY_CUSTOM: return f->write ? f->write(def) : (Py_INCREF(Py_None), Py_None);
+        case TSK_PY_FLOAT:
+            return PyFloat_FromDouble(*(const float*)p);
+        case TSK_PY_INT:
+            return PyLong_FromLong(*(const int32_t*)p);
+        case TSK_PY_U32:
+            return PyLong_FromUnsignedLong(*(const uint32_t*)p);
+        case TSK_PY_U64:
+            return PyLong_FromUnsignedLongLong(*(const uint64_t*)p);
+        case TSK_PY_BOOL:
+            return PyBool_FromLong(*(const int*)p);
+        case TSK_PY_VEC2: {
+            const float* x = (const float*)p;
+            return Py_BuildValue("(dd)", (double)x[0], (double)x[1]);
+        }
+        case TSK_PY_VEC3: {
+            const float* x = (const float*)p;
+            return Py_BuildValue("(ddd)", (double)x[0], (double)x[1], (double)x[2]);
+        }
+        case TSK_PY_CHOICE: {
+            const int v = *(const int*)p;
+            int n = 0;
+            while (f->choices[n] != NULL) ++n;
+            if (v < 0 || v >= n) return PyLong_FromLong(v);
+            return PyUnicode_FromString(f->choices[v]);
+        }
+        case TSK_PY_CUSTOM:
+            return f->write ? f->write(def) : (Py_INCREF(Py_None), Py_None);
     }
     Py_RETURN_NONE;
 }
 
 static int fill_dict(PyObject* d, const tsk_py_def* table, const void* def) {
-    if (table->base != NULL &&
-        !fill_dict(d, table->base, (const char*)def + table->base_offset))
+    if (table->base != NULL && !fill_dict(d, table->base, (const char*)def + table->base_offset))
         return 0;
     for (size_t i = 0; i < table->count; ++i) {
         const tsk_py_field* f = &table->fields[i];

@@ -19,7 +19,13 @@ PyObject* tsk_py_raise(tsk_status status);
 PyObject* tsk_py_raise_arg(const char* name, const char* fmt, ...);
 
 /// Element types a buffer may have.
-typedef enum tsk_py_dtype { TSK_PY_F32, TSK_PY_I32, TSK_PY_I64, TSK_PY_U16, TSK_PY_U8 } tsk_py_dtype;
+typedef enum tsk_py_dtype {
+    TSK_PY_F32,
+    TSK_PY_I32,
+    TSK_PY_I64,
+    TSK_PY_U16,
+    TSK_PY_U8
+} tsk_py_dtype;
 
 /// Gets a C-contiguous buffer of `dtype` with exactly `count` elements (count < 0: any
 /// count, returned by tsk_py_count), writable when `writable`. On any mismatch raises
@@ -66,17 +72,17 @@ void tsk_py_views_release(tsk_py_views* v);
 /// is freed with its last reference), and how to free it.
 typedef struct tsk_py_kind {
     const char* capsule; ///< "tussock.blade_sim"
-    const char* arg;     ///< "sim"
-    const char* noun;    ///< "blade simulation"
-    const char* maker;   ///< "blade_sim_create"
-    const char* closer;  ///< "wind_destroy"
+    const char* arg; ///< "sim"
+    const char* noun; ///< "blade simulation"
+    const char* maker; ///< "blade_sim_create"
+    const char* closer; ///< "wind_destroy"
     void (*destroy)(void* ptr);
 } tsk_py_kind;
 
 typedef struct tsk_py_handle {
     void* ptr; ///< NULL once closed
     const tsk_py_kind* kind;
-    int busy;  ///< a call is using ptr without the GIL
+    int busy; ///< a call is using ptr without the GIL
 } tsk_py_handle;
 
 /// Wraps `ptr` in a new handle of `kind`; on failure destroys ptr and returns NULL.
@@ -91,13 +97,11 @@ tsk_py_handle* tsk_py_handle_get(PyObject* obj, const tsk_py_kind* kind);
 int tsk_py_handle_close(PyObject* obj, const tsk_py_kind* kind);
 
 /// Runs `stmt` without the GIL, with handle `h` marked busy meanwhile.
-#define TSK_PY_UNLOCKED(h, stmt)   \
-    do {                           \
-        (h)->busy = 1;             \
-        Py_BEGIN_ALLOW_THREADS     \
-        stmt;                      \
-        Py_END_ALLOW_THREADS       \
-        (h)->busy = 0;             \
+#define TSK_PY_UNLOCKED(h, stmt)           \
+    do {                                   \
+        (h)->busy = 1;                     \
+        Py_BEGIN_ALLOW_THREADS stmt;       \
+        Py_END_ALLOW_THREADS(h)->busy = 0; \
     } while (0)
 
 /* ---- def structs <-> dicts -----------------------------------------------------------
@@ -106,13 +110,13 @@ int tsk_py_handle_close(PyObject* obj, const tsk_py_kind* kind);
  * struct is written back as a dict. */
 
 typedef enum tsk_py_ftype {
-    TSK_PY_FLOAT,  ///< float, from any number
-    TSK_PY_INT,    ///< int32, from an integer (not a float) in int32 range
-    TSK_PY_U32,    ///< uint32, from an integer 0..2^32-1
-    TSK_PY_U64,    ///< uint64, from any integer taken modulo 2^64 (seeds)
-    TSK_PY_BOOL,   ///< int 0/1, from any truth value
-    TSK_PY_VEC2,   ///< float[2], from a sequence of 2 numbers
-    TSK_PY_VEC3,   ///< float[3], from a sequence of 3 numbers
+    TSK_PY_FLOAT, ///< float, from any number
+    TSK_PY_INT, ///< int32, from an integer (not a float) in int32 range
+    TSK_PY_U32, ///< uint32, from an integer 0..2^32-1
+    TSK_PY_U64, ///< uint64, from any integer taken modulo 2^64 (seeds)
+    TSK_PY_BOOL, ///< int 0/1, from any truth value
+    TSK_PY_VEC2, ///< float[2], from a sequence of 2 numbers
+    TSK_PY_VEC3, ///< float[3], from a sequence of 3 numbers
     TSK_PY_CHOICE, ///< an int-sized enum, from one of the names in `choices` (index = value)
     TSK_PY_CUSTOM, ///< converted by `read` / `write` (buffers, nested lists)
 } tsk_py_ftype;

@@ -29,11 +29,16 @@ PyObject* tsk_py_raise_arg(const char* name, const char* fmt, ...) {
 
 static const char* dtype_name(tsk_py_dtype dtype) {
     switch (dtype) {
-    case TSK_PY_F32: return "float32";
-    case TSK_PY_I32: return "int32";
-    case TSK_PY_I64: return "int64";
-    case TSK_PY_U16: return "uint16";
-    case TSK_PY_U8: return "uint8";
+        case TSK_PY_F32:
+            return "float32";
+        case TSK_PY_I32:
+            return "int32";
+        case TSK_PY_I64:
+            return "int64";
+        case TSK_PY_U16:
+            return "uint16";
+        case TSK_PY_U8:
+            return "uint8";
     }
     return "?";
 }
@@ -44,11 +49,16 @@ static int format_matches(const char* format, tsk_py_dtype dtype, Py_ssize_t ite
     if (format[0] == '<' || format[0] == '=' || format[0] == '@') ++format;
     if (format[0] == '\0' || format[1] != '\0') return 0;
     switch (dtype) {
-    case TSK_PY_F32: return format[0] == 'f' && itemsize == 4;
-    case TSK_PY_I32: return (format[0] == 'i' || format[0] == 'l') && itemsize == 4;
-    case TSK_PY_I64: return (format[0] == 'q' || format[0] == 'l') && itemsize == 8;
-    case TSK_PY_U16: return format[0] == 'H' && itemsize == 2;
-    case TSK_PY_U8: return (format[0] == 'B' || format[0] == 'c') && itemsize == 1;
+        case TSK_PY_F32:
+            return format[0] == 'f' && itemsize == 4;
+        case TSK_PY_I32:
+            return (format[0] == 'i' || format[0] == 'l') && itemsize == 4;
+        case TSK_PY_I64:
+            return (format[0] == 'q' || format[0] == 'l') && itemsize == 8;
+        case TSK_PY_U16:
+            return format[0] == 'H' && itemsize == 2;
+        case TSK_PY_U8:
+            return (format[0] == 'B' || format[0] == 'c') && itemsize == 1;
     }
     return 0;
 }
@@ -125,9 +135,15 @@ int tsk_py_views_get_xyz(tsk_py_views* v, PyObject* obj, const char* name, float
 #undef TSK_PY_PART
 
 static struct PyModuleDef g_module = {
-    PyModuleDef_HEAD_INIT, "_tussock",
-    "Tussock's native library: capture, meadows, wind, trees and pictures.", -1, NULL,
-    NULL, NULL, NULL, NULL,
+    PyModuleDef_HEAD_INIT,
+    "_tussock",
+    "Tussock's native library: capture, meadows, wind, trees and pictures.",
+    -1,
+    NULL,
+    NULL,
+    NULL,
+    NULL,
+    NULL,
 };
 
 PyMODINIT_FUNC PyInit__tussock(void);
@@ -135,9 +151,9 @@ PyMODINIT_FUNC PyInit__tussock(void) {
     PyObject* m = PyModule_Create(&g_module);
     if (m == NULL) return NULL;
     if (tsk_py_error == NULL) {
-        tsk_py_error = PyErr_NewExceptionWithDoc(
-            "tussock.Error", "An error reported by Tussock's native library.",
-            PyExc_RuntimeError, NULL);
+        tsk_py_error = PyErr_NewExceptionWithDoc("tussock.Error",
+                                                 "An error reported by Tussock's native library.",
+                                                 PyExc_RuntimeError, NULL);
         if (tsk_py_error == NULL) goto fail;
     }
     Py_INCREF(tsk_py_error);

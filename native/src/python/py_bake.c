@@ -17,10 +17,8 @@ static PyObject* py_bake_write_frame(PyObject* self, PyObject* args) {
         return tsk_py_raise_arg("xyz", "must hold 3 floats per point, got %zd floats", n);
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_bake_write_frame(path, frame, xyz.buf, (uint32_t)(n / 3));
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&xyz);
+    Py_BEGIN_ALLOW_THREADS s = tsk_bake_write_frame(path, frame, xyz.buf, (uint32_t)(n / 3));
+    Py_END_ALLOW_THREADS PyBuffer_Release(&xyz);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -32,10 +30,8 @@ static PyObject* py_bake_frame_info(PyObject* self, PyObject* args) {
     int32_t frame = 0;
     uint32_t count = 0;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_bake_frame_info(path, &frame, &count);
-    Py_END_ALLOW_THREADS
-    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_BEGIN_ALLOW_THREADS s = tsk_bake_frame_info(path, &frame, &count);
+    Py_END_ALLOW_THREADS if (s != TSK_OK) return tsk_py_raise(s);
     return Py_BuildValue("(iI)", frame, count);
 }
 
@@ -52,10 +48,8 @@ static PyObject* py_bake_read_frame(PyObject* self, PyObject* args) {
         PyBuffer_Release(&out);
         return tsk_py_raise_arg("out", "must hold 3 floats per point, got %zd floats", n);
     }
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_bake_read_frame(path, out.buf, (uint32_t)(n / 3));
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&out);
+    Py_BEGIN_ALLOW_THREADS s = tsk_bake_read_frame(path, out.buf, (uint32_t)(n / 3));
+    Py_END_ALLOW_THREADS PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -83,10 +77,8 @@ static PyObject* py_bake_assemble_pc2(PyObject* self, PyObject* args) {
         }
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_bake_assemble_pc2(path, paths, (int32_t)n, start, rate);
-    Py_END_ALLOW_THREADS
-    PyMem_Free(paths);
+    Py_BEGIN_ALLOW_THREADS s = tsk_bake_assemble_pc2(path, paths, (int32_t)n, start, rate);
+    Py_END_ALLOW_THREADS PyMem_Free(paths);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -99,8 +91,8 @@ static PyObject* py_pc2_info(PyObject* self, PyObject* args) {
     float start = 0, rate = 0;
     tsk_status s = tsk_pc2_info(path, &points, &start, &rate, &samples);
     if (s != TSK_OK) return tsk_py_raise(s);
-    return Py_BuildValue("{sIsfsfsI}", "points", points, "start_frame", start, "sample_rate",
-                         rate, "samples", samples);
+    return Py_BuildValue("{sIsfsfsI}", "points", points, "start_frame", start, "sample_rate", rate,
+                         "samples", samples);
 }
 
 static PyObject* py_pc2_read_sample(PyObject* self, PyObject* args) {

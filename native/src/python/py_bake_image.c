@@ -9,8 +9,8 @@ static PyObject* py_bake_write_image(PyObject* self, PyObject* args) {
     int frame, width, height;
     unsigned long long key;
     PyObject* rgba_obj;
-    if (!PyArg_ParseTuple(args, "siKOii:bake_write_image", &path, &frame, &key, &rgba_obj,
-                          &width, &height))
+    if (!PyArg_ParseTuple(args, "siKOii:bake_write_image", &path, &frame, &key, &rgba_obj, &width,
+                          &height))
         return NULL;
     if (width < 1 || height < 1)
         return tsk_py_raise_arg("width, height", "must be positive, got %dx%d", width, height);
@@ -18,11 +18,9 @@ static PyObject* py_bake_write_image(PyObject* self, PyObject* args) {
     if (!tsk_py_buffer(rgba_obj, "rgba", TSK_PY_F32, (Py_ssize_t)width * height * 4, 0, &rgba))
         return NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_bake_write_image(path, frame, (uint64_t)key, rgba.buf,
-                             (size_t)tsk_py_count(&rgba), width, height);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&rgba);
+    Py_BEGIN_ALLOW_THREADS s = tsk_bake_write_image(path, frame, (uint64_t)key, rgba.buf,
+                                                    (size_t)tsk_py_count(&rgba), width, height);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&rgba);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -35,12 +33,10 @@ static PyObject* py_bake_image_info(PyObject* self, PyObject* args) {
     uint64_t key = 0;
     int w = 0, h = 0;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_bake_image_info(path, &frame, &key, &w, &h);
-    Py_END_ALLOW_THREADS
-    if (s != TSK_OK) return tsk_py_raise(s);
-    return Py_BuildValue("{sisKsisi}", "frame", (int)frame, "key", (unsigned long long)key,
-                         "width", w, "height", h);
+    Py_BEGIN_ALLOW_THREADS s = tsk_bake_image_info(path, &frame, &key, &w, &h);
+    Py_END_ALLOW_THREADS if (s != TSK_OK) return tsk_py_raise(s);
+    return Py_BuildValue("{sisKsisi}", "frame", (int)frame, "key", (unsigned long long)key, "width",
+                         w, "height", h);
 }
 
 PyMethodDef tsk_py_bake_image_methods[] = {

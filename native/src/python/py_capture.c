@@ -11,22 +11,20 @@
 static void destroy_source(void* src) { tsk_depth_close(src); }
 static void destroy_capture(void* cap) { tsk_capture_destroy(cap); }
 
-static const tsk_py_kind k_source = {"tussock.depth_source", "source", "depth source",
-                                     "depth_open_files, depth_open_oni or depth_open_device",
-                                     "depth_close", destroy_source};
+static const tsk_py_kind k_source = {
+    "tussock.depth_source", "source",
+    "depth source",         "depth_open_files, depth_open_oni or depth_open_device",
+    "depth_close",          destroy_source};
 static const tsk_py_kind k_capture = {"tussock.capture", "capture", "capture",
-                                      "capture_create", NULL, destroy_capture};
+                                      "capture_create",  NULL,      destroy_capture};
 
 /* ---- depth sources --------------------------------------------------------------- */
 
-static PyObject* open_source(tsk_status (*fn)(const char*, tsk_depth_source**),
-                             const char* path) {
+static PyObject* open_source(tsk_status (*fn)(const char*, tsk_depth_source**), const char* path) {
     tsk_depth_source* src = NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = fn(path, &src);
-    Py_END_ALLOW_THREADS
-    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_BEGIN_ALLOW_THREADS s = fn(path, &src);
+    Py_END_ALLOW_THREADS if (s != TSK_OK) return tsk_py_raise(s);
     return tsk_py_handle_new(&k_source, src);
 }
 
@@ -82,9 +80,12 @@ static PyObject* py_depth_stop(PyObject* self, PyObject* args) {
 
 static const char* kind_name(tsk_depth_kind k) {
     switch (k) {
-    case TSK_DEPTH_FILES: return "FILES";
-    case TSK_DEPTH_ONI: return "ONI";
-    case TSK_DEPTH_DEVICE: return "DEVICE";
+        case TSK_DEPTH_FILES:
+            return "FILES";
+        case TSK_DEPTH_ONI:
+            return "ONI";
+        case TSK_DEPTH_DEVICE:
+            return "DEVICE";
     }
     return "?";
 }
@@ -101,9 +102,8 @@ static PyObject* py_depth_info(PyObject* self, PyObject* args) {
     return Py_BuildValue("{s:s,s:i,s:i,s:i,s:i,s:O,s:d,s:d,s:d,s:d,s:s}", "kind",
                          kind_name(info.kind), "width", info.width, "height", info.height,
                          "frame_count", info.frame_count, "first_frame", info.first_frame,
-                         "has_device_intrinsics",
-                         info.has_device_intrinsics ? Py_True : Py_False, "fx",
-                         (double)info.intrinsics.fx, "fy", (double)info.intrinsics.fy, "cx",
+                         "has_device_intrinsics", info.has_device_intrinsics ? Py_True : Py_False,
+                         "fx", (double)info.intrinsics.fx, "fy", (double)info.intrinsics.fy, "cx",
                          (double)info.intrinsics.cx, "cy", (double)info.intrinsics.cy,
                          "description", info.description);
 }
@@ -134,13 +134,12 @@ static PyObject* py_depth_read(PyObject* self, PyObject* args) {
         return NULL;
     tsk_depth_frame fr;
     tsk_status s;
-    TSK_PY_UNLOCKED(box,
-                    s = tsk_depth_read(box->ptr, out.buf, (size_t)tsk_py_count(&out), &fr));
+    TSK_PY_UNLOCKED(box, s = tsk_depth_read(box->ptr, out.buf, (size_t)tsk_py_count(&out), &fr));
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
-    return Py_BuildValue("{s:O,s:O,s:i,s:d,s:i}", "is_new", fr.is_new ? Py_True : Py_False,
-                         "end", fr.end ? Py_True : Py_False, "index", fr.index, "timestamp",
-                         fr.timestamp, "invalid_pixels", fr.invalid_pixels);
+    return Py_BuildValue("{s:O,s:O,s:i,s:d,s:i}", "is_new", fr.is_new ? Py_True : Py_False, "end",
+                         fr.end ? Py_True : Py_False, "index", fr.index, "timestamp", fr.timestamp,
+                         "invalid_pixels", fr.invalid_pixels);
 }
 
 static PyObject* write_depth(PyObject* args, const char* fmt,
@@ -154,10 +153,8 @@ static PyObject* write_depth(PyObject* args, const char* fmt,
     Py_buffer in;
     if (!tsk_py_buffer(obj, "depth", TSK_PY_F32, (Py_ssize_t)w * h, 0, &in)) return NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = fn(path, in.buf, w, h);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&in);
+    Py_BEGIN_ALLOW_THREADS s = fn(path, in.buf, w, h);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&in);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -196,7 +193,8 @@ static const char* const k_roots[] = {"BOTTOM", "CENTROID", NULL};
 _Static_assert(TSK_ROOT_BOTTOM == 0 && TSK_ROOT_CENTROID == 1, "k_roots is in enum order");
 _Static_assert(sizeof(tsk_capture_root) == sizeof(int), "root is read as an int");
 
-#define F(name, member, type) {name, type, offsetof(tsk_capture_def, member), NULL, NULL, NULL}
+#define F(name, member, type) \
+    { name, type, offsetof(tsk_capture_def, member), NULL, NULL, NULL }
 static const tsk_py_field k_capture_fields[] = {
     F("near", near_m, TSK_PY_FLOAT),
     F("far", far_m, TSK_PY_FLOAT),
@@ -218,8 +216,8 @@ static const tsk_py_field k_capture_fields[] = {
     F("root_trim", root_trim, TSK_PY_FLOAT),
 };
 #undef F
-static const tsk_py_def k_capture_def = {"capture setting", TSK_PY_FIELDS(k_capture_fields),
-                                         NULL, 0};
+static const tsk_py_def k_capture_def = {"capture setting", TSK_PY_FIELDS(k_capture_fields), NULL,
+                                         0};
 
 static PyObject* py_capture_process(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
@@ -239,8 +237,7 @@ static PyObject* py_capture_process(PyObject* self, PyObject* args, PyObject* kw
     tsk_py_handle* box = tsk_py_handle_get(h, &k_capture);
     if (box == NULL) return NULL;
     Py_buffer depth;
-    if (!tsk_py_buffer(depth_obj, "depth", TSK_PY_F32, (Py_ssize_t)w * hh, 0, &depth))
-        return NULL;
+    if (!tsk_py_buffer(depth_obj, "depth", TSK_PY_F32, (Py_ssize_t)w * hh, 0, &depth)) return NULL;
     tsk_status s;
     TSK_PY_UNLOCKED(box, s = tsk_capture_process(box->ptr, &d, depth.buf, w, hh));
     PyBuffer_Release(&depth);
@@ -260,10 +257,8 @@ static PyObject* py_capture_propose_band(PyObject* self, PyObject* args) {
     if (!tsk_py_buffer(obj, "depth", TSK_PY_F32, (Py_ssize_t)w * h, 0, &in)) return NULL;
     float near_m = 0.0f, far_m = 0.0f;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_capture_propose_band(in.buf, w, h, min_pixels, &near_m, &far_m);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&in);
+    Py_BEGIN_ALLOW_THREADS s = tsk_capture_propose_band(in.buf, w, h, min_pixels, &near_m, &far_m);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&in);
     if (s != TSK_OK) return tsk_py_raise(s);
     return Py_BuildValue("(dd)", (double)near_m, (double)far_m);
 }
@@ -280,9 +275,8 @@ static PyObject* py_capture_summary(PyObject* self, PyObject* args) {
     return Py_BuildValue("{s:i,s:i,s:d,s:d,s:d,s:d,s:d,s:d,s:s}", "blades",
                          tsk_capture_blade_count(box->ptr), "knots",
                          tsk_capture_knot_total(box->ptr), "near", (double)near_m, "far",
-                         (double)far_m, "fx", (double)k.fx, "fy", (double)k.fy, "cx",
-                         (double)k.cx, "cy", (double)k.cy, "message",
-                         tsk_capture_status_message(box->ptr));
+                         (double)far_m, "fx", (double)k.fx, "fy", (double)k.fy, "cx", (double)k.cx,
+                         "cy", (double)k.cy, "message", tsk_capture_status_message(box->ptr));
 }
 
 static PyObject* py_capture_blades(PyObject* self, PyObject* args) {
@@ -314,8 +308,7 @@ static int knot_buffers(tsk_py_views* v, PyObject* xyz_o, PyObject* w_o, PyObjec
     const char* names[3] = {"camera_xyz", "width", "pixel_uv"};
     const Py_ssize_t mult[3] = {3, 1, 2};
     for (int i = 0; i < 3; ++i)
-        if (!tsk_py_views_get(v, objs[i], names[i], TSK_PY_F32, mult[i] * n, 1, 1, &p[i]))
-            return 0;
+        if (!tsk_py_views_get(v, objs[i], names[i], TSK_PY_F32, mult[i] * n, 1, 1, &p[i])) return 0;
     return 1;
 }
 
@@ -346,7 +339,8 @@ static PyObject* py_capture_blade(PyObject* self, PyObject* args) {
     tsk_py_handle* box = tsk_py_handle_get(h, &k_capture);
     if (box == NULL) return NULL;
     const int nb = tsk_capture_blade_count(box->ptr);
-    if (blade < 0 || blade >= nb) return tsk_py_raise_arg("blade", "%d is not in 0..%d", blade, nb - 1);
+    if (blade < 0 || blade >= nb)
+        return tsk_py_raise_arg("blade", "%d is not in 0..%d", blade, nb - 1);
     int32_t counts[TSK_CAPTURE_MAX_BLADES];
     tsk_capture_get_blades(box->ptr, counts, NULL, (size_t)nb);
     const Py_ssize_t n = counts[blade];
@@ -387,12 +381,11 @@ static PyObject* py_capture_image(PyObject* self, PyObject* args) {
 static PyObject* py_capture_constants(PyObject* self, PyObject* args) {
     (void)self;
     (void)args;
-    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i}", "BLADE_CUT_BY_BORDER",
-                         (int)TSK_BLADE_CUT_BY_BORDER, "BLADE_TIP_AT_BORDER",
-                         (int)TSK_BLADE_TIP_AT_BORDER, "BLADE_ASYMMETRIC",
-                         (int)TSK_BLADE_ASYMMETRIC, "DEPTH_MAX_SIDE", TSK_DEPTH_MAX_SIDE,
-                         "DEPTH_MAX_FRAMES", TSK_DEPTH_MAX_FRAMES, "CAPTURE_MAX_BLADES",
-                         TSK_CAPTURE_MAX_BLADES);
+    return Py_BuildValue(
+        "{s:i,s:i,s:i,s:i,s:i,s:i}", "BLADE_CUT_BY_BORDER", (int)TSK_BLADE_CUT_BY_BORDER,
+        "BLADE_TIP_AT_BORDER", (int)TSK_BLADE_TIP_AT_BORDER, "BLADE_ASYMMETRIC",
+        (int)TSK_BLADE_ASYMMETRIC, "DEPTH_MAX_SIDE", TSK_DEPTH_MAX_SIDE, "DEPTH_MAX_FRAMES",
+        TSK_DEPTH_MAX_FRAMES, "CAPTURE_MAX_BLADES", TSK_CAPTURE_MAX_BLADES);
 }
 
 PyMethodDef tsk_py_capture_methods[] = {
@@ -406,17 +399,21 @@ PyMethodDef tsk_py_capture_methods[] = {
     {"depth_open_device", py_depth_open_device, METH_VARARGS,
      "depth_open_device($module, uri=None, /)\n--\n\n"
      "-> source: a live OpenNI2 device (None = first)."},
-    {"depth_close", py_depth_close, METH_VARARGS, "depth_close($module, source, /)\n--\n\n"
+    {"depth_close", py_depth_close, METH_VARARGS,
+     "depth_close($module, source, /)\n--\n\n"
      "close now."},
-    {"depth_start", py_depth_start, METH_VARARGS, "depth_start($module, source, /)\n--\n\n"
+    {"depth_start", py_depth_start, METH_VARARGS,
+     "depth_start($module, source, /)\n--\n\n"
      "start a device."},
-    {"depth_stop", py_depth_stop, METH_VARARGS, "depth_stop($module, source, /)\n--\n\n"
+    {"depth_stop", py_depth_stop, METH_VARARGS,
+     "depth_stop($module, source, /)\n--\n\n"
      "stop a device."},
     {"depth_info", py_depth_info, METH_VARARGS,
      "depth_info($module, source, /)\n--\n\n"
      "-> dict(kind, width, height, frame_count, first_frame, has_device_intrinsics, fx, fy, "
      "cx, cy, description)."},
-    {"depth_seek", py_depth_seek, METH_VARARGS, "depth_seek($module, source, index, /)\n--\n\n"
+    {"depth_seek", py_depth_seek, METH_VARARGS,
+     "depth_seek($module, source, index, /)\n--\n\n"
      "files and .oni."},
     {"depth_read", py_depth_read, METH_VARARGS,
      "depth_read($module, source, out, /)\n--\n\n"
@@ -431,7 +428,8 @@ PyMethodDef tsk_py_capture_methods[] = {
     {"default_intrinsics", py_default_intrinsics, METH_VARARGS,
      "default_intrinsics($module, width, height, /)\n--\n\n"
      "-> (fx, fy, cx, cy) of a 640x480 sensor, scaled."},
-    {"capture_create", py_capture_create, METH_NOARGS, "capture_create($module, /)\n--\n\n"
+    {"capture_create", py_capture_create, METH_NOARGS,
+     "capture_create($module, /)\n--\n\n"
      "-> capture handle."},
     {"capture_process", (PyCFunction)(void (*)(void))py_capture_process,
      METH_VARARGS | METH_KEYWORDS,

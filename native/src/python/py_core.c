@@ -38,10 +38,8 @@ static PyObject* py_rand_fill(PyObject* self, PyObject* args) {
     Py_buffer out;
     if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, -1, 1, &out)) return NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_rand_fill(seed, stream, out.buf, (size_t)tsk_py_count(&out));
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&out);
+    Py_BEGIN_ALLOW_THREADS s = tsk_rand_fill(seed, stream, out.buf, (size_t)tsk_py_count(&out));
+    Py_END_ALLOW_THREADS PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -58,10 +56,8 @@ static PyObject* py_vec3_lengths(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_vec3_lengths(xyz.buf, (size_t)n, out.buf);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&xyz);
+    Py_BEGIN_ALLOW_THREADS s = tsk_vec3_lengths(xyz.buf, (size_t)n, out.buf);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&xyz);
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -81,13 +77,11 @@ static PyObject* py_vec3_bounds(PyObject* self, PyObject* args) {
     }
     float lo[3], hi[3];
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_vec3_bounds(xyz.buf, (size_t)(n / 3), lo, hi);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&xyz);
+    Py_BEGIN_ALLOW_THREADS s = tsk_vec3_bounds(xyz.buf, (size_t)(n / 3), lo, hi);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&xyz);
     if (s != TSK_OK) return tsk_py_raise(s);
-    return Py_BuildValue("((ddd)(ddd))", (double)lo[0], (double)lo[1], (double)lo[2],
-                         (double)hi[0], (double)hi[1], (double)hi[2]);
+    return Py_BuildValue("((ddd)(ddd))", (double)lo[0], (double)lo[1], (double)lo[2], (double)hi[0],
+                         (double)hi[1], (double)hi[2]);
 }
 
 static PyObject* py_mesh_edges(PyObject* self, PyObject* args) {
@@ -121,11 +115,9 @@ static PyObject* py_mesh_edges(PyObject* self, PyObject* args) {
     }
     size_t count = 0;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_mesh_edges(corners.buf, (size_t)(n / face_size), face_size, vertex_count, edges.buf,
-                       ce.buf, &count);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&corners);
+    Py_BEGIN_ALLOW_THREADS s = tsk_mesh_edges(corners.buf, (size_t)(n / face_size), face_size,
+                                              vertex_count, edges.buf, ce.buf, &count);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&corners);
     PyBuffer_Release(&edges);
     PyBuffer_Release(&ce);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -157,16 +149,20 @@ PyMethodDef tsk_py_core_methods[] = {
      "set_memory_budget($module, bytes, /)\n--\n\n"
      "largest memory estimate one request may have; 0 = default (half of physical memory, or "
      "TSK_MEMORY_BUDGET_MB)."},
-    {"memory_budget", py_memory_budget, METH_NOARGS, "memory_budget($module, /)\n--\n\n"
+    {"memory_budget", py_memory_budget, METH_NOARGS,
+     "memory_budget($module, /)\n--\n\n"
      "-> int: bytes."},
-    {"version", py_version, METH_NOARGS, "version($module, /)\n--\n\n"
+    {"version", py_version, METH_NOARGS,
+     "version($module, /)\n--\n\n"
      "-> str: native library version."},
     {"set_threads", py_set_threads, METH_VARARGS,
      "set_threads($module, n, /)\n--\n\n"
      "worker threads, 0 = all cores."},
-    {"get_threads", py_get_threads, METH_NOARGS, "get_threads($module, /)\n--\n\n"
+    {"get_threads", py_get_threads, METH_NOARGS,
+     "get_threads($module, /)\n--\n\n"
      "-> int."},
-    {"hash4", py_hash4, METH_VARARGS, "hash4($module, seed, a, b, c, /)\n--\n\n"
+    {"hash4", py_hash4, METH_VARARGS,
+     "hash4($module, seed, a, b, c, /)\n--\n\n"
      "-> int: counter-based hash."},
     {"rand_fill", py_rand_fill, METH_VARARGS,
      "rand_fill($module, seed, stream, out, /)\n--\n\n"

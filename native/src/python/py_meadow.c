@@ -11,10 +11,10 @@
 static void destroy_patch(void* p) { tsk_patch_destroy(p); }
 static void destroy_meadow(void* m) { tsk_meadow_destroy(m); }
 
-static const tsk_py_kind k_patch = {"tussock.patch", "patch", "patch", "patch_create",
-                                    NULL, destroy_patch};
-static const tsk_py_kind k_meadow = {"tussock.meadow", "meadow", "meadow", "meadow_create",
-                                     NULL, destroy_meadow};
+static const tsk_py_kind k_patch = {"tussock.patch", "patch", "patch",
+                                    "patch_create",  NULL,    destroy_patch};
+static const tsk_py_kind k_meadow = {"tussock.meadow", "meadow", "meadow",
+                                     "meadow_create",  NULL,     destroy_meadow};
 
 /* ---- blade models ------------------------------------------------------------------------ */
 
@@ -42,7 +42,8 @@ static PyObject* py_blade_model_default(PyObject* self, PyObject* args) {
 
 /* ---- the patch --------------------------------------------------------------------------- */
 
-#define F(name, type) {#name, type, offsetof(tsk_patch_def, name), NULL, NULL, NULL}
+#define F(name, type) \
+    { #name, type, offsetof(tsk_patch_def, name), NULL, NULL, NULL }
 static const tsk_py_field k_patch_fields[] = {
     F(blade_count, TSK_PY_INT), F(scale_min, TSK_PY_FLOAT), F(scale_max, TSK_PY_FLOAT),
     F(seed, TSK_PY_U64),        F(knot_count, TSK_PY_INT),
@@ -58,9 +59,9 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
     PyObject *knots_obj = Py_None, *widths_obj = Py_None, *counts_obj = Py_None,
              *weights_obj = Py_None, *rest;
     if (!tsk_py_def_read(&k_patch_def, kw, &d, NULL, names, &rest)) return NULL;
-    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "|$OOOO:patch_create", names,
-                                                   &knots_obj, &widths_obj, &counts_obj,
-                                                   &weights_obj);
+    const int parsed =
+        PyArg_ParseTupleAndKeywords(args, rest, "|$OOOO:patch_create", names, &knots_obj,
+                                    &widths_obj, &counts_obj, &weights_obj);
     Py_XDECREF(rest);
     if (!parsed) return NULL;
     tsk_py_views v = {.n = 0};
@@ -84,9 +85,10 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
             return NULL;
         }
         total = tsk_py_count(&v.view[v.n - 1]);
-        if (!tsk_py_views_get(&v, knots_obj, "knots", TSK_PY_F32, 3 * total, 0, 0, (void**)&knots) ||
+        if (!tsk_py_views_get(&v, knots_obj, "knots", TSK_PY_F32, 3 * total, 0, 0,
+                              (void**)&knots) ||
             !tsk_py_views_get(&v, weights_obj, "weights", TSK_PY_F32, model_count, 0, 1,
-                       (void**)&weights)) {
+                              (void**)&weights)) {
             tsk_py_views_release(&v);
             return NULL;
         }
@@ -104,11 +106,10 @@ static PyObject* py_patch_create(PyObject* self, PyObject* args, PyObject* kw) {
     d.model_weights = weights;
     tsk_patch* patch = NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blade_models_set(models, (int32_t)model_count, knots, widths, counts, (size_t)total);
+    Py_BEGIN_ALLOW_THREADS s =
+        tsk_blade_models_set(models, (int32_t)model_count, knots, widths, counts, (size_t)total);
     if (s == TSK_OK) s = tsk_patch_create(&d, &patch);
-    Py_END_ALLOW_THREADS
-    PyMem_Free(models);
+    Py_END_ALLOW_THREADS PyMem_Free(models);
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     return tsk_py_handle_new(&k_patch, patch);
@@ -150,10 +151,8 @@ static PyObject* py_patch_blades(PyObject* self, PyObject* args) {
     }
     tsk_status s;
     hp->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_patch_get_blades(p, xy, turn, scale, model);
-    Py_END_ALLOW_THREADS
-    hp->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_patch_get_blades(p, xy, turn, scale, model);
+    Py_END_ALLOW_THREADS hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -198,20 +197,21 @@ static PyObject* py_patch_expand(PyObject* self, PyObject* args) {
     tsk_py_views v = {.n = 0};
     float *pos, *nrm, *uv;
     int32_t *tris, *bid;
-    if (!tsk_py_views_get(&v, pos_o, "positions", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1, (void**)&pos) ||
-        !tsk_py_views_get(&v, nrm_o, "normals", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1, (void**)&nrm) ||
+    if (!tsk_py_views_get(&v, pos_o, "positions", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1,
+                          (void**)&pos) ||
+        !tsk_py_views_get(&v, nrm_o, "normals", TSK_PY_F32, 3 * (Py_ssize_t)nv, 1, 1,
+                          (void**)&nrm) ||
         !tsk_py_views_get(&v, uv_o, "uvs", TSK_PY_F32, 2 * (Py_ssize_t)nv, 1, 1, (void**)&uv) ||
         !tsk_py_views_get(&v, tri_o, "tris", TSK_PY_I32, 3 * (Py_ssize_t)nt, 1, 1, (void**)&tris) ||
-        !tsk_py_views_get(&v, bid_o, "blade_index", TSK_PY_I32, (Py_ssize_t)nv, 1, 1, (void**)&bid)) {
+        !tsk_py_views_get(&v, bid_o, "blade_index", TSK_PY_I32, (Py_ssize_t)nv, 1, 1,
+                          (void**)&bid)) {
         tsk_py_views_release(&v);
         return NULL;
     }
     tsk_status s;
     hp->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_patch_expand(p, tile_size, pos, nrm, uv, tris, bid);
-    Py_END_ALLOW_THREADS
-    hp->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_patch_expand(p, tile_size, pos, nrm, uv, tris, bid);
+    Py_END_ALLOW_THREADS hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -221,8 +221,8 @@ static PyObject* py_blades_expand(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *knots_o, *widths_o, *sides_o, *pos_o, *nrm_o, *uv_o;
     int knot_count;
-    if (!PyArg_ParseTuple(args, "OOOiOOO:blades_expand", &knots_o, &widths_o, &sides_o,
-                          &knot_count, &pos_o, &nrm_o, &uv_o))
+    if (!PyArg_ParseTuple(args, "OOOiOOO:blades_expand", &knots_o, &widths_o, &sides_o, &knot_count,
+                          &pos_o, &nrm_o, &uv_o))
         return NULL;
     if (knot_count < 2 || knot_count > TSK_BLADE_MAX_KNOTS)
         return tsk_py_raise_arg("knot_count", "must be 2..%d, got %d", TSK_BLADE_MAX_KNOTS,
@@ -241,10 +241,9 @@ static PyObject* py_blades_expand(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blades_expand(knots, widths, sides, (size_t)n, knot_count, pos, nrm, uv);
-    Py_END_ALLOW_THREADS
-    tsk_py_views_release(&v);
+    Py_BEGIN_ALLOW_THREADS s =
+        tsk_blades_expand(knots, widths, sides, (size_t)n, knot_count, pos, nrm, uv);
+    Py_END_ALLOW_THREADS tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -258,17 +257,16 @@ static PyObject* py_blade_indices(PyObject* self, PyObject* args) {
     if (knot_count < 2 || knot_count > TSK_BLADE_MAX_KNOTS)
         return tsk_py_raise_arg("knot_count", "must be 2..%d, got %d", TSK_BLADE_MAX_KNOTS,
                                 knot_count);
-    if (blade_count < 0) return tsk_py_raise_arg("blade_count", "must be >= 0, got %d", blade_count);
+    if (blade_count < 0)
+        return tsk_py_raise_arg("blade_count", "must be >= 0, got %d", blade_count);
     tsk_py_views v = {.n = 0};
     int32_t* tris;
     const Py_ssize_t per = 3 * (Py_ssize_t)tsk_blade_triangle_count(knot_count);
     if (!tsk_py_views_get(&v, tri_o, "tris", TSK_PY_I32, per * blade_count, 1, 0, (void**)&tris))
         return NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_blades_indices(knot_count, (size_t)blade_count, tris);
-    Py_END_ALLOW_THREADS
-    tsk_py_views_release(&v);
+    Py_BEGIN_ALLOW_THREADS s = tsk_blades_indices(knot_count, (size_t)blade_count, tris);
+    Py_END_ALLOW_THREADS tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -280,7 +278,8 @@ _Static_assert(TSK_DENSITY_UNIFORM == 0 && TSK_DENSITY_NOISE == 1 && TSK_DENSITY
                "k_densities is in enum order");
 _Static_assert(sizeof(tsk_density_kind) == sizeof(int), "density is read as an int");
 
-#define F(name, type) {#name, type, offsetof(tsk_meadow_def, name), NULL, NULL, NULL}
+#define F(name, type) \
+    { #name, type, offsetof(tsk_meadow_def, name), NULL, NULL, NULL }
 static const tsk_py_field k_meadow_fields[] = {
     F(origin, TSK_PY_VEC3),
     F(size, TSK_PY_VEC2),
@@ -297,8 +296,7 @@ static const tsk_py_field k_meadow_fields[] = {
     F(noise_contrast, TSK_PY_FLOAT),
 };
 #undef F
-static const tsk_py_def k_meadow_def = {"meadow setting", TSK_PY_FIELDS(k_meadow_fields), NULL,
-                                        0};
+static const tsk_py_def k_meadow_def = {"meadow setting", TSK_PY_FIELDS(k_meadow_fields), NULL, 0};
 
 static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
@@ -309,8 +307,8 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
     PyObject *image_o = Py_None, *rest;
     int iw = 0, ih = 0;
     if (!tsk_py_def_read(&k_meadow_def, kw, &d, NULL, names, &rest)) return NULL;
-    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "|$Oii:meadow_create", names,
-                                                   &image_o, &iw, &ih);
+    const int parsed =
+        PyArg_ParseTupleAndKeywords(args, rest, "|$Oii:meadow_create", names, &image_o, &iw, &ih);
     Py_XDECREF(rest);
     if (!parsed) return NULL;
     tsk_py_views v = {.n = 0};
@@ -319,7 +317,8 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
             return tsk_py_raise_arg("image", "size must be 1..%d pixels a side, got %d x %d",
                                     TSK_MEADOW_MAX_IMAGE_SIDE, iw, ih);
         float* img;
-        if (!tsk_py_views_get(&v, image_o, "image", TSK_PY_F32, (Py_ssize_t)iw * ih, 0, 0, (void**)&img))
+        if (!tsk_py_views_get(&v, image_o, "image", TSK_PY_F32, (Py_ssize_t)iw * ih, 0, 0,
+                              (void**)&img))
             return NULL;
         d.image = img;
         d.image_width = iw;
@@ -327,10 +326,8 @@ static PyObject* py_meadow_create(PyObject* self, PyObject* args, PyObject* kw) 
     }
     tsk_meadow* m = NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_meadow_create(&d, &m);
-    Py_END_ALLOW_THREADS
-    tsk_py_views_release(&v);
+    Py_BEGIN_ALLOW_THREADS s = tsk_meadow_create(&d, &m);
+    Py_END_ALLOW_THREADS tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     return tsk_py_handle_new(&k_meadow, m);
 }
@@ -346,12 +343,11 @@ static PyObject* py_meadow_info(PyObject* self, PyObject* args) {
     tsk_status s = tsk_meadow_get_info(m, &i);
     if (s != TSK_OK) return tsk_py_raise(s);
     return Py_BuildValue("{s:i,s:i,s:L,s:L,s:L,s:L,s:i,s:i,s:f,s:(fff)}", "tiles_x", i.tiles_x,
-                         "tiles_y", i.tiles_y, "tile_count", (long long)i.tile_count,
-                         "blade_count", (long long)i.blade_count, "nonempty_tiles",
-                         (long long)i.nonempty_tiles, "chunk_instances",
-                         (long long)i.chunk_instances, "patch_blades", i.patch_blades,
-                         "chunk_blades", i.chunk_blades, "tile_size", (double)i.tile_size,
-                         "origin", (double)i.origin[0], (double)i.origin[1],
+                         "tiles_y", i.tiles_y, "tile_count", (long long)i.tile_count, "blade_count",
+                         (long long)i.blade_count, "nonempty_tiles", (long long)i.nonempty_tiles,
+                         "chunk_instances", (long long)i.chunk_instances, "patch_blades",
+                         i.patch_blades, "chunk_blades", i.chunk_blades, "tile_size",
+                         (double)i.tile_size, "origin", (double)i.origin[0], (double)i.origin[1],
                          (double)i.origin[2]);
 }
 
@@ -376,10 +372,8 @@ static PyObject* py_meadow_tiles(PyObject* self, PyObject* args) {
     }
     tsk_status s;
     hm->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_meadow_get_tiles(m, counts, offsets, dens);
-    Py_END_ALLOW_THREADS
-    hm->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_meadow_get_tiles(m, counts, offsets, dens);
+    Py_END_ALLOW_THREADS hm->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -388,8 +382,7 @@ static PyObject* py_meadow_tiles(PyObject* self, PyObject* args) {
 static PyObject* py_meadow_instances(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *obj, *org_o, *off_o, *cnt_o;
-    if (!PyArg_ParseTuple(args, "OOOO:meadow_instances", &obj, &org_o, &off_o, &cnt_o))
-        return NULL;
+    if (!PyArg_ParseTuple(args, "OOOO:meadow_instances", &obj, &org_o, &off_o, &cnt_o)) return NULL;
     tsk_py_handle* hm = tsk_py_handle_get(obj, &k_meadow);
     if (hm == NULL) return NULL;
     tsk_meadow* m = hm->ptr;
@@ -407,10 +400,8 @@ static PyObject* py_meadow_instances(PyObject* self, PyObject* args) {
     }
     tsk_status s;
     hm->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_meadow_instances(m, org, off, cnt);
-    Py_END_ALLOW_THREADS
-    hm->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_meadow_instances(m, org, off, cnt);
+    Py_END_ALLOW_THREADS hm->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -438,10 +429,8 @@ static PyObject* py_meadow_chunk_instances(PyObject* self, PyObject* args) {
     }
     tsk_status s;
     hm->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_meadow_chunk_instances(m, org, chunk, tile);
-    Py_END_ALLOW_THREADS
-    hm->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_meadow_chunk_instances(m, org, chunk, tile);
+    Py_END_ALLOW_THREADS hm->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -483,16 +472,15 @@ static PyObject* py_meadow_realise(PyObject* self, PyObject* args) {
     if (!tsk_py_views_get(&v, xyz_o, "xyz", TSK_PY_F32, 3 * (Py_ssize_t)n, 1, 1, (void**)&xyz) ||
         !tsk_py_views_get(&v, turn_o, "turn", TSK_PY_F32, (Py_ssize_t)n, 1, 1, (void**)&turn) ||
         !tsk_py_views_get(&v, scale_o, "scale", TSK_PY_F32, (Py_ssize_t)n, 1, 1, (void**)&scale) ||
-        !tsk_py_views_get(&v, idx_o, "patch_index", TSK_PY_I32, (Py_ssize_t)n, 1, 1, (void**)&idx)) {
+        !tsk_py_views_get(&v, idx_o, "patch_index", TSK_PY_I32, (Py_ssize_t)n, 1, 1,
+                          (void**)&idx)) {
         tsk_py_views_release(&v);
         return NULL;
     }
     hm->busy = 1;
     hp->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_meadow_realise(m, p, b, e, xyz, turn, scale, idx);
-    Py_END_ALLOW_THREADS
-    hm->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_meadow_realise(m, p, b, e, xyz, turn, scale, idx);
+    Py_END_ALLOW_THREADS hm->busy = 0;
     hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -503,8 +491,7 @@ static PyObject* py_meadow_realise_knots(PyObject* self, PyObject* args) {
     (void)self;
     PyObject *mo, *po, *k_o, *w_o, *s_o;
     long long b, e;
-    if (!PyArg_ParseTuple(args, "OOLLOOO:meadow_realise_knots", &mo, &po, &b, &e, &k_o, &w_o,
-                          &s_o))
+    if (!PyArg_ParseTuple(args, "OOLLOOO:meadow_realise_knots", &mo, &po, &b, &e, &k_o, &w_o, &s_o))
         return NULL;
     tsk_py_handle* hm = tsk_py_handle_get(mo, &k_meadow);
     if (hm == NULL) return NULL;
@@ -518,18 +505,18 @@ static PyObject* py_meadow_realise_knots(PyObject* self, PyObject* args) {
     const Py_ssize_t K = tsk_patch_knot_count(p);
     tsk_py_views v = {.n = 0};
     float *knots, *widths, *sides;
-    if (!tsk_py_views_get(&v, k_o, "knots", TSK_PY_F32, 3 * K * (Py_ssize_t)n, 1, 1, (void**)&knots) ||
-        !tsk_py_views_get(&v, w_o, "widths", TSK_PY_F32, K * (Py_ssize_t)n, 1, 1, (void**)&widths) ||
+    if (!tsk_py_views_get(&v, k_o, "knots", TSK_PY_F32, 3 * K * (Py_ssize_t)n, 1, 1,
+                          (void**)&knots) ||
+        !tsk_py_views_get(&v, w_o, "widths", TSK_PY_F32, K * (Py_ssize_t)n, 1, 1,
+                          (void**)&widths) ||
         !tsk_py_views_get(&v, s_o, "sides", TSK_PY_F32, 3 * (Py_ssize_t)n, 1, 1, (void**)&sides)) {
         tsk_py_views_release(&v);
         return NULL;
     }
     hm->busy = 1;
     hp->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_meadow_realise_knots(m, p, b, e, knots, widths, sides);
-    Py_END_ALLOW_THREADS
-    hm->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_meadow_realise_knots(m, p, b, e, knots, widths, sides);
+    Py_END_ALLOW_THREADS hm->busy = 0;
     hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -566,8 +553,7 @@ PyMethodDef tsk_py_meadow_methods[] = {
      "blade_indices($module, knot_count, blade_count, tris, /)\n--\n\n"
      "triangle indices of blade_count ribbons laid out blade after blade; int32 6(K-1) per "
      "blade."},
-    {"meadow_create", (PyCFunction)(void (*)(void))py_meadow_create,
-     METH_VARARGS | METH_KEYWORDS,
+    {"meadow_create", (PyCFunction)(void (*)(void))py_meadow_create, METH_VARARGS | METH_KEYWORDS,
      "meadow_create($module, *, origin=(0,0,0), size=(10,10), tile_size=0.5, blades_per_tile=64, "
      "patch_blades=16384, chunk_blades=1, seed=1, density='noise', noise_scale=8, "
      "noise_octaves=3, noise_persistence=0.5, noise_threshold=0.15, noise_contrast=2.5, "

@@ -11,9 +11,9 @@
 
 static void destroy_picture(void* p) { tsk_picture_destroy(p); }
 
-static const tsk_py_kind k_picture = {"tussock.picture", "picture", "picture",
-                                      "picture_load or picture_create", NULL,
-                                      destroy_picture};
+static const tsk_py_kind k_picture = {
+    "tussock.picture", "picture", "picture", "picture_load or picture_create", NULL,
+    destroy_picture};
 
 static PyObject* wrap(tsk_picture* p) { return tsk_py_handle_new(&k_picture, p); }
 
@@ -23,10 +23,8 @@ static PyObject* py_picture_load(PyObject* self, PyObject* args) {
     if (!PyArg_ParseTuple(args, "s:picture_load", &path)) return NULL;
     tsk_picture* p = NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_picture_load(path, &p);
-    Py_END_ALLOW_THREADS
-    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_BEGIN_ALLOW_THREADS s = tsk_picture_load(path, &p);
+    Py_END_ALLOW_THREADS if (s != TSK_OK) return tsk_py_raise(s);
     return wrap(p);
 }
 
@@ -42,10 +40,9 @@ static PyObject* py_picture_create(PyObject* self, PyObject* args, PyObject* kw)
     if (!tsk_py_buffer(obj, "rgba", TSK_PY_F32, -1, 0, &rgba)) return NULL;
     tsk_picture* p = NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_picture_create(w, h, rgba.buf, (size_t)tsk_py_count(&rgba), bottom_up, &p);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&rgba);
+    Py_BEGIN_ALLOW_THREADS s =
+        tsk_picture_create(w, h, rgba.buf, (size_t)tsk_py_count(&rgba), bottom_up, &p);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&rgba);
     if (s != TSK_OK) return tsk_py_raise(s);
     return wrap(p);
 }
@@ -83,8 +80,7 @@ static PyObject* read_common(PyObject* args, PyObject* kw, int what, const char*
     int ok = (what == READ_LAYER || what == READ_MATTE)
                  ? PyArg_ParseTupleAndKeywords(args, kw, fmt, names_layer, &cap, &layer, &obj,
                                                &bottom_up)
-                 : PyArg_ParseTupleAndKeywords(args, kw, fmt, names_plain, &cap, &obj,
-                                               &bottom_up);
+                 : PyArg_ParseTupleAndKeywords(args, kw, fmt, names_plain, &cap, &obj, &bottom_up);
     if (!ok) return NULL;
     tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
     if (hp == NULL) return NULL;
@@ -96,15 +92,21 @@ static PyObject* read_common(PyObject* args, PyObject* kw, int what, const char*
     if (!tsk_py_buffer(obj, "out", TSK_PY_F32, n, 1, &out)) return NULL;
     tsk_status s = TSK_OK;
     hp->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    switch (what) {
-    case READ_RGBA: s = tsk_picture_read_rgba(p, out.buf, (size_t)n, bottom_up); break;
-    case READ_BACKGROUND: s = tsk_picture_read_background(p, out.buf, (size_t)n, bottom_up); break;
-    case READ_LAYER: s = tsk_picture_read_layer(p, layer, out.buf, (size_t)n, bottom_up); break;
-    case READ_MATTE: s = tsk_picture_read_matte(p, layer, out.buf, (size_t)n, bottom_up); break;
+    Py_BEGIN_ALLOW_THREADS switch (what) {
+        case READ_RGBA:
+            s = tsk_picture_read_rgba(p, out.buf, (size_t)n, bottom_up);
+            break;
+        case READ_BACKGROUND:
+            s = tsk_picture_read_background(p, out.buf, (size_t)n, bottom_up);
+            break;
+        case READ_LAYER:
+            s = tsk_picture_read_layer(p, layer, out.buf, (size_t)n, bottom_up);
+            break;
+        case READ_MATTE:
+            s = tsk_picture_read_matte(p, layer, out.buf, (size_t)n, bottom_up);
+            break;
     }
-    Py_END_ALLOW_THREADS
-    hp->busy = 0;
+    Py_END_ALLOW_THREADS hp->busy = 0;
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -130,8 +132,8 @@ static PyObject* py_picture_read_matte(PyObject* self, PyObject* args, PyObject*
 static const tsk_py_field k_grabcut_fields[] = {
     {"iterations", TSK_PY_INT, offsetof(tsk_grabcut_def, iterations), NULL, NULL, NULL},
 };
-static const tsk_py_def k_grabcut_def = {"GrabCut setting", TSK_PY_FIELDS(k_grabcut_fields),
-                                         NULL, 0};
+static const tsk_py_def k_grabcut_def = {"GrabCut setting", TSK_PY_FIELDS(k_grabcut_fields), NULL,
+                                         0};
 
 static PyObject* py_picture_propose_mask(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
@@ -139,9 +141,9 @@ static PyObject* py_picture_propose_mask(PyObject* self, PyObject* args, PyObjec
     PyObject *cap, *out_obj, *strokes_obj = Py_None, *rest;
     tsk_grabcut_def g = tsk_default_grabcut_def();
     if (!tsk_py_def_read(&k_grabcut_def, kw, &g, NULL, names, &rest)) return NULL;
-    const int parsed = PyArg_ParseTupleAndKeywords(
-        args, rest, "O(iiii)O|O:picture_propose_mask", names, &cap, &g.rect_x, &g.rect_y,
-        &g.rect_width, &g.rect_height, &out_obj, &strokes_obj);
+    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "O(iiii)O|O:picture_propose_mask",
+                                                   names, &cap, &g.rect_x, &g.rect_y, &g.rect_width,
+                                                   &g.rect_height, &out_obj, &strokes_obj);
     Py_XDECREF(rest);
     if (!parsed) return NULL;
     tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
@@ -161,10 +163,9 @@ static PyObject* py_picture_propose_mask(PyObject* self, PyObject* args, PyObjec
     }
     tsk_status s;
     hp->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_picture_propose_mask(p, &g, strokes, has_strokes ? (size_t)n : 0, out, (size_t)n);
-    Py_END_ALLOW_THREADS
-    hp->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s =
+        tsk_picture_propose_mask(p, &g, strokes, has_strokes ? (size_t)n : 0, out, (size_t)n);
+    Py_END_ALLOW_THREADS hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -184,18 +185,18 @@ static PyObject* py_picture_add_layer(PyObject* self, PyObject* args) {
         is_float = 0;
         if (!tsk_py_buffer(obj, "mask", TSK_PY_U8, -1, 0, &mask)) {
             PyErr_Clear();
-            return tsk_py_raise_arg("mask", "must be a C-contiguous uint8 (>= 128 = vegetation) "
-                                            "or float32 (>= 0.5) array of width*height values");
+            return tsk_py_raise_arg("mask",
+                                    "must be a C-contiguous uint8 (>= 128 = vegetation) "
+                                    "or float32 (>= 0.5) array of width*height values");
         }
     }
     int index = -1;
     tsk_status s;
     hp->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = is_float ? tsk_picture_add_layer_f32(p, mask.buf, (size_t)tsk_py_count(&mask), &index)
+    Py_BEGIN_ALLOW_THREADS s =
+        is_float ? tsk_picture_add_layer_f32(p, mask.buf, (size_t)tsk_py_count(&mask), &index)
                  : tsk_picture_add_layer_u8(p, mask.buf, (size_t)tsk_py_count(&mask), &index);
-    Py_END_ALLOW_THREADS
-    hp->busy = 0;
+    Py_END_ALLOW_THREADS hp->busy = 0;
     PyBuffer_Release(&mask);
     if (s != TSK_OK) return tsk_py_raise(s);
     return PyLong_FromLong(index);
@@ -211,8 +212,7 @@ static const tsk_py_field k_layers_fields[] = {
     {"grow", TSK_PY_FLOAT, offsetof(tsk_layers_def, grow), NULL, NULL, NULL},
     {"feather", TSK_PY_FLOAT, offsetof(tsk_layers_def, feather), NULL, NULL, NULL},
 };
-static const tsk_py_def k_layers_def = {"layer setting", TSK_PY_FIELDS(k_layers_fields), NULL,
-                                        0};
+static const tsk_py_def k_layers_def = {"layer setting", TSK_PY_FIELDS(k_layers_fields), NULL, 0};
 
 static PyObject* py_picture_build(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
@@ -228,10 +228,8 @@ static PyObject* py_picture_build(PyObject* self, PyObject* args, PyObject* kw) 
     tsk_picture* p = hp->ptr;
     tsk_status s;
     hp->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_picture_build(p, &d);
-    Py_END_ALLOW_THREADS
-    hp->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_picture_build(p, &d);
+    Py_END_ALLOW_THREADS hp->busy = 0;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -248,10 +246,15 @@ _Static_assert(TSK_SAMPLE_BILINEAR == 0 && TSK_SAMPLE_MAP_UV == 1 && TSK_SAMPLE_
 _Static_assert(sizeof(tsk_picture_root) == sizeof(int) && sizeof(tsk_warp_sampling) == sizeof(int),
                "root and sampling are read as ints");
 
-#define F(name, type) {#name, type, offsetof(tsk_warp_def, name), NULL, NULL, NULL}
+#define F(name, type) \
+    { #name, type, offsetof(tsk_warp_def, name), NULL, NULL, NULL }
 static const tsk_py_field k_warp_fields[] = {
-    F(cell_x, TSK_PY_INT),      F(cell_y, TSK_PY_INT), F(lambda_x, TSK_PY_FLOAT),
-    F(lambda_y, TSK_PY_FLOAT),  F(dt, TSK_PY_FLOAT),   F(rigidity, TSK_PY_FLOAT),
+    F(cell_x, TSK_PY_INT),
+    F(cell_y, TSK_PY_INT),
+    F(lambda_x, TSK_PY_FLOAT),
+    F(lambda_y, TSK_PY_FLOAT),
+    F(dt, TSK_PY_FLOAT),
+    F(rigidity, TSK_PY_FLOAT),
     {"root", TSK_PY_CHOICE, offsetof(tsk_warp_def, root), k_roots, NULL, NULL},
 };
 static const tsk_py_field k_frame_fields[] = {
@@ -272,8 +275,7 @@ static int parse_sampling(const char* name, tsk_warp_sampling* out) {
     return 0;
 }
 
-static int finish_warp_def(tsk_warp_def* def, PyObject* root_y, PyObject* height,
-                           int allow_auto) {
+static int finish_warp_def(tsk_warp_def* def, PyObject* root_y, PyObject* height, int allow_auto) {
     const int given_y = root_y != Py_None, given_h = height != Py_None;
     if (given_y != given_h) {
         tsk_py_raise_arg("root_y, height", "give both (pixels) or neither (found from the mask)");
@@ -294,18 +296,17 @@ static int finish_warp_def(tsk_warp_def* def, PyObject* root_y, PyObject* height
 
 static PyObject* py_picture_layer_frame(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"picture", "layer", "vx", "vy", "field_width", "field_height",
-                            "rgba", "uv", "field_y_up", "uv_bottom_up", "root_y", "height",
-                            "scale_map", NULL};
+    static char* names[] = {"picture",      "layer",  "vx",        "vy",         "field_width",
+                            "field_height", "rgba",   "uv",        "field_y_up", "uv_bottom_up",
+                            "root_y",       "height", "scale_map", NULL};
     PyObject *cap, *vx_obj, *vy_obj, *rgba_obj = Py_None, *uv_obj = Py_None;
     PyObject *scale_obj = Py_None, *root_y = Py_None, *height = Py_None, *rest;
     int layer, fw, fh, y_up = 1, uv_bottom_up = 1;
     tsk_warp_def def = tsk_default_warp_def();
     if (!tsk_py_def_read(&k_frame_def, kw, &def, NULL, names, &rest)) return NULL;
     const int parsed = PyArg_ParseTupleAndKeywords(
-        args, rest, "OiOOii|OOpp$OOO:picture_layer_frame", names, &cap, &layer, &vx_obj,
-        &vy_obj, &fw, &fh, &rgba_obj, &uv_obj, &y_up, &uv_bottom_up, &root_y, &height,
-        &scale_obj);
+        args, rest, "OiOOii|OOpp$OOO:picture_layer_frame", names, &cap, &layer, &vx_obj, &vy_obj,
+        &fw, &fh, &rgba_obj, &uv_obj, &y_up, &uv_bottom_up, &root_y, &height, &scale_obj);
     Py_XDECREF(rest);
     if (!parsed) return NULL;
     tsk_py_handle* hp = tsk_py_handle_get(cap, &k_picture);
@@ -332,12 +333,10 @@ static PyObject* py_picture_layer_frame(PyObject* self, PyObject* args, PyObject
     tsk_picture_field f = {vx, vy, fw, fh, y_up};
     tsk_status s;
     hp->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_picture_layer_frame(p, layer, &def, &f, scale, have_scale ? (size_t)n : 0, rgba,
-                                have_rgba ? (size_t)(4 * n) : 0, uv,
-                                have_uv ? (size_t)(4 * n) : 0, uv_bottom_up);
-    Py_END_ALLOW_THREADS
-    hp->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_picture_layer_frame(
+        p, layer, &def, &f, scale, have_scale ? (size_t)n : 0, rgba,
+        have_rgba ? (size_t)(4 * n) : 0, uv, have_uv ? (size_t)(4 * n) : 0, uv_bottom_up);
+    Py_END_ALLOW_THREADS hp->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -383,10 +382,8 @@ static PyObject* py_picture_composite(PyObject* self, PyObject* args) {
     tsk_status s = TSK_OK;
     if (ok) {
         hp->busy = 1;
-        Py_BEGIN_ALLOW_THREADS
-        s = tsk_picture_composite(p, ptrs, (size_t)count, out, (size_t)n4);
-        Py_END_ALLOW_THREADS
-        hp->busy = 0;
+        Py_BEGIN_ALLOW_THREADS s = tsk_picture_composite(p, ptrs, (size_t)count, out, (size_t)n4);
+        Py_END_ALLOW_THREADS hp->busy = 0;
     }
     tsk_py_views_release(&v);
     if (!ok) return NULL;
@@ -405,17 +402,17 @@ static PyObject* py_warp_grid_size(PyObject* self, PyObject* args) {
 
 static PyObject* py_warp_corners(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"width", "height", "vx", "vy", "field_width", "field_height",
-                            "corner_dx", "corner_dy", "field_y_up", "root_y", "height_px",
-                            "scale_map", NULL};
+    static char* names[] = {"width",        "height",    "vx",        "vy",         "field_width",
+                            "field_height", "corner_dx", "corner_dy", "field_y_up", "root_y",
+                            "height_px",    "scale_map", NULL};
     PyObject *vx_obj, *vy_obj, *dx_obj, *dy_obj, *scale_obj = Py_None;
     PyObject *root_y = Py_None, *height_px = Py_None, *rest;
     int w, h, fw, fh, y_up = 1;
     tsk_warp_def def = tsk_default_warp_def();
     if (!tsk_py_def_read(&k_warp_def, kw, &def, NULL, names, &rest)) return NULL;
-    const int parsed = PyArg_ParseTupleAndKeywords(
-        args, rest, "iiOOiiOO|p$OOO:warp_corners", names, &w, &h, &vx_obj, &vy_obj, &fw, &fh,
-        &dx_obj, &dy_obj, &y_up, &root_y, &height_px, &scale_obj);
+    const int parsed = PyArg_ParseTupleAndKeywords(args, rest, "iiOOiiOO|p$OOO:warp_corners", names,
+                                                   &w, &h, &vx_obj, &vy_obj, &fw, &fh, &dx_obj,
+                                                   &dy_obj, &y_up, &root_y, &height_px, &scale_obj);
     Py_XDECREF(rest);
     if (!parsed) return NULL;
     if (!finish_warp_def(&def, root_y, height_px, 0)) return NULL;
@@ -439,26 +436,24 @@ static PyObject* py_warp_corners(PyObject* self, PyObject* args, PyObject* kw) {
         return NULL;
     }
     tsk_picture_field f = {vx, vy, fw, fh, y_up};
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_warp_corners(&def, w, h, &f, scale, have_scale ? (size_t)w * h : 0, dx, dy,
-                         (size_t)nc);
-    Py_END_ALLOW_THREADS
-    tsk_py_views_release(&v);
+    Py_BEGIN_ALLOW_THREADS s =
+        tsk_warp_corners(&def, w, h, &f, scale, have_scale ? (size_t)w * h : 0, dx, dy, (size_t)nc);
+    Py_END_ALLOW_THREADS tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
 
 static PyObject* py_warp_apply(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"width", "height", "src", "cell_x", "cell_y", "corner_dx",
-                            "corner_dy", "dst", "uv", "uv_bottom_up", "sampling", NULL};
+    static char* names[] = {"width",     "height", "src", "cell_x",       "cell_y",   "corner_dx",
+                            "corner_dy", "dst",    "uv",  "uv_bottom_up", "sampling", NULL};
     PyObject *src_obj, *dx_obj, *dy_obj, *dst_obj = Py_None, *uv_obj = Py_None;
     int w, h, sx, sy, uv_bottom_up = 1;
     const char* sampling_name = "bilinear";
     tsk_warp_sampling sampling;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "iiOiiOO|OOps:warp_apply", names, &w, &h,
-                                     &src_obj, &sx, &sy, &dx_obj, &dy_obj, &dst_obj, &uv_obj,
-                                     &uv_bottom_up, &sampling_name))
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "iiOiiOO|OOps:warp_apply", names, &w, &h, &src_obj,
+                                     &sx, &sy, &dx_obj, &dy_obj, &dst_obj, &uv_obj, &uv_bottom_up,
+                                     &sampling_name))
         return NULL;
     if (!parse_sampling(sampling_name, &sampling)) return NULL;
     int cx, cy;
@@ -476,10 +471,9 @@ static PyObject* py_warp_apply(PyObject* self, PyObject* args, PyObject* kw) {
              tsk_py_views_get(&v, dst_obj, "dst", TSK_PY_F32, n4, 1, 0, (void**)&dst);
     ok = ok && tsk_py_views_get(&v, uv_obj, "uv", TSK_PY_F32, n4, 1, 1, (void**)&uv);
     if (ok) {
-        Py_BEGIN_ALLOW_THREADS
-        s = tsk_warp_apply(w, h, src, have_dst ? (size_t)n4 : 0, sx, sy, dx, dy, (size_t)nc,
-                           sampling, dst, have_dst ? (size_t)n4 : 0, uv, have_uv ? (size_t)n4 : 0,
-                           uv_bottom_up);
+        Py_BEGIN_ALLOW_THREADS s = tsk_warp_apply(
+            w, h, src, have_dst ? (size_t)n4 : 0, sx, sy, dx, dy, (size_t)nc, sampling, dst,
+            have_dst ? (size_t)n4 : 0, uv, have_uv ? (size_t)n4 : 0, uv_bottom_up);
         Py_END_ALLOW_THREADS
     }
     tsk_py_views_release(&v);
@@ -497,7 +491,8 @@ PyMethodDef tsk_py_picture_methods[] = {
     {"picture_create", KW py_picture_create, METH_VARARGS | METH_KEYWORDS,
      "picture_create($module, width, height, rgba, bottom_up=False)\n--\n\n"
      "-> picture; rgba float32 4*W*H straight (bottom_up=True for Image.pixels)."},
-    {"picture_size", py_picture_size, METH_VARARGS, "picture_size($module, picture, /)\n--\n\n"
+    {"picture_size", py_picture_size, METH_VARARGS,
+     "picture_size($module, picture, /)\n--\n\n"
      "-> (width, height)."},
     {"picture_layer_count", py_picture_layer_count, METH_VARARGS,
      "picture_layer_count($module, picture, /)\n--\n\n"

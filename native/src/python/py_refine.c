@@ -19,8 +19,8 @@ static int xyz_count(const tsk_py_views* v, const char* name, Py_ssize_t* count)
 
 static PyObject* py_refine_blade(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"knots", "widths", "trajectories", "frame_count", "target_knots",
-                            "mu", "out_knots", "out_widths", "out_ranges", "out_trajectories",
+    static char* names[] = {"knots", "widths",    "trajectories", "frame_count", "target_knots",
+                            "mu",    "out_knots", "out_widths",   "out_ranges",  "out_trajectories",
                             NULL};
     PyObject *ko, *wo, *to, *oko, *owo, *oro, *oto = Py_None;
     Py_ssize_t frames;
@@ -55,25 +55,23 @@ static PyObject* py_refine_blade(PyObject* self, PyObject* args, PyObject* kw) {
     tsk_refine_input in = {k, w, t, (size_t)n, (size_t)frames};
     tsk_refine_output out = {ok, ow, orr, ot};
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_refine_blade(&def, &in, &out);
-    Py_END_ALLOW_THREADS
-    tsk_py_views_release(&v);
+    Py_BEGIN_ALLOW_THREADS s = tsk_refine_blade(&def, &in, &out);
+    Py_END_ALLOW_THREADS tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
 
 static PyObject* py_refine_blades(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* names[] = {"knots", "widths", "trajectories", "blade_count", "frame_count",
-                            "target_knots", "mu", "out_knots", "out_widths", "out_ranges",
-                            "out_trajectories", NULL};
+    static char* names[] = {
+        "knots", "widths",    "trajectories", "blade_count", "frame_count",      "target_knots",
+        "mu",    "out_knots", "out_widths",   "out_ranges",  "out_trajectories", NULL};
     PyObject *ko, *wo, *to, *oko, *owo, *oro, *oto = Py_None;
     Py_ssize_t blades, frames;
     int target;
     float mu;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOOnnifOOO|O:refine_blades", names, &ko, &wo,
-                                     &to, &blades, &frames, &target, &mu, &oko, &owo, &oro, &oto))
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOOnnifOOO|O:refine_blades", names, &ko, &wo, &to,
+                                     &blades, &frames, &target, &mu, &oko, &owo, &oro, &oto))
         return NULL;
     if (blades < 1) return tsk_py_raise_arg("blade_count", "must be at least 1, got %zd", blades);
     if (frames < 1) return tsk_py_raise_arg("frame_count", "must be at least 1, got %zd", frames);
@@ -120,11 +118,8 @@ static PyObject* py_refine_blades(PyObject* self, PyObject* args, PyObject* kw) 
     }
     tsk_refine_def def = {target, mu};
     got = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_refine_blades(&def, in, out, (size_t)blades);
-    Py_END_ALLOW_THREADS
-done:
-    tsk_free(in);
+    Py_BEGIN_ALLOW_THREADS s = tsk_refine_blades(&def, in, out, (size_t)blades);
+    Py_END_ALLOW_THREADS done : tsk_free(in);
     tsk_free(out);
     tsk_py_views_release(&v);
     if (!got) return NULL;
@@ -164,11 +159,8 @@ static PyObject* py_refine_track(PyObject* self, PyObject* args) {
                           (void**)&ot))
         goto done;
     got = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_refine_track(r, (size_t)n, fk, fo, (size_t)frames, ot);
-    Py_END_ALLOW_THREADS
-done:
-    tsk_py_views_release(&v);
+    Py_BEGIN_ALLOW_THREADS s = tsk_refine_track(r, (size_t)n, fk, fo, (size_t)frames, ot);
+    Py_END_ALLOW_THREADS done : tsk_py_views_release(&v);
     if (!got) return NULL;
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -192,15 +184,14 @@ static PyObject* py_refine_resample(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_refine_resample(k, w, (size_t)n, (size_t)m, ok, ow);
-    Py_END_ALLOW_THREADS
-    tsk_py_views_release(&v);
+    Py_BEGIN_ALLOW_THREADS s = tsk_refine_resample(k, w, (size_t)n, (size_t)m, ok, ow);
+    Py_END_ALLOW_THREADS tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
 
-#define F(name, member, type) {name, type, offsetof(tsk_refine_bend_def, member), NULL, NULL, NULL}
+#define F(name, member, type) \
+    { name, type, offsetof(tsk_refine_bend_def, member), NULL, NULL, NULL }
 static const tsk_py_field k_bend_fields[] = {
     F("youngs_modulus", youngs_modulus, TSK_PY_FLOAT),
     F("thickness", thickness, TSK_PY_FLOAT),
@@ -250,10 +241,8 @@ static PyObject* py_refine_simulate(PyObject* self, PyObject* args, PyObject* kw
         return NULL;
     }
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_refine_simulate(&d, k, w, (size_t)n, (size_t)frames, ot);
-    Py_END_ALLOW_THREADS
-    tsk_py_views_release(&v);
+    Py_BEGIN_ALLOW_THREADS s = tsk_refine_simulate(&d, k, w, (size_t)n, (size_t)frames, ot);
+    Py_END_ALLOW_THREADS tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -265,8 +254,7 @@ PyMethodDef tsk_py_refine_methods[] = {
      "seed 000 Algorithm 1. knots float32 (3K), widths (K), trajectories (frame_count*K*3, "
      "frame-major); out_knots (3m), out_widths (m), out_ranges int32 (2m: first source knot, "
      "count), out_trajectories (frame_count*m*3)."},
-    {"refine_blades", (PyCFunction)(void (*)(void))py_refine_blades,
-     METH_VARARGS | METH_KEYWORDS,
+    {"refine_blades", (PyCFunction)(void (*)(void))py_refine_blades, METH_VARARGS | METH_KEYWORDS,
      "refine_blades($module, knots, widths, trajectories, blade_count, frame_count, "
      "target_knots, mu, out_knots, out_widths, out_ranges, out_trajectories=None)\n--\n\n"
      "many blades of equal knot count K, in parallel; arrays are refine_blade's stacked per "

@@ -11,7 +11,7 @@
 static void destroy_sim(void* sim) { tsk_blade_sim_destroy(sim); }
 
 static const tsk_py_kind k_sim = {"tussock.blade_sim", "sim", "blade simulation",
-                                  "blade_sim_create", NULL, destroy_sim};
+                                  "blade_sim_create",  NULL,  destroy_sim};
 
 /* The simulation behind handle `obj` and its handle in *h (NULL, with the exception set, when
  * it is none, closed or busy). */
@@ -27,7 +27,8 @@ static tsk_blade_sim* get_sim_info(PyObject* obj, tsk_py_handle** h, tsk_blade_s
     return sim;
 }
 
-#define FLD(name, type) {#name, type, offsetof(tsk_blade_sim_def, name), NULL, NULL, NULL}
+#define FLD(name, type) \
+    { #name, type, offsetof(tsk_blade_sim_def, name), NULL, NULL, NULL }
 static const tsk_py_field k_fields[] = {
     FLD(origin, TSK_PY_VEC3),
     FLD(tile_size, TSK_PY_FLOAT),
@@ -102,8 +103,9 @@ static PyObject* py_set_colliders(PyObject* self, PyObject* args) {
     const Py_ssize_t n = tsk_py_count(&cb);
     if (n % 8 != 0) {
         PyBuffer_Release(&cb);
-        return tsk_py_raise_arg("colliders", "must hold 8 floats per collider "
-                                             "(kind, radius, ax, ay, az, bx, by, bz), got %zd",
+        return tsk_py_raise_arg("colliders",
+                                "must hold 8 floats per collider "
+                                "(kind, radius, ax, ay, az, bx, by, bz), got %zd",
                                 n);
     }
     const Py_ssize_t count = n / 8;
@@ -203,8 +205,8 @@ static PyObject* py_provide_tile(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_provide_tile(sim, tile, (int32_t)blades, knots, widths,
-                                                      sides));
+    TSK_PY_UNLOCKED(
+        h, s = tsk_blade_sim_provide_tile(sim, tile, (int32_t)blades, knots, widths, sides));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -221,14 +223,17 @@ static PyObject* py_step(PyObject* self, PyObject* args) {
     tsk_blade_sim* sim = get_sim(sim_obj, &h);
     if (!sim) return NULL;
     if (layout < TSK_WIND_NONE || layout > TSK_WIND_PER_KNOT)
-        return tsk_py_raise_arg("layout", "must be 0 (none), 1 (uniform), 2 (per blade) or "
-                                          "3 (per knot), got %d", layout);
+        return tsk_py_raise_arg("layout",
+                                "must be 0 (none), 1 (uniform), 2 (per blade) or "
+                                "3 (per knot), got %d",
+                                layout);
     tsk_blade_sim_info info;
     tsk_blade_sim_get_info(sim, &info);
     Py_ssize_t need = 0;
     if (layout == TSK_WIND_UNIFORM) need = 3;
     else if (layout == TSK_WIND_PER_BLADE) need = 3 * (Py_ssize_t)info.active_blades;
-    else if (layout == TSK_WIND_PER_KNOT) need = 3 * (Py_ssize_t)info.active_blades * info.knot_count;
+    else if (layout == TSK_WIND_PER_KNOT)
+        need = 3 * (Py_ssize_t)info.active_blades * info.knot_count;
     Py_buffer wind;
     const float* wp = NULL;
     if (layout != TSK_WIND_NONE) {
@@ -325,8 +330,8 @@ static PyObject* py_get_ribbons(PyObject* self, PyObject* args) {
         return NULL;
     }
     tsk_status s;
-    TSK_PY_UNLOCKED(h, s = tsk_blade_sim_get_ribbons(sim, (int64_t)first, (int64_t)n, widths, sides,
-                                                     out));
+    TSK_PY_UNLOCKED(
+        h, s = tsk_blade_sim_get_ribbons(sim, (int64_t)first, (int64_t)n, widths, sides, out));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -362,8 +367,10 @@ static PyObject* py_get_ribbon_runs(PyObject* self, PyObject* args) {
     for (Py_ssize_t r = 0; r < runs; ++r) {
         if (counts[r] < 0 || counts[r] > (int64_t)n - sum) {
             tsk_py_views_release(&v);
-            return tsk_py_raise_arg("counts", "the runs' blades must add up to the %zd blades of "
-                                    "sides (run %zd: %lld)", n, r, (long long)counts[r]);
+            return tsk_py_raise_arg("counts",
+                                    "the runs' blades must add up to the %zd blades of "
+                                    "sides (run %zd: %lld)",
+                                    n, r, (long long)counts[r]);
         }
         sum += counts[r];
     }
@@ -424,7 +431,8 @@ PyMethodDef tsk_py_sim_methods[] = {
      "blade_sim_step($module, sim, dt, wind=None, layout=0, /)\n--\n\n"
      "advance dt seconds; wind float32 for layout 1 uniform (3), 2 per active blade (3n), 3 "
      "per knot (3nK)."},
-    {"blade_sim_info", py_info, METH_VARARGS, "blade_sim_info($module, sim, /)\n--\n\n"
+    {"blade_sim_info", py_info, METH_VARARGS,
+     "blade_sim_info($module, sim, /)\n--\n\n"
      "-> dict."},
     {"blade_sim_get_active", py_get_active, METH_VARARGS,
      "blade_sim_get_active($module, sim, tiles, blade_counts, /)\n--\n\n"

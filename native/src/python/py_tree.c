@@ -10,8 +10,10 @@
 
 /* ---- definition <-> dict ---------------------------------------------------------------- */
 
-#define FD(n, t) {#n, t, offsetof(tsk_tree_def, n), NULL, NULL, NULL}
-#define LD(n, t) {#n, t, offsetof(tsk_tree_level_def, n), NULL, NULL, NULL}
+#define FD(n, t) \
+    { #n, t, offsetof(tsk_tree_def, n), NULL, NULL, NULL }
+#define LD(n, t) \
+    { #n, t, offsetof(tsk_tree_level_def, n), NULL, NULL, NULL }
 static const tsk_py_field k_level_fields[] = {
     LD(length, TSK_PY_FLOAT),     LD(length_v, TSK_PY_FLOAT),    LD(taper, TSK_PY_FLOAT),
     LD(seg_splits, TSK_PY_FLOAT), LD(split_angle, TSK_PY_FLOAT), LD(split_angle_v, TSK_PY_FLOAT),
@@ -50,18 +52,38 @@ static PyObject* write_levels(const void* def) {
 }
 
 static const tsk_py_field k_tree_fields[] = {
-    FD(seed, TSK_PY_U64),          FD(shape, TSK_PY_INT),          FD(base_size, TSK_PY_FLOAT),
-    FD(scale, TSK_PY_FLOAT),       FD(scale_v, TSK_PY_FLOAT),      FD(z_scale, TSK_PY_FLOAT),
-    FD(z_scale_v, TSK_PY_FLOAT),   FD(levels, TSK_PY_INT),         FD(ratio, TSK_PY_FLOAT),
-    FD(ratio_power, TSK_PY_FLOAT), FD(lobes, TSK_PY_INT),          FD(lobe_depth, TSK_PY_FLOAT),
-    FD(flare, TSK_PY_FLOAT),       FD(scale0, TSK_PY_FLOAT),       FD(scale0_v, TSK_PY_FLOAT),
-    FD(base_splits, TSK_PY_INT),   FD(leaves, TSK_PY_INT),         FD(leaf_shape, TSK_PY_INT),
-    FD(leaf_scale, TSK_PY_FLOAT),  FD(leaf_scale_x, TSK_PY_FLOAT), FD(attraction_up, TSK_PY_FLOAT),
-    FD(prune_ratio, TSK_PY_FLOAT), FD(prune_width, TSK_PY_FLOAT),
-    FD(prune_width_peak, TSK_PY_FLOAT), FD(prune_power_low, TSK_PY_FLOAT),
-    FD(prune_power_high, TSK_PY_FLOAT), FD(taper_power, TSK_PY_FLOAT),
-    FD(lobe_fade, TSK_PY_FLOAT),   FD(bulges, TSK_PY_INT),         FD(bulge_depth, TSK_PY_FLOAT),
-    FD(max_branches, TSK_PY_U32),  FD(max_leaves, TSK_PY_U32),
+    FD(seed, TSK_PY_U64),
+    FD(shape, TSK_PY_INT),
+    FD(base_size, TSK_PY_FLOAT),
+    FD(scale, TSK_PY_FLOAT),
+    FD(scale_v, TSK_PY_FLOAT),
+    FD(z_scale, TSK_PY_FLOAT),
+    FD(z_scale_v, TSK_PY_FLOAT),
+    FD(levels, TSK_PY_INT),
+    FD(ratio, TSK_PY_FLOAT),
+    FD(ratio_power, TSK_PY_FLOAT),
+    FD(lobes, TSK_PY_INT),
+    FD(lobe_depth, TSK_PY_FLOAT),
+    FD(flare, TSK_PY_FLOAT),
+    FD(scale0, TSK_PY_FLOAT),
+    FD(scale0_v, TSK_PY_FLOAT),
+    FD(base_splits, TSK_PY_INT),
+    FD(leaves, TSK_PY_INT),
+    FD(leaf_shape, TSK_PY_INT),
+    FD(leaf_scale, TSK_PY_FLOAT),
+    FD(leaf_scale_x, TSK_PY_FLOAT),
+    FD(attraction_up, TSK_PY_FLOAT),
+    FD(prune_ratio, TSK_PY_FLOAT),
+    FD(prune_width, TSK_PY_FLOAT),
+    FD(prune_width_peak, TSK_PY_FLOAT),
+    FD(prune_power_low, TSK_PY_FLOAT),
+    FD(prune_power_high, TSK_PY_FLOAT),
+    FD(taper_power, TSK_PY_FLOAT),
+    FD(lobe_fade, TSK_PY_FLOAT),
+    FD(bulges, TSK_PY_INT),
+    FD(bulge_depth, TSK_PY_FLOAT),
+    FD(max_branches, TSK_PY_U32),
+    FD(max_leaves, TSK_PY_U32),
     {"level", TSK_PY_CUSTOM, 0, NULL, read_levels, write_levels},
 };
 #undef FD
@@ -86,10 +108,10 @@ static PyObject* def_to_dict(const tsk_tree_def* def) { return tsk_py_def_dict(&
 static void destroy_tree(void* t) { tsk_tree_destroy(t); }
 static void destroy_subdiv(void* s) { tsk_subdiv_destroy(s); }
 
-static const tsk_py_kind k_tree = {"tussock.tree", "tree", "tree", "tree_create()", NULL,
-                                 destroy_tree};
-static const tsk_py_kind k_subdiv = {"tussock.subdiv", "subdiv", "subdivision",
-                                     "subdiv_create()", NULL, destroy_subdiv};
+static const tsk_py_kind k_tree = {"tussock.tree",  "tree", "tree",
+                                   "tree_create()", NULL,   destroy_tree};
+static const tsk_py_kind k_subdiv = {"tussock.subdiv",  "subdiv", "subdivision",
+                                     "subdiv_create()", NULL,     destroy_subdiv};
 
 /* ---- functions ----------------------------------------------------------------------------- */
 
@@ -133,10 +155,8 @@ static PyObject* py_tree_create(PyObject* self, PyObject* args) {
     if (!dict_to_def(dict, &def)) return NULL;
     tsk_tree* t = NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_tree_create(&def, &t);
-    Py_END_ALLOW_THREADS
-    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_BEGIN_ALLOW_THREADS s = tsk_tree_create(&def, &t);
+    Py_END_ALLOW_THREADS if (s != TSK_OK) return tsk_py_raise(s);
     return tsk_py_handle_new(&k_tree, t);
 }
 
@@ -157,10 +177,10 @@ static PyObject* py_tree_counts(PyObject* self, PyObject* args) {
 
 static PyObject* py_tree_branches(PyObject* self, PyObject* args, PyObject* kw) {
     (void)self;
-    static char* kwlist[] = {"tree", "parent", "level", "points", "rest", "attach",
-                             "radius", "length", "orient", "depth", NULL};
-    PyObject *cap, *o[9] = {Py_None, Py_None, Py_None, Py_None, Py_None,
-                            Py_None, Py_None, Py_None, Py_None};
+    static char* kwlist[] = {"tree",   "parent", "level",  "points", "rest", "attach",
+                             "radius", "length", "orient", "depth",  NULL};
+    PyObject *cap,
+        *o[9] = {Py_None, Py_None, Py_None, Py_None, Py_None, Py_None, Py_None, Py_None, Py_None};
     if (!PyArg_ParseTupleAndKeywords(args, kw, "O|OOOOOOOOO:tree_branches", kwlist, &cap, &o[0],
                                      &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8]))
         return NULL;
@@ -168,7 +188,7 @@ static PyObject* py_tree_branches(PyObject* self, PyObject* args, PyObject* kw) 
     if (h == NULL) return NULL;
     tsk_tree* t = h->ptr;
     const Py_ssize_t n = (Py_ssize_t)tsk_tree_branch_count(t);
-    static const char* names[9] = {"parent", "level", "points", "rest", "attach",
+    static const char* names[9] = {"parent", "level",  "points", "rest", "attach",
                                    "radius", "length", "orient", "depth"};
     const tsk_py_dtype types[9] = {TSK_PY_I32, TSK_PY_I32, TSK_PY_F32, TSK_PY_F32, TSK_PY_F32,
                                    TSK_PY_F32, TSK_PY_F32, TSK_PY_F32, TSK_PY_I32};
@@ -182,10 +202,8 @@ static PyObject* py_tree_branches(PyObject* self, PyObject* args, PyObject* kw) 
         tsk_tree_branches out = {p[0], p[1], p[8], p[2], p[3], p[4], p[5], p[6], p[7]};
         tsk_status s;
         h->busy = 1;
-        Py_BEGIN_ALLOW_THREADS
-        s = tsk_tree_get_branches(t, &out);
-        Py_END_ALLOW_THREADS
-        h->busy = 0;
+        Py_BEGIN_ALLOW_THREADS s = tsk_tree_get_branches(t, &out);
+        Py_END_ALLOW_THREADS h->busy = 0;
         if (s != TSK_OK) ok = 0, tsk_py_raise(s);
     }
     tsk_py_views_release(&v);
@@ -215,10 +233,8 @@ static PyObject* py_tree_leaves(PyObject* self, PyObject* args, PyObject* kw) {
     if (ok) {
         tsk_status s;
         h->busy = 1;
-        Py_BEGIN_ALLOW_THREADS
-        s = tsk_tree_get_leaves(t, p[0], p[1], p[2], p[3], p[4]);
-        Py_END_ALLOW_THREADS
-        h->busy = 0;
+        Py_BEGIN_ALLOW_THREADS s = tsk_tree_get_leaves(t, p[0], p[1], p[2], p[3], p[4]);
+        Py_END_ALLOW_THREADS h->busy = 0;
         if (s != TSK_OK) ok = 0, tsk_py_raise(s);
     }
     tsk_py_views_release(&v);
@@ -234,20 +250,20 @@ static PyObject* py_tree_tips(PyObject* self, PyObject* args) {
     if (h == NULL) return NULL;
     tsk_tree* t = h->ptr;
     Py_buffer out;
-    if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, 3 * (Py_ssize_t)tsk_tree_branch_count(t), 1, &out))
+    if (!tsk_py_buffer(out_obj, "out", TSK_PY_F32, 3 * (Py_ssize_t)tsk_tree_branch_count(t), 1,
+                       &out))
         return NULL;
     tsk_status s;
     h->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_tree_tip_positions(t, out.buf);
-    Py_END_ALLOW_THREADS
-    h->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_tree_tip_positions(t, out.buf);
+    Py_END_ALLOW_THREADS h->busy = 0;
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
 
-#define W(name) {#name, TSK_PY_FLOAT, offsetof(tsk_tree_wind_def, name), NULL, NULL, NULL}
+#define W(name) \
+    { #name, TSK_PY_FLOAT, offsetof(tsk_tree_wind_def, name), NULL, NULL, NULL }
 static const tsk_py_field k_wind_fields[] = {
     {"mode", TSK_PY_INT, offsetof(tsk_tree_wind_def, mode), NULL, NULL, NULL},
     W(strength),
@@ -276,10 +292,8 @@ static PyObject* py_tree_wind_step(PyObject* self, PyObject* args, PyObject* kw)
         return NULL;
     tsk_status s;
     h->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_tree_wind_step(t, f.buf, &w);
-    Py_END_ALLOW_THREADS
-    h->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_tree_wind_step(t, f.buf, &w);
+    Py_END_ALLOW_THREADS h->busy = 0;
     PyBuffer_Release(&f);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -387,15 +401,27 @@ typedef struct mesh_op {
 } mesh_op;
 
 static const mesh_op mesh_ops[] = {
-    {MESH_TOPOLOGY, "OO|OOOp:tree_mesh_topology",
-     {"tree", "faces", "uvs", "along", "around", "leaves", NULL}, {TSK_PY_I32, TSK_PY_F32},
-     {0, 0}, {4, 8}, {0, 1}},
-    {MESH_EDGES, "OOO|OOp:tree_mesh_edges",
+    {MESH_TOPOLOGY,
+     "OO|OOOp:tree_mesh_topology",
+     {"tree", "faces", "uvs", "along", "around", "leaves", NULL},
+     {TSK_PY_I32, TSK_PY_F32},
+     {0, 0},
+     {4, 8},
+     {0, 1}},
+    {MESH_EDGES,
+     "OOO|OOp:tree_mesh_edges",
      {"tree", "edges", "corner_edges", "along", "around", "leaves", NULL},
-     {TSK_PY_I32, TSK_PY_I32}, {0, 0}, {8, 4}, {0, 0}},
-    {MESH_DEFORM, "OO|OOOp:tree_mesh_deform",
+     {TSK_PY_I32, TSK_PY_I32},
+     {0, 0},
+     {8, 4},
+     {0, 0}},
+    {MESH_DEFORM,
+     "OO|OOOp:tree_mesh_deform",
      {"tree", "positions", "normals", "along", "around", "leaves", NULL},
-     {TSK_PY_F32, TSK_PY_F32}, {3, 3}, {0, 0}, {0, 1}},
+     {TSK_PY_F32, TSK_PY_F32},
+     {3, 3},
+     {0, 0},
+     {0, 1}},
 };
 
 static PyObject* tree_mesh_arrays(PyObject* args, PyObject* kw, const mesh_op* op) {
@@ -421,13 +447,18 @@ static PyObject* tree_mesh_arrays(PyObject* args, PyObject* kw, const mesh_op* o
     }
     tsk_status s;
     h->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    switch (op->kind) {
-    case MESH_TOPOLOGY: s = tsk_tree_mesh_topology(t, &m, a[0], a[1]); break;
-    case MESH_EDGES: s = tsk_tree_mesh_edges(t, &m, a[0], a[1], &count); break;
-    default: s = tsk_tree_mesh_deform(t, &m, a[0], a[1]); break;
-    }    Py_END_ALLOW_THREADS
-    h->busy = 0;
+    Py_BEGIN_ALLOW_THREADS switch (op->kind) {
+        case MESH_TOPOLOGY:
+            s = tsk_tree_mesh_topology(t, &m, a[0], a[1]);
+            break;
+        case MESH_EDGES:
+            s = tsk_tree_mesh_edges(t, &m, a[0], a[1], &count);
+            break;
+        default:
+            s = tsk_tree_mesh_deform(t, &m, a[0], a[1]);
+            break;
+    }
+    Py_END_ALLOW_THREADS h->busy = 0;
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     if (op->kind == MESH_EDGES) return PyLong_FromSize_t(count);
@@ -465,10 +496,9 @@ static PyObject* py_subdiv_create(PyObject* self, PyObject* args) {
     }
     tsk_subdiv* sd = NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_subdiv_create(faces.buf, (size_t)count / 4, (size_t)nv, levels, &sd);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&faces);
+    Py_BEGIN_ALLOW_THREADS s =
+        tsk_subdiv_create(faces.buf, (size_t)count / 4, (size_t)nv, levels, &sd);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&faces);
     if (s != TSK_OK) return tsk_py_raise(s);
     return tsk_py_handle_new(&k_subdiv, sd);
 }
@@ -492,7 +522,8 @@ static PyObject* py_subdiv_faces(PyObject* self, PyObject* args) {
     if (h == NULL) return NULL;
     tsk_subdiv* sd = h->ptr;
     Py_buffer out;
-    if (!tsk_py_buffer(out_obj, "out", TSK_PY_I32, 4 * (Py_ssize_t)tsk_subdiv_face_count(sd), 1, &out))
+    if (!tsk_py_buffer(out_obj, "out", TSK_PY_I32, 4 * (Py_ssize_t)tsk_subdiv_face_count(sd), 1,
+                       &out))
         return NULL;
     tsk_status s = tsk_subdiv_faces(sd, out.buf);
     PyBuffer_Release(&out);
@@ -518,10 +549,8 @@ static PyObject* py_subdiv_apply(PyObject* self, PyObject* args) {
     }
     tsk_status s = TSK_OK;
     h->busy = 1;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_subdiv_apply(sd, cage.buf, out.buf);
-    Py_END_ALLOW_THREADS
-    h->busy = 0;
+    Py_BEGIN_ALLOW_THREADS s = tsk_subdiv_apply(sd, cage.buf, out.buf);
+    Py_END_ALLOW_THREADS h->busy = 0;
     PyBuffer_Release(&cage);
     PyBuffer_Release(&out);
     if (s != TSK_OK) return tsk_py_raise(s);
@@ -553,10 +582,9 @@ static PyObject* py_quad_normals(PyObject* self, PyObject* args) {
         PyBuffer_Release(&pos), PyBuffer_Release(&out), PyBuffer_Release(&faces);
         return tsk_py_raise_arg("faces", "length must be a multiple of 4 (quads)");
     }
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_quad_normals(pos.buf, (size_t)n3 / 3, faces.buf, (size_t)nq / 4, out.buf);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&pos), PyBuffer_Release(&out), PyBuffer_Release(&faces);
+    Py_BEGIN_ALLOW_THREADS s =
+        tsk_quad_normals(pos.buf, (size_t)n3 / 3, faces.buf, (size_t)nq / 4, out.buf);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&pos), PyBuffer_Release(&out), PyBuffer_Release(&faces);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
 }
@@ -566,9 +594,11 @@ PyMethodDef tsk_py_tree_methods[] = {
      "tree_default_def($module, /)\n--\n\n"
      "-> dict: every Weber-Penn parameter with its default; 'level' is a list of 4 per-level "
      "dicts."},
-    {"tree_presets", py_tree_presets, METH_NOARGS, "tree_presets($module, /)\n--\n\n"
+    {"tree_presets", py_tree_presets, METH_NOARGS,
+     "tree_presets($module, /)\n--\n\n"
      "-> list of preset names."},
-    {"tree_preset", py_tree_preset, METH_VARARGS, "tree_preset($module, name, /)\n--\n\n"
+    {"tree_preset", py_tree_preset, METH_VARARGS,
+     "tree_preset($module, name, /)\n--\n\n"
      "-> dict of that preset."},
     {"tree_create", py_tree_create, METH_VARARGS,
      "tree_create($module, definition, /)\n--\n\n"
@@ -592,7 +622,8 @@ PyMethodDef tsk_py_tree_methods[] = {
      "tree_wind_step($module, tree, force, *, mode=0, strength=1.0, bend_power=1.8, "
      "length_power=1.0)\n--\n\n"
      "force float32 3n at the tips; mode 0 = lagged (seed), 1 = exact."},
-    {"tree_reset", py_tree_reset, METH_VARARGS, "tree_reset($module, tree, /)\n--\n\n"
+    {"tree_reset", py_tree_reset, METH_VARARGS,
+     "tree_reset($module, tree, /)\n--\n\n"
      "back to the rest pose."},
     {"tree_attachment_gap", py_tree_attachment_gap, METH_VARARGS,
      "tree_attachment_gap($module, tree, /)\n--\n\n"
@@ -620,9 +651,11 @@ PyMethodDef tsk_py_tree_methods[] = {
     {"subdiv_create", py_subdiv_create, METH_VARARGS,
      "subdiv_create($module, faces, vertex_count, levels, /)\n--\n\n"
      "-> handle (OpenSubdiv stencils, built once)."},
-    {"subdiv_counts", py_subdiv_counts, METH_VARARGS, "subdiv_counts($module, h, /)\n--\n\n"
+    {"subdiv_counts", py_subdiv_counts, METH_VARARGS,
+     "subdiv_counts($module, h, /)\n--\n\n"
      "-> (vertices, quads)."},
-    {"subdiv_faces", py_subdiv_faces, METH_VARARGS, "subdiv_faces($module, h, out, /)\n--\n\n"
+    {"subdiv_faces", py_subdiv_faces, METH_VARARGS,
+     "subdiv_faces($module, h, out, /)\n--\n\n"
      "int32 4q."},
     {"subdiv_apply", py_subdiv_apply, METH_VARARGS,
      "subdiv_apply($module, h, cage, out, /)\n--\n\n"

@@ -10,8 +10,8 @@
 
 static void destroy_wind(void* wind) { tsk_wind_destroy(wind); }
 
-static const tsk_py_kind k_wind = {"tussock.wind", "wind", "wind", "wind_create",
-                                   "wind_destroy", destroy_wind};
+static const tsk_py_kind k_wind = {"tussock.wind", "wind",         "wind",
+                                   "wind_create",  "wind_destroy", destroy_wind};
 
 /* ---- keyword parameters -> definition ---------------------------------------------- */
 
@@ -26,8 +26,9 @@ static int read_waves(PyObject* value, void* def) {
     const Py_ssize_t n = tsk_py_count(&view);
     if (n % WAVE_FIELDS != 0 || n / WAVE_FIELDS > TSK_WIND_MAX_WAVES) {
         PyBuffer_Release(&view);
-        tsk_py_raise_arg("waves", "must hold 7 floats per wave (amplitude, dir_x, dir_y, "
-                                  "wavelength, speed, phase, power) for 0..%d waves, got %zd floats",
+        tsk_py_raise_arg("waves",
+                         "must hold 7 floats per wave (amplitude, dir_x, dir_y, "
+                         "wavelength, speed, phase, power) for 0..%d waves, got %zd floats",
                          TSK_WIND_MAX_WAVES, n);
         return 0;
     }
@@ -47,7 +48,8 @@ static int read_waves(PyObject* value, void* def) {
     return 1;
 }
 
-#define F(name, member, type) {name, type, offsetof(tsk_wind_sines_def, member), NULL, NULL, NULL}
+#define F(name, member, type) \
+    { name, type, offsetof(tsk_wind_sines_def, member), NULL, NULL, NULL }
 static const tsk_py_field k_sines_fields[] = {
     F("base_x", base_x, TSK_PY_FLOAT),
     F("base_y", base_y, TSK_PY_FLOAT),
@@ -63,7 +65,8 @@ static const tsk_py_field k_sines_fields[] = {
 #undef F
 static const tsk_py_def k_sines_def = {"wind parameter", TSK_PY_FIELDS(k_sines_fields), NULL, 0};
 
-#define F(name, member, type) {name, type, offsetof(tsk_wind_def, member), NULL, NULL, NULL}
+#define F(name, member, type) \
+    { name, type, offsetof(tsk_wind_def, member), NULL, NULL, NULL }
 static const tsk_py_field k_wind_fields[] = {
     F("nx", fluid.nx, TSK_PY_INT),
     F("ny", fluid.ny, TSK_PY_INT),
@@ -83,8 +86,8 @@ static const tsk_py_field k_wind_fields[] = {
     F("drive", continuum.drive, TSK_PY_FLOAT),
 };
 #undef F
-static const tsk_py_def k_wind_def = {"wind parameter", TSK_PY_FIELDS(k_wind_fields),
-                                      &k_sines_def, offsetof(tsk_wind_def, sines)};
+static const tsk_py_def k_wind_def = {"wind parameter", TSK_PY_FIELDS(k_wind_fields), &k_sines_def,
+                                      offsetof(tsk_wind_def, sines)};
 
 /* ---- functions ------------------------------------------------------------------------ */
 
@@ -96,10 +99,8 @@ static PyObject* py_wind_create(PyObject* self, PyObject* args, PyObject* kwargs
     if (!tsk_py_def_read(&k_wind_def, kwargs, &def, NULL, NULL, NULL)) return NULL;
     tsk_wind* w = NULL;
     tsk_status s;
-    Py_BEGIN_ALLOW_THREADS
-    s = tsk_wind_create(&def, &w);
-    Py_END_ALLOW_THREADS
-    if (s != TSK_OK) return tsk_py_raise(s);
+    Py_BEGIN_ALLOW_THREADS s = tsk_wind_create(&def, &w);
+    Py_END_ALLOW_THREADS if (s != TSK_OK) return tsk_py_raise(s);
     return tsk_py_handle_new(&k_wind, w);
 }
 
@@ -216,8 +217,7 @@ static PyObject* py_wind_sample(PyObject* self, PyObject* args) {
     tsk_py_handle* box = got ? tsk_py_handle_get(capsule, &k_wind) : NULL;
     tsk_status s = TSK_OK;
     if (box != NULL) {
-        TSK_PY_UNLOCKED(box,
-                        s = tsk_wind_sample(box->ptr, t, (size_t)n, x, y, vx, vy, sx, sy));
+        TSK_PY_UNLOCKED(box, s = tsk_wind_sample(box->ptr, t, (size_t)n, x, y, vx, vy, sx, sy));
     }
     tsk_py_views_release(&v);
     if (box == NULL) return NULL;
@@ -244,8 +244,7 @@ static PyObject* py_wind_sample_xyz(PyObject* self, PyObject* args) {
     tsk_py_handle* box = got ? tsk_py_handle_get(capsule, &k_wind) : NULL;
     tsk_status s = TSK_OK;
     if (box != NULL) {
-        TSK_PY_UNLOCKED(box,
-                        s = tsk_wind_sample_xyz(box->ptr, t, (size_t)(n3 / 3), p, vel, sw));
+        TSK_PY_UNLOCKED(box, s = tsk_wind_sample_xyz(box->ptr, t, (size_t)(n3 / 3), p, vel, sw));
     }
     tsk_py_views_release(&v);
     if (box == NULL) return NULL;
@@ -270,7 +269,7 @@ static PyObject* read_grid(PyObject* args, const char* fmt, int continuum) {
     }
     tsk_status s;
     TSK_PY_UNLOCKED(box, s = continuum ? tsk_wind_read_continuum(box->ptr, a, b, (size_t)n)
-                  : tsk_wind_read_fluid(box->ptr, a, b, (size_t)n));
+                                       : tsk_wind_read_fluid(box->ptr, a, b, (size_t)n));
     tsk_py_views_release(&v);
     if (s != TSK_OK) return tsk_py_raise(s);
     Py_RETURN_NONE;
@@ -292,9 +291,7 @@ static PyObject* py_wind_save_state(PyObject* self, PyObject* capsule) {
     if (box == NULL) return NULL;
     const size_t n = tsk_wind_state_size(box->ptr);
     PyObject* out = PyBytes_FromStringAndSize(NULL, (Py_ssize_t)n);
-    if (out == NULL) {
-        return NULL;
-    }
+    if (out == NULL) { return NULL; }
     char* buf = PyBytes_AsString(out);
     if (buf == NULL) {
         Py_DECREF(out);
@@ -336,19 +333,21 @@ PyMethodDef tsk_py_wind_methods[] = {
      "seed; nx, ny (0, 0 = no grid), origin_x, origin_y, cell_size, dt, speed, viscosity, "
      "decay, pressure_iterations, pressure_tolerance, diffusion_iterations; continuum (bool), "
      "c, gamma, drive."},
-    {"wind_destroy", py_wind_destroy, METH_O, "wind_destroy($module, handle, /)\n--\n\n"
+    {"wind_destroy", py_wind_destroy, METH_O,
+     "wind_destroy($module, handle, /)\n--\n\n"
      "frees the wind now."},
-    {"wind_set_sines", (PyCFunction)(void (*)(void))py_wind_set_sines,
-     METH_VARARGS | METH_KEYWORDS,
+    {"wind_set_sines", (PyCFunction)(void (*)(void))py_wind_set_sines, METH_VARARGS | METH_KEYWORDS,
      "wind_set_sines($module, handle, start_time, blend_time, /, **sines)\n--\n\n"
      "cross-fades to new breeze, waves and gusts (same keywords as wind_create; unset ones "
      "take the defaults)."},
     {"wind_set_sources", py_wind_set_sources, METH_VARARGS,
      "wind_set_sources($module, handle, sources, /)\n--\n\n"
      "float32, 8 per source: x, y, dir_x, dir_y, strength, radius, interval, start."},
-    {"wind_step", py_wind_step, METH_VARARGS, "wind_step($module, handle, steps, /)\n--\n\n"
+    {"wind_step", py_wind_step, METH_VARARGS,
+     "wind_step($module, handle, steps, /)\n--\n\n"
      "advances fluid+continuum."},
-    {"wind_time", py_wind_time, METH_O, "wind_time($module, handle, /)\n--\n\n"
+    {"wind_time", py_wind_time, METH_O,
+     "wind_time($module, handle, /)\n--\n\n"
      "-> float: simulation time, s."},
     {"wind_save_state", py_wind_save_state, METH_O,
      "wind_save_state($module, handle, /)\n--\n\n"
@@ -358,7 +357,8 @@ PyMethodDef tsk_py_wind_methods[] = {
      "wind_load_state($module, handle, state, /)\n--\n\n"
      "restores a state saved from a wind of the same fluid and continuum settings; it then "
      "steps and samples bit for bit as the saving wind did."},
-    {"wind_grid_size", py_wind_grid_size, METH_O, "wind_grid_size($module, handle, /)\n--\n\n"
+    {"wind_grid_size", py_wind_grid_size, METH_O,
+     "wind_grid_size($module, handle, /)\n--\n\n"
      "-> (nx, ny)."},
     {"wind_sample", py_wind_sample, METH_VARARGS,
      "wind_sample($module, handle, t, x, y, vx, vy, sway_x=None, sway_y=None, /)\n--\n\n"

@@ -100,8 +100,7 @@ static tsk_status check_positive(float v, const char* name) {
 }
 static tsk_status check_nonneg(float v, const char* name) {
     if (!(v >= 0.0f) || !isfinite(v))
-        return tsk_error_arg(TSK_ERR_ARGUMENT, name, "must be finite and >= 0, got %g",
-                             (double)v);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, name, "must be finite and >= 0, got %g", (double)v);
     return TSK_OK;
 }
 
@@ -117,8 +116,8 @@ static tsk_status check_def(const tsk_refine_bend_def* d) {
                              (double)d->min_width_ratio);
     for (int c = 0; c < 3; ++c)
         if (!isfinite(d->gravity[c]) || !isfinite(d->wind_direction[c]))
-            return tsk_error_arg(TSK_ERR_ARGUMENT, !isfinite(d->gravity[c]) ? "gravity"
-                                                                           : "wind_direction",
+            return tsk_error_arg(TSK_ERR_ARGUMENT,
+                                 !isfinite(d->gravity[c]) ? "gravity" : "wind_direction",
                                  "must be finite");
     if ((s = check_nonneg(d->air_density, "air_density"))) return s;
     if ((s = check_nonneg(d->drag_coefficient, "drag_coefficient"))) return s;
@@ -140,20 +139,20 @@ static tsk_status check_def(const tsk_refine_bend_def* d) {
 /* ---- the simulation --------------------------------------------------------------------- */
 
 typedef struct rod {
-    size_t k;          /* knots */
-    double* x;         /* [k][3] positions */
-    double* xp;        /* [k][3] previous positions */
-    double* xn;        /* [k][3] next positions */
-    double* force;     /* [k][3] */
-    double* len;       /* [k-1] rest segment lengths */
-    double* mass;      /* [k] */
-    double* inv_mass;  /* [k], 0 at the root */
-    double* drag;      /* [k] 0.5 rho_air C_d width * arc length owned by the knot */
-    double* stiff;     /* [k-1] joint stiffness k_j = EI_j / l_j, N m */
-    double* local;     /* [k-1][3] rest direction of segment j in the frame of segment j-1 */
-    double* tan;       /* [k-1][3] current unit tangents */
-    double* moment;    /* [k][3] joint moments; moment[k-1] = 0 */
-    double* dir;       /* [k-1][3] projection scratch: segment directions */
+    size_t k; /* knots */
+    double* x; /* [k][3] positions */
+    double* xp; /* [k][3] previous positions */
+    double* xn; /* [k][3] next positions */
+    double* force; /* [k][3] */
+    double* len; /* [k-1] rest segment lengths */
+    double* mass; /* [k] */
+    double* inv_mass; /* [k], 0 at the root */
+    double* drag; /* [k] 0.5 rho_air C_d width * arc length owned by the knot */
+    double* stiff; /* [k-1] joint stiffness k_j = EI_j / l_j, N m */
+    double* local; /* [k-1][3] rest direction of segment j in the frame of segment j-1 */
+    double* tan; /* [k-1][3] current unit tangents */
+    double* moment; /* [k][3] joint moments; moment[k-1] = 0 */
+    double* dir; /* [k-1][3] projection scratch: segment directions */
     double *diag, *off, *rhs; /* [k-1] projection scratch: the tridiagonal system */
     v3 root_t, root_u; /* the clamped root frame */
 } rod;
@@ -198,9 +197,9 @@ static tsk_status rod_init(rod* r, const tsk_refine_bend_def* d, const float* kn
     r->diag = tsk_alloc(k * sizeof(double), "bend projection");
     r->off = tsk_alloc(k * sizeof(double), "bend projection");
     r->rhs = tsk_alloc(k * sizeof(double), "bend projection");
-    if (!r->x || !r->xp || !r->xn || !r->force || !r->len || !r->mass || !r->inv_mass ||
-        !r->drag || !r->stiff || !r->local || !r->tan || !r->moment || !r->dir || !r->diag ||
-        !r->off || !r->rhs)
+    if (!r->x || !r->xp || !r->xn || !r->force || !r->len || !r->mass || !r->inv_mass || !r->drag ||
+        !r->stiff || !r->local || !r->tan || !r->moment || !r->dir || !r->diag || !r->off ||
+        !r->rhs)
         return TSK_ERR_MEMORY;
 
     double wmax = 0.0;
@@ -326,8 +325,8 @@ static void rod_project(rod* r) {
         /* A[s][s] = w_s + w_{s+1}, A[s][s+1] = A[s+1][s] = -w_{s+1} n_s . n_{s+1} */
         for (size_t s = 0; s < n; ++s) {
             r->diag[s] = r->inv_mass[s] + r->inv_mass[s + 1];
-            r->off[s] = s + 1 < n ? -r->inv_mass[s + 1] * dot(v3_load(r->dir + 3 * s),
-                                                             v3_load(r->dir + 3 * (s + 1)))
+            r->off[s] = s + 1 < n ? -r->inv_mass[s + 1] *
+                                        dot(v3_load(r->dir + 3 * s), v3_load(r->dir + 3 * (s + 1)))
                                   : 0.0;
         }
         /* Thomas algorithm: forward elimination, back substitution (into rhs) */
@@ -413,8 +412,7 @@ tsk_status tsk_refine_simulate(const tsk_refine_bend_def* def, const float* knot
                              knot_count, TSK_REFINE_MAX_KNOTS);
     if (frame_count == 0)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "frame_count", "needs at least 1 frame, got 0");
-    if (frame_count > TSK_REFINE_MAX_FRAMES ||
-        knot_count * frame_count > TSK_REFINE_MAX_SAMPLES)
+    if (frame_count > TSK_REFINE_MAX_FRAMES || knot_count * frame_count > TSK_REFINE_MAX_SAMPLES)
         return tsk_error_arg(TSK_ERR_LIMIT, "frame_count", "%zu frames of %zu knots are too many",
                              frame_count, knot_count);
     double wmax = 0.0;
@@ -425,12 +423,11 @@ tsk_status tsk_refine_simulate(const tsk_refine_bend_def* def, const float* knot
         if (i > 0 && knots[3 * i] == knots[3 * i - 3] && knots[3 * i + 1] == knots[3 * i - 2] &&
             knots[3 * i + 2] == knots[3 * i - 1])
             return tsk_error_arg(TSK_ERR_ARGUMENT, "knots",
-                                 "knots %zu and %zu are at the same place (duplicate knot)",
-                                 i - 1, i);
+                                 "knots %zu and %zu are at the same place (duplicate knot)", i - 1,
+                                 i);
         if (!(widths[i] >= 0.0f) || !isfinite(widths[i]))
             return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
-                                 "width %zu must be finite and >= 0, got %g", i,
-                                 (double)widths[i]);
+                                 "width %zu must be finite and >= 0, got %g", i, (double)widths[i]);
         if (widths[i] > wmax) wmax = widths[i];
     }
     if (!(wmax > 0.0)) return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "are all zero");
@@ -480,7 +477,8 @@ tsk_status tsk_refine_simulate(const tsk_refine_bend_def* def, const float* knot
                 rod_free(&r);
                 return tsk_error(TSK_ERR_INTERNAL,
                                  "bending simulation became unstable at frame %zu (time_step "
-                                 "too long?)", f);
+                                 "too long?)",
+                                 f);
             }
             ++f;
         }

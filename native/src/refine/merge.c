@@ -28,7 +28,7 @@ tsk_refine_def tsk_default_refine_def(void) {
 static double finish_difference(float mu, double s0, double s1, double q0, double q1,
                                 size_t frame_count) {
     const double n = (double)frame_count;
-    const double dis = (s0 + s1) / n;      /* eq. 2 */
+    const double dis = (s0 + s1) / n; /* eq. 2 */
     double var = (q0 + q1) / n - dis * dis; /* eq. 3, true variance */
     if (var < 0.0) var = 0.0;
     const double m = (double)mu;
@@ -60,14 +60,17 @@ static double difference_rows(float mu, const float* a, const float* b, size_t f
     __m128d vs = _mm_setzero_pd(), vq = _mm_setzero_pd();
     const __m128d vinv = _mm_set1_pd(inv_length);
     for (; i + 2 <= f; i += 2) {
-        const __m128d dx = _mm_sub_pd(_mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(ax + i)))),
-                                      _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(bx + i)))));
-        const __m128d dy = _mm_sub_pd(_mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(ay + i)))),
-                                      _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(by + i)))));
-        const __m128d dz = _mm_sub_pd(_mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(az + i)))),
-                                      _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(bz + i)))));
-        const __m128d d2 = _mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)),
-                                      _mm_mul_pd(dz, dz));
+        const __m128d dx =
+            _mm_sub_pd(_mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(ax + i)))),
+                       _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(bx + i)))));
+        const __m128d dy =
+            _mm_sub_pd(_mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(ay + i)))),
+                       _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(by + i)))));
+        const __m128d dz =
+            _mm_sub_pd(_mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(az + i)))),
+                       _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i*)(bz + i)))));
+        const __m128d d2 =
+            _mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)), _mm_mul_pd(dz, dz));
         const __m128d d = _mm_mul_pd(_mm_sqrt_pd(d2), vinv);
         vs = _mm_add_pd(vs, d);
         vq = _mm_add_pd(vq, _mm_mul_pd(d, d));
@@ -97,8 +100,7 @@ static tsk_status check_def(const tsk_refine_def* def) {
         return tsk_error_arg(TSK_ERR_ARGUMENT, "target_knots", "must be from %d to %d, got %d",
                              TSK_REFINE_MIN_TARGET, TSK_REFINE_MAX_TARGET, def->target_knots);
     if (!(def->mu >= 0.0f && def->mu <= 1.0f))
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "mu", "must be in [0, 1], got %g",
-                             (double)def->mu);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "mu", "must be in [0, 1], got %g", (double)def->mu);
     return TSK_OK;
 }
 
@@ -117,8 +119,8 @@ static tsk_status check_blade(const tsk_refine_def* def, const tsk_refine_input*
         return tsk_error_arg(TSK_ERR_ARGUMENT, "frame_count",
                              "movement data needs at least 1 frame, got 0");
     if (f > TSK_REFINE_MAX_FRAMES)
-        return tsk_error_arg(TSK_ERR_LIMIT, "frame_count", "%zu frames exceed the limit of %d",
-                             f, TSK_REFINE_MAX_FRAMES);
+        return tsk_error_arg(TSK_ERR_LIMIT, "frame_count", "%zu frames exceed the limit of %d", f,
+                             TSK_REFINE_MAX_FRAMES);
     if (k * f > TSK_REFINE_MAX_SAMPLES)
         return tsk_error_arg(TSK_ERR_LIMIT, "frame_count",
                              "%zu knots x %zu frames exceed the limit of %zu samples", k, f,
@@ -128,8 +130,7 @@ static tsk_status check_blade(const tsk_refine_def* def, const tsk_refine_input*
                              "%d knots asked but the blade has only %zu", def->target_knots, k);
     if (in->knots == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "is NULL");
     if (in->widths == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "widths", "is NULL");
-    if (in->trajectories == NULL)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "trajectories", "is NULL");
+    if (in->trajectories == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "trajectories", "is NULL");
     if (out->knots == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out.knots", "is NULL");
     if (out->widths == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out.widths", "is NULL");
     if (out->ranges == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out.ranges", "is NULL");
@@ -144,8 +145,8 @@ static tsk_status check_blade(const tsk_refine_def* def, const tsk_refine_input*
         if (j > 0 && p[3 * j] == p[3 * j - 3] && p[3 * j + 1] == p[3 * j - 2] &&
             p[3 * j + 2] == p[3 * j - 1])
             return tsk_error_arg(TSK_ERR_ARGUMENT, "knots",
-                                 "knots %zu and %zu are at the same place (duplicate knot)",
-                                 j - 1, j);
+                                 "knots %zu and %zu are at the same place (duplicate knot)", j - 1,
+                                 j);
     }
     /* a branch-free scan of the exponent bits first (all ones: inf or NaN), then the culprit */
     const size_t n = k * f * 3;
@@ -159,8 +160,7 @@ static tsk_status check_blade(const tsk_refine_def* def, const tsk_refine_input*
         for (size_t i = 0; i < n; ++i)
             if (!isfinite(in->trajectories[i]))
                 return tsk_error_arg(TSK_ERR_ARGUMENT, "trajectories",
-                                     "frame %zu, knot %zu is not finite", i / (3 * k),
-                                     (i / 3) % k);
+                                     "frame %zu, knot %zu is not finite", i / (3 * k), (i / 3) % k);
     return TSK_OK;
 }
 
@@ -213,12 +213,12 @@ static pair_entry heap_pop(pair_entry* heap, size_t* size) {
  * live knot keeps the slot of its first source knot, so its source range is
  * [slot, next[slot]) and slot order is blade order. */
 typedef struct work {
-    float* traj;     /* [k][3][f] */
-    float* rest;     /* [k][3] */
-    double* wl;      /* sum of l_j * w_j over the range */
-    double* l;       /* sum of l_j over the range */
-    int32_t* next;   /* next live slot, k past the tip */
-    int32_t* prev;   /* previous live slot, -1 before the root */
+    float* traj; /* [k][3][f] */
+    float* rest; /* [k][3] */
+    double* wl; /* sum of l_j * w_j over the range */
+    double* l; /* sum of l_j over the range */
+    int32_t* next; /* next live slot, k past the tip */
+    int32_t* prev; /* previous live slot, -1 before the root */
     uint32_t* version;
     pair_entry* heap;
 } work;
@@ -343,15 +343,15 @@ static tsk_status refine_one(const tsk_refine_def* def, const tsk_refine_input* 
         /* new candidate pairs with the neighbours */
         const int32_t before = w.prev[left];
         if (before >= 0) {
-            pair_entry ne = {difference_rows(def->mu, w.traj + (size_t)before * f * 3, a, f,
-                                             inv_length),
-                             before, left, w.version[before], w.version[left]};
+            pair_entry ne = {
+                difference_rows(def->mu, w.traj + (size_t)before * f * 3, a, f, inv_length), before,
+                left, w.version[before], w.version[left]};
             heap_push(w.heap, &hsize, ne);
         }
         if (after != end) {
-            pair_entry ne = {difference_rows(def->mu, a, w.traj + (size_t)after * f * 3, f,
-                                             inv_length),
-                             left, after, w.version[left], w.version[after]};
+            pair_entry ne = {
+                difference_rows(def->mu, a, w.traj + (size_t)after * f * 3, f, inv_length), left,
+                after, w.version[left], w.version[after]};
             heap_push(w.heap, &hsize, ne);
         }
     }

@@ -40,7 +40,8 @@ static int points_at_fractions(const float* p, const float* w, size_t n, int rev
     }
     /* the ends are exact */
     if (count > 0 && u[0] == 0.0) memcpy(out, P(0), 3 * sizeof(float));
-    if (count > 0 && u[count - 1] == 1.0) memcpy(out + 3 * (count - 1), P(n - 1), 3 * sizeof(float));
+    if (count > 0 && u[count - 1] == 1.0)
+        memcpy(out + 3 * (count - 1), P(n - 1), 3 * sizeof(float));
     if (out_w && count > 0 && u[0] == 0.0) out_w[0] = W(0);
     if (out_w && count > 0 && u[count - 1] == 1.0) out_w[count - 1] = W(n - 1);
     return 1;
@@ -55,8 +56,8 @@ static tsk_status check_polyline(const float* p, size_t n, const char* name, int
         if (!allow_dup && j > 0 && p[3 * j] == p[3 * j - 3] && p[3 * j + 1] == p[3 * j - 2] &&
             p[3 * j + 2] == p[3 * j - 1])
             return tsk_error_arg(TSK_ERR_ARGUMENT, name,
-                                 "knots %zu and %zu are at the same place (duplicate knot)",
-                                 j - 1, j);
+                                 "knots %zu and %zu are at the same place (duplicate knot)", j - 1,
+                                 j);
     }
     return TSK_OK;
 }
@@ -77,8 +78,7 @@ tsk_status tsk_refine_track(const float* ref_knots, size_t ref_count, const floa
         return tsk_error_arg(TSK_ERR_LIMIT, "frame_count", "%zu frames of %zu knots are too many",
                              frame_count, ref_count);
     if (frame_knots == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "frame_knots", "is NULL");
-    if (frame_offsets == NULL)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "frame_offsets", "is NULL");
+    if (frame_offsets == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "frame_offsets", "is NULL");
     if (out_trajectories == NULL)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "out_trajectories", "is NULL");
     tsk_status s = check_polyline(ref_knots, ref_count, "ref_knots", 0);
@@ -98,14 +98,14 @@ tsk_status tsk_refine_track(const float* ref_knots, size_t ref_count, const floa
         if ((size_t)(b - a) > max_n) max_n = (size_t)(b - a);
     }
     if (max_n > TSK_REFINE_MAX_KNOTS)
-        return tsk_error_arg(TSK_ERR_LIMIT, "frame_knots", "a frame has %zu knots, limit %d",
-                             max_n, TSK_REFINE_MAX_KNOTS);
+        return tsk_error_arg(TSK_ERR_LIMIT, "frame_knots", "a frame has %zu knots, limit %d", max_n,
+                             TSK_REFINE_MAX_KNOTS);
     s = check_polyline(frame_knots, (size_t)frame_offsets[frame_count], "frame_knots", 1);
     if (s != TSK_OK) return s;
 
     double* u = tsk_alloc(ref_count * sizeof(double), "track fractions");
-    double* cum = tsk_alloc((max_n > ref_count ? max_n : ref_count) * sizeof(double),
-                            "track lengths");
+    double* cum =
+        tsk_alloc((max_n > ref_count ? max_n : ref_count) * sizeof(double), "track lengths");
     if (u == NULL || cum == NULL) {
         tsk_free(u);
         tsk_free(cum);

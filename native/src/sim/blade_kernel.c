@@ -18,24 +18,36 @@ const char* tsk_sim_avx512_step_running(void) {
 }
 
 void tsk_sim_block_step(const sim_step_params* p, float* block, const float* wind,
-                        size_t wind_stride, const sim_collider* const* cols, int ncol,
-                        float blend, const float* next, sim_block_stats* stats) {
+                        size_t wind_stride, const sim_collider* const* cols, int ncol, float blend,
+                        const float* next, sim_block_stats* stats) {
     switch (kernel_isa()) {
 #if TSK_SIMD_X86_PATHS
-    case TSK_ISA_AVX512: tsk_sim_block_step_avx512(p, block, wind, wind_stride, cols, ncol, blend, next, stats); return;
-    case TSK_ISA_AVX2: tsk_sim_block_step_avx2(p, block, wind, wind_stride, cols, ncol, blend, next, stats); return;
+        case TSK_ISA_AVX512:
+            tsk_sim_block_step_avx512(p, block, wind, wind_stride, cols, ncol, blend, next, stats);
+            return;
+        case TSK_ISA_AVX2:
+            tsk_sim_block_step_avx2(p, block, wind, wind_stride, cols, ncol, blend, next, stats);
+            return;
 #endif
-    default: tsk_sim_block_step_generic(p, block, wind, wind_stride, cols, ncol, blend, next, stats); return;
+        default:
+            tsk_sim_block_step_generic(p, block, wind, wind_stride, cols, ncol, blend, next, stats);
+            return;
     }
 }
 
 void tsk_sim_block_rest(int32_t K, float* block) {
     switch (kernel_isa()) {
 #if TSK_SIMD_X86_PATHS
-    case TSK_ISA_AVX512: tsk_sim_block_rest_avx512(K, block); return;
-    case TSK_ISA_AVX2: tsk_sim_block_rest_avx2(K, block); return;
+        case TSK_ISA_AVX512:
+            tsk_sim_block_rest_avx512(K, block);
+            return;
+        case TSK_ISA_AVX2:
+            tsk_sim_block_rest_avx2(K, block);
+            return;
 #endif
-    default: tsk_sim_block_rest_generic(K, block); return;
+        default:
+            tsk_sim_block_rest_generic(K, block);
+            return;
     }
 }
 
@@ -43,9 +55,12 @@ int tsk_sim_block_ribbons(int32_t K, const float* P, int l0, int l1, const float
                           const float* sides, float* out) {
     switch (kernel_isa()) {
 #if TSK_SIMD_X86_PATHS
-    case TSK_ISA_AVX512: return tsk_sim_block_ribbons_avx512(K, P, l0, l1, widths, sides, out);
-    case TSK_ISA_AVX2: return tsk_sim_block_ribbons_avx2(K, P, l0, l1, widths, sides, out);
+        case TSK_ISA_AVX512:
+            return tsk_sim_block_ribbons_avx512(K, P, l0, l1, widths, sides, out);
+        case TSK_ISA_AVX2:
+            return tsk_sim_block_ribbons_avx2(K, P, l0, l1, widths, sides, out);
 #endif
-    default: return tsk_sim_block_ribbons_generic(K, P, l0, l1, widths, sides, out);
+        default:
+            return tsk_sim_block_ribbons_generic(K, P, l0, l1, widths, sides, out);
     }
 }

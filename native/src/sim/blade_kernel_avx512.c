@@ -17,7 +17,8 @@
 #define SIM_STR2(x) #x
 #define SIM_STR(x) SIM_STR2(x)
 const char* tsk_sim_avx512_step_compiler(void) {
-    return "clang " SIM_STR(__clang_major__) "." SIM_STR(__clang_minor__) "." SIM_STR(__clang_patchlevel__);
+    return "clang " SIM_STR(__clang_major__) "." SIM_STR(__clang_minor__) "." SIM_STR(
+        __clang_patchlevel__);
 }
 #elif TSK_SIMD_X86_PATHS
 TSK_SIMD_TARGET_AVX512

@@ -86,7 +86,8 @@ typedef __m512i ireg;
 #define R_LD_HALF(p) _mm512_cvtph_ps(_mm256_loadu_si256((const __m256i*)(p)))
 #define R_ST_HALF(p, v) \
     _mm256_storeu_si256((__m256i*)(p), _mm512_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT))
-#define R_LD_S16(p) _mm512_cvtepi32_ps(_mm512_cvtepi16_epi32(_mm256_loadu_si256((const __m256i*)(p))))
+#define R_LD_S16(p) \
+    _mm512_cvtepi32_ps(_mm512_cvtepi16_epi32(_mm256_loadu_si256((const __m256i*)(p))))
 #define R_LD_U8(p) _mm512_cvtepi32_ps(_mm512_cvtepu8_epi32(_mm_loadu_si128((const __m128i*)(p))))
 #define R_FMADD _mm512_fmadd_ps
 #define R_FNMADD _mm512_fnmadd_ps
@@ -137,14 +138,14 @@ INL vf vsqrt(vf a) {
     return r;
 }
 /* a * b + c, c - a * b and a * b - c, each rounded once */
-#define FMA_OP(name, op)                                       \
-    INL vf name(vf a, vf b, vf c) {                            \
-        SPLIT(reg, x, a);                                      \
-        SPLIT(reg, y, b);                                      \
-        SPLIT(reg, z, c);                                      \
+#define FMA_OP(name, op)                                          \
+    INL vf name(vf a, vf b, vf c) {                               \
+        SPLIT(reg, x, a);                                         \
+        SPLIT(reg, y, b);                                         \
+        SPLIT(reg, z, c);                                         \
         for (int i = 0; i < NR; ++i) x[i] = op(x[i], y[i], z[i]); \
-        JOIN(vf, r, x);                                        \
-        return r;                                              \
+        JOIN(vf, r, x);                                           \
+        return r;                                                 \
     }
 FMA_OP(fmadd, R_FMADD)
 FMA_OP(fnmadd, R_FNMADD)
@@ -224,7 +225,7 @@ INL vf ld_half(const uint16_t* p) {
     const vu h = __builtin_convertvector(h16, vu);
     const vu sign = (h & 0x8000u) << 16, e = (h >> 10) & 0x1fu, m = h & 0x3ffu;
     const vu normal = sign | ((e + 112u) << 23) | (m << 13);
-    const vu special = sign | 0x7f800000u | (m << 13);                    /* inf, nan */
+    const vu special = sign | 0x7f800000u | (m << 13); /* inf, nan */
     const vu small = sign | (vu)(__builtin_convertvector(m, vf) * 0x1p-24f); /* 0, subnormal */
     const vi is_small = (vi)(e == 0u), is_special = (vi)(e == 31u);
     return (vf)(((vu)is_small & small) | ((vu)is_special & special) |
@@ -241,8 +242,8 @@ INL void st_half(uint16_t* p, vf f) {
     const vu is_nan_inf = (vu)(x >= 0x7f800000u), is_over = (vu)(x >= 0x477ff000u) & ~is_nan_inf;
     const vu is_small = (vu)(x < 0x38800000u);
     const vu is_normal = ~(is_nan_inf | is_over | is_small);
-    const vu h = sign | (is_normal & normal) | (is_small & small) | (is_over & 0x7c00u) |
-                 (is_nan_inf & nan);
+    const vu h =
+        sign | (is_normal & normal) | (is_small & small) | (is_over & 0x7c00u) | (is_nan_inf & nan);
     const vh16 h16 = __builtin_convertvector(h, vh16);
     memcpy(p, &h16, sizeof h16);
 }
@@ -310,7 +311,9 @@ INL void st_velocity(uint16_t* Vk, v3 v) {
 }
 INL v3 mul3(vf s, v3 a) { return (v3){s * a.x, s * a.y, s * a.z}; }
 /* c + s a and c - s a, fused */
-INL v3 madd3(vf s, v3 a, v3 c) { return (v3){fmadd(s, a.x, c.x), fmadd(s, a.y, c.y), fmadd(s, a.z, c.z)}; }
+INL v3 madd3(vf s, v3 a, v3 c) {
+    return (v3){fmadd(s, a.x, c.x), fmadd(s, a.y, c.y), fmadd(s, a.z, c.z)};
+}
 INL v3 nmadd3(vf s, v3 a, v3 c) {
     return (v3){fnmadd(s, a.x, c.x), fnmadd(s, a.y, c.y), fnmadd(s, a.z, c.z)};
 }
@@ -354,9 +357,9 @@ INL blk blk_of(int K, float* block) {
  * (t, s, n) r, s' = s - c (t + u), n' = t' x s'. With the quotients stored, the rebuild needs
  * no square root or division: the step is about a tenth faster. */
 typedef struct rest_seg {
-    vf len, il;    /* length and 1 / length */
+    vf len, il; /* length and 1 / length */
     vf rx, ry, rz; /* unit direction in the parent's frame */
-    vf c;          /* r_y / (1 + r_x) */
+    vf c; /* r_y / (1 + r_x) */
 } rest_seg;
 
 INL rest_seg rest_segment(const int16_t* Dk, const float* Qk, vf ds, v3* t, v3* s, v3* n) {
@@ -421,7 +424,7 @@ void SIM_KFN(tsk_sim_block_rest)(int32_t K, float* block) {
 }
 
 /* Slices are worked two at a time (h and h + 1), their root-to-tip chains interleaved. */
-#define PAIR_LO1(h) ((h) + 1 < NSLICE ? ((h) + 1) * LN : (h) * LN)
+#define PAIR_LO1(h) ((h) + 1 < NSLICE ? ((h) + 1) * LN : (h)*LN)
 
 /* Per step and block, [k][c][lane] (rows of W floats), what the passes after the sweep need:
  * rest positions, positions at the start of the step, segment lengths and 1 / (4 length^2).
@@ -472,8 +475,8 @@ INL void rest_start(rest_state* R, const blk* b, const sim_step_params* p, scrat
 /* What the sweep needs of knot k's rest segment. */
 typedef struct rest_knot_out {
     rest_seg g;
-    v3 rp;       /* rest position */
-    vf al, kd;   /* global shape and drag fractions */
+    v3 rp; /* rest position */
+    vf al, kd; /* global shape and drag fractions */
 } rest_knot_out;
 
 INL rest_knot_out rest_knot(rest_state* R, const blk* b, scratch* S, int k, int lo) {
@@ -503,7 +506,7 @@ INL rest_knot_out rest_knot(rest_state* R, const blk* b, scratch* S, int k, int 
         acc = g - pre (ga t + g - ga u),  ga = u . g,  u the rest direction, t the current one. */
 typedef struct move_state {
     v3 ft, fs, fn; /* current frame of the segment before */
-    v3 xp;         /* new position of the knot before */
+    v3 xp; /* new position of the knot before */
 } move_state;
 
 INL void move_start(move_state* M, const blk* b, scratch* S, int lo) {
@@ -594,7 +597,8 @@ INL void move_sweep(const blk* b, const sim_step_params* p, kconst* C, int h, in
         if (C->next && h == 0) { /* the next block into L2 while this one computes */
             const char* q = C->next + (size_t)(k - 2) * C->next_lines * 64;
             const char* end = C->next + SIM_BLOCK_FLOATS(K) * 4;
-            for (size_t i = 0; i < C->next_lines && q < end; ++i, q += 64) __builtin_prefetch(q, 1, 2);
+            for (size_t i = 0; i < C->next_lines && q < end; ++i, q += 64)
+                __builtin_prefetch(q, 1, 2);
         }
     }
     st3(b->P + (size_t)(K - 1) * 3 * W + lo0, A.xp);
@@ -648,8 +652,7 @@ INL void length_start(length_state* L, float* P, const float* il2q, int lo) {
 }
 
 /* odd segment j and even segment j - 1 */
-INL void length_step(length_state* L, float* P, const float* il2q, int j, vf ground,
-                        near_list nl) {
+INL void length_step(length_state* L, float* P, const float* il2q, int j, vf ground, near_list nl) {
     const int lo = L->lo;
     v3 a = ld3(P + (size_t)(j - 1) * 3 * W + lo), c = ld3(P + (size_t)j * 3 * W + lo);
     length_segment(&a, &c, ld(il2q + (size_t)j * W + lo), 0);
@@ -718,8 +721,8 @@ INL void ftl_knot(ftl_state* F, const kconst* C, const sim_collider* const* near
         const v3 d = sub3(x, xp);
         const vf dd = dot3(d, d);
         const vf e = fmsub(dd, ld(S->il2q + (size_t)k * W + lo), splat(0.25f));
-        const vf f = fmadd(e, fmadd(e, fmadd(e, splat(-20.0f), splat(6.0f)), splat(-2.0f)),
-                           splat(1.0f));
+        const vf f =
+            fmadd(e, fmadd(e, fmadd(e, splat(-20.0f), splat(6.0f)), splat(-2.0f)), splat(1.0f));
         const vi close = lt(vabs(e), splat(1.0f / 256.0f));
         v3 y = madd3(f, d, xp);
         if (!all(close)) {
@@ -824,9 +827,9 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
     C.g1 = (v3){splat((1.0f - p->preload) * p->gravity[0] * p->dt2),
                 splat((1.0f - p->preload) * p->gravity[1] * p->dt2),
                 splat((1.0f - p->preload) * p->gravity[2] * p->dt2)};
-    C.gp = (v3){splat(p->preload * p->dt2 * p->gravity[0]),
-                splat(p->preload * p->dt2 * p->gravity[1]),
-                splat(p->preload * p->dt2 * p->gravity[2])};
+    C.gp =
+        (v3){splat(p->preload * p->dt2 * p->gravity[0]), splat(p->preload * p->dt2 * p->gravity[1]),
+             splat(p->preload * p->dt2 * p->gravity[2])};
 
     /* ---- pass 1: one sweep root to tip per slice */
     for (int h = 0; h < NSLICE; h += 2) {
@@ -850,16 +853,20 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
                 hi = (v3){vmax(hi.x, x.x), vmax(hi.y, x.y), vmax(hi.z, x.z)};
             }
             for (int l = 0; l < LN; ++l) {
-                bl[0] = bl[0] < lo.x[l] ? bl[0] : lo.x[l], bh[0] = bh[0] > hi.x[l] ? bh[0] : hi.x[l];
-                bl[1] = bl[1] < lo.y[l] ? bl[1] : lo.y[l], bh[1] = bh[1] > hi.y[l] ? bh[1] : hi.y[l];
-                bl[2] = bl[2] < lo.z[l] ? bl[2] : lo.z[l], bh[2] = bh[2] > hi.z[l] ? bh[2] : hi.z[l];
+                bl[0] = bl[0] < lo.x[l] ? bl[0] : lo.x[l],
+                bh[0] = bh[0] > hi.x[l] ? bh[0] : hi.x[l];
+                bl[1] = bl[1] < lo.y[l] ? bl[1] : lo.y[l],
+                bh[1] = bh[1] > hi.y[l] ? bh[1] : hi.y[l];
+                bl[2] = bl[2] < lo.z[l] ? bl[2] : lo.z[l],
+                bh[2] = bh[2] > hi.z[l] ? bh[2] : hi.z[l];
             }
         }
         /* knots move in the passes below by about a segment length at most (the longest,
            taken here rather than in the sweep, which then holds one value less) */
         vf max_len = splat(0.0f);
         for (int k = 1; k < K; ++k)
-            for (int h = 0; h < NSLICE; ++h) max_len = vmax(max_len, ld(S.len + (size_t)k * W + h * LN));
+            for (int h = 0; h < NSLICE; ++h)
+                max_len = vmax(max_len, ld(S.len + (size_t)k * W + h * LN));
         float m = 0.0f;
         for (int l = 0; l < LN; ++l) m = m > max_len[l] ? m : max_len[l];
         m += SIM_CULL_MARGIN;
@@ -1009,8 +1016,8 @@ INL void unit_or(vf* x, vf* y, vf* z, vf above, vf fx, vf fy, vf fz) {
  * as 6K rows of LN lanes and turned into each blade's 6K floats by LN x LN transposes.
  * Returns 1, writing nothing, when a knot, width or side of these lanes is not good input
  * (ribbon_input.h). */
-int SIM_KFN(tsk_sim_block_ribbons)(int32_t K, const float* P, int l0, int l1,
-                                   const float* widths, const float* sides, float* out) {
+int SIM_KFN(tsk_sim_block_ribbons)(int32_t K, const float* P, int l0, int l1, const float* widths,
+                                   const float* sides, float* out) {
     const int n = l1 - l0;
     int bad = 0;
     for (int32_t r = 0; r < 3 * K; ++r)
@@ -1036,7 +1043,8 @@ int SIM_KFN(tsk_sim_block_ribbons)(int32_t K, const float* P, int l0, int l1,
             const float* pa = P + (size_t)ka * 3 * W + j;
             const float* pb = P + (size_t)kb * 3 * W + j;
             const float* pk = P + (size_t)k * 3 * W + j;
-            vf tx = ld(pb) - ld(pa), ty = ld(pb + W) - ld(pa + W), tz = ld(pb + 2 * W) - ld(pa + 2 * W);
+            vf tx = ld(pb) - ld(pa), ty = ld(pb + W) - ld(pa + W),
+               tz = ld(pb + 2 * W) - ld(pa + 2 * W);
             unit_or(&tx, &ty, &tz, zero, zero, zero, one); /* the tangent, else +z */
             const vf d = sx0 * tx + sy0 * ty + sz0 * tz;
             vf rx = sx0 - d * tx, ry = sy0 - d * ty, rz = sz0 - d * tz;

@@ -32,25 +32,25 @@ tsk_blade_sim_def tsk_default_blade_sim_def(void) {
     return d;
 }
 
-#define CHECK_FINITE(field)                                                                 \
-    if (!isfinite(def->field))                                                              \
-        return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be finite, got %g", (double)def->field)
-#define CHECK_RANGE(field, lo, hi)                                                          \
-    if (!(def->field >= (lo) && def->field <= (hi)))                                        \
+#define CHECK_FINITE(field)    \
+    if (!isfinite(def->field)) \
+    return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be finite, got %g", (double)def->field)
+#define CHECK_RANGE(field, lo, hi)                                                              \
+    if (!(def->field >= (lo) && def->field <= (hi)))                                            \
     return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be in [%g, %g], got %g", (double)(lo), \
                          (double)(hi), (double)def->field)
-#define CHECK_POSITIVE(field)                                                               \
-    if (!(isfinite(def->field) && def->field > 0))                                          \
-    return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be positive and finite, got %g",  \
+#define CHECK_POSITIVE(field)                                                             \
+    if (!(isfinite(def->field) && def->field > 0))                                        \
+    return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be positive and finite, got %g", \
                          (double)def->field)
-#define CHECK_NONNEG(field)                                                                 \
-    if (!(isfinite(def->field) && def->field >= 0))                                         \
-    return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be >= 0 and finite, got %g",      \
+#define CHECK_NONNEG(field)                                                           \
+    if (!(isfinite(def->field) && def->field >= 0))                                   \
+    return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be >= 0 and finite, got %g", \
                          (double)def->field)
 
 /* |field| <= bound (a finite field is checked first) */
-#define CHECK_ABS(field, bound)                                                             \
-    if (!(fabsf(def->field) <= (bound)))                                                    \
+#define CHECK_ABS(field, bound)                                                                    \
+    if (!(fabsf(def->field) <= (bound)))                                                           \
     return tsk_error_arg(TSK_ERR_ARGUMENT, #field, "must be within +-%g, got %g", (double)(bound), \
                          (double)def->field)
 
@@ -64,8 +64,10 @@ tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def) {
     }
     CHECK_POSITIVE(tile_size);
     CHECK_ABS(tile_size, TSK_BLADE_SIM_MAX_COORD);
-    if (def->tiles_x < 1) return tsk_error_arg(TSK_ERR_ARGUMENT, "tiles_x", "must be >= 1, got %d", def->tiles_x);
-    if (def->tiles_y < 1) return tsk_error_arg(TSK_ERR_ARGUMENT, "tiles_y", "must be >= 1, got %d", def->tiles_y);
+    if (def->tiles_x < 1)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "tiles_x", "must be >= 1, got %d", def->tiles_x);
+    if (def->tiles_y < 1)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "tiles_y", "must be >= 1, got %d", def->tiles_y);
     if ((int64_t)def->tiles_x * def->tiles_y > TSK_BLADE_SIM_MAX_TILES)
         return tsk_error_arg(TSK_ERR_LIMIT, "tiles_x", "tiles_x * tiles_y = %lld exceeds %d",
                              (long long)def->tiles_x * def->tiles_y, TSK_BLADE_SIM_MAX_TILES);
@@ -82,10 +84,9 @@ tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def) {
     /* the drag rate per metre of width; beyond, drag * dt overflows to inf and a knot of zero
        width gets inf * 0 = NaN (fuzz_sim: wind_drag 3.4e38) */
     if (!((double)def->wind_drag / def->linear_density <= TSK_BLADE_SIM_MAX_DRAG))
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "wind_drag",
-                             "wind_drag / linear_density must be at most %g, got %g",
-                             (double)TSK_BLADE_SIM_MAX_DRAG,
-                             (double)def->wind_drag / def->linear_density);
+        return tsk_error_arg(
+            TSK_ERR_ARGUMENT, "wind_drag", "wind_drag / linear_density must be at most %g, got %g",
+            (double)TSK_BLADE_SIM_MAX_DRAG, (double)def->wind_drag / def->linear_density);
     CHECK_NONNEG(global_stiffness_root);
     CHECK_NONNEG(global_stiffness_tip);
     CHECK_NONNEG(local_stiffness);
@@ -93,7 +94,8 @@ tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def) {
         return tsk_error_arg(TSK_ERR_LIMIT, "iterations", "must be at most %d, got %d",
                              TSK_BLADE_SIM_MAX_ITERATIONS, def->iterations);
     if (def->iterations < 1)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "iterations", "must be >= 1, got %d", def->iterations);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "iterations", "must be >= 1, got %d",
+                             def->iterations);
     CHECK_FINITE(ground_height);
     CHECK_ABS(ground_height, TSK_BLADE_SIM_MAX_COORD);
     CHECK_NONNEG(collision_margin);
@@ -105,9 +107,11 @@ tsk_status tsk_sim_check_def(const tsk_blade_sim_def* def) {
     CHECK_POSITIVE(rest_distance);
     CHECK_POSITIVE(rest_speed);
     if (def->rest_frames < 1)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "rest_frames", "must be >= 1, got %d", def->rest_frames);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "rest_frames", "must be >= 1, got %d",
+                             def->rest_frames);
     if (def->blend_frames < 1)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "blend_frames", "must be >= 1, got %d", def->blend_frames);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "blend_frames", "must be >= 1, got %d",
+                             def->blend_frames);
     if (def->settle_frames < 1)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "settle_frames", "must be >= 1, got %d",
                              def->settle_frames);

@@ -35,10 +35,10 @@
  *                          per D unit), WS (metres per WD unit), LT (total rest length)
  * Lanes past the tile's blade count hold copies of the tile's first blade and are never output. */
 #define SIM_ROUND64(b) (((b) + 63) & ~(size_t)63)
-#define SIM_BYTES_P(K) ((size_t)(K) * 3 * SIM_W * 4)
-#define SIM_BYTES_V(K) ((size_t)((K) - 1) * 3 * SIM_W * 2)
-#define SIM_BYTES_WD(K) SIM_ROUND64((size_t)((K) - 1) * SIM_W)
-#define SIM_BYTES_Q(K) ((size_t)((K) - 1) * 2 * SIM_W * 4)
+#define SIM_BYTES_P(K) ((size_t)(K)*3 * SIM_W * 4)
+#define SIM_BYTES_V(K) ((size_t)((K)-1) * 3 * SIM_W * 2)
+#define SIM_BYTES_WD(K) SIM_ROUND64((size_t)((K)-1) * SIM_W)
+#define SIM_BYTES_Q(K) ((size_t)((K)-1) * 2 * SIM_W * 4)
 #define SIM_BOFF_V(K) SIM_BYTES_P(K)
 #define SIM_BOFF_D(K) (SIM_BOFF_V(K) + SIM_BYTES_V(K))
 #define SIM_BOFF_Q(K) (SIM_BOFF_D(K) + SIM_BYTES_V(K))
@@ -56,7 +56,7 @@ enum { SIM_LANE_T0 = 0, SIM_LANE_S0 = 3, SIM_LANE_DS = 6, SIM_LANE_WS = 7, SIM_L
 typedef struct sim_collider {
     float a[3], ab[3];
     float inv_ab2; /* 1/|ab|^2, 0 for spheres */
-    float r;       /* radius + collision_margin */
+    float r; /* radius + collision_margin */
     float lo[3], hi[3]; /* bounding box */
 } sim_collider;
 
@@ -66,13 +66,13 @@ typedef struct sim_tile {
     int32_t blade_count;
     int32_t block_count;
     int32_t quiet_frames; /* consecutive quiet, untouched steps */
-    int32_t untouched;    /* consecutive untouched steps, quiet or not */
-    int32_t blend_left;   /* > 0: blending back to rest, steps left */
-    int32_t blend_total;  /* steps of the blend under way */
-    int32_t touched;      /* touched by a collider (or activate_tile) since the last step */
-    float* blocks;        /* block_count blocks (NULL when empty) */
-    float* bounds;        /* 6 floats per block: reach box lo xyz, hi xyz */
-    size_t bytes;         /* bytes held by blocks + bounds */
+    int32_t untouched; /* consecutive untouched steps, quiet or not */
+    int32_t blend_left; /* > 0: blending back to rest, steps left */
+    int32_t blend_total; /* steps of the blend under way */
+    int32_t touched; /* touched by a collider (or activate_tile) since the last step */
+    float* blocks; /* block_count blocks (NULL when empty) */
+    float* bounds; /* 6 floats per block: reach box lo xyz, hi xyz */
+    size_t bytes; /* bytes held by blocks + bounds */
 } sim_tile;
 
 /* The simulation (tiles.c). Its four tile lists ascend strictly, and pending is
@@ -108,12 +108,12 @@ typedef struct sim_step_params {
     int32_t K;
     int32_t iterations;
     float dt, dt2;
-    float damp;           /* exp(-damping dt) */
+    float damp; /* exp(-damping dt) */
     float gravity[3];
-    float preload;        /* gravity_preload */
-    float drag;           /* wind_drag / linear_density * dt, 1/m (times width -> fraction) */
+    float preload; /* gravity_preload */
+    float drag; /* wind_drag / linear_density * dt, 1/m (times width -> fraction) */
     float alpha_root, alpha_tip; /* global shape fractions per step */
-    float alpha_local;    /* local shape fraction per step */
+    float alpha_local; /* local shape fraction per step */
     float ground;
 } sim_step_params;
 
@@ -225,8 +225,8 @@ const char* tsk_sim_avx512_step_running(void);
  * remaining way to rest to blend after the step, 0 for none. `next`: the block stepped next, or
  * NULL; it is prefetched. */
 void tsk_sim_block_step(const sim_step_params* p, float* block, const float* wind,
-                        size_t wind_stride, const sim_collider* const* cols, int ncol,
-                        float blend, const float* next, sim_block_stats* stats);
+                        size_t wind_stride, const sim_collider* const* cols, int ncol, float blend,
+                        const float* next, sim_block_stats* stats);
 
 /* Fills P of a block with the rest pose rebuilt from D, the root frame and the root (exactly as
  * the solver rebuilds it every step) and sets V to zero. */
@@ -253,13 +253,12 @@ void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* kno
 
 /* The kernels per instruction set, behind tsk_sim_block_step, tsk_sim_block_rest and
  * tsk_sim_block_ribbons. */
-#define SIM_KERNEL_DECL(sfx)                                                                 \
-    void tsk_sim_block_step_##sfx(const sim_step_params* p, float* block, const float* wind,  \
-                                  size_t wind_stride, const sim_collider* const* cols,        \
-                                  int ncol, float blend, const float* next,                   \
-                                  sim_block_stats* stats);                                    \
-    void tsk_sim_block_rest_##sfx(int32_t K, float* block);                                 \
-    int tsk_sim_block_ribbons_##sfx(int32_t K, const float* P, int l0, int l1,                \
+#define SIM_KERNEL_DECL(sfx)                                                                     \
+    void tsk_sim_block_step_##sfx(const sim_step_params* p, float* block, const float* wind,     \
+                                  size_t wind_stride, const sim_collider* const* cols, int ncol, \
+                                  float blend, const float* next, sim_block_stats* stats);       \
+    void tsk_sim_block_rest_##sfx(int32_t K, float* block);                                      \
+    int tsk_sim_block_ribbons_##sfx(int32_t K, const float* P, int l0, int l1,                   \
                                     const float* widths, const float* sides, float* out);
 SIM_KERNEL_DECL(generic)
 #if TSK_SIMD_X86_PATHS

@@ -83,8 +83,7 @@ static tsk_status rebuild_pending(tsk_blade_sim* sim) {
             key = sim->touched[i++];
         else if (i >= sim->touched_count || sim->forced[j] < sim->touched[i])
             key = sim->forced[j++];
-        else
-            key = sim->touched[i++], ++j;
+        else key = sim->touched[i++], ++j;
         if (find_tile(sim, key) < 0) out[n++] = key;
     }
     if (n == 0) {
@@ -290,8 +289,8 @@ tsk_status tsk_blade_sim_set_colliders(tsk_blade_sim* sim, const tsk_blade_colli
                                  "collider %d radius must be positive and finite, got %g", i,
                                  (double)c->radius);
         if (!finite3(c->a) || (c->kind == TSK_COLLIDER_CAPSULE && !finite3(c->b)))
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "colliders", "collider %d position is not finite",
-                                 i);
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "colliders",
+                                 "collider %d position is not finite", i);
         if (c->radius > TSK_BLADE_SIM_MAX_COORD || !bounded3(c->a) ||
             (c->kind == TSK_COLLIDER_CAPSULE && !bounded3(c->b)))
             return tsk_error_arg(TSK_ERR_ARGUMENT, "colliders",
@@ -328,7 +327,8 @@ tsk_status tsk_blade_sim_set_colliders(tsk_blade_sim* sim, const tsk_blade_colli
         /* tiles touched: the collider box grown by activation_margin against tile squares between
            the ground and max_blade_height */
         const float m = d->activation_margin;
-        if (p->hi[2] + m < d->ground_height || p->lo[2] - m > d->ground_height + d->max_blade_height)
+        if (p->hi[2] + m < d->ground_height ||
+            p->lo[2] - m > d->ground_height + d->max_blade_height)
             continue;
         double i0 = floor((p->lo[0] - m - d->origin[0]) / d->tile_size);
         double i1 = floor((p->hi[0] + m - d->origin[0]) / d->tile_size);
@@ -389,8 +389,8 @@ tsk_status tsk_blade_sim_set_colliders(tsk_blade_sim* sim, const tsk_blade_colli
 static tsk_status check_tile(const tsk_blade_sim* sim, int32_t tile) {
     int64_t n = (int64_t)sim->def.tiles_x * sim->def.tiles_y;
     if (tile < 0 || tile >= n)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "tile", "must be in [0, %lld), got %d",
-                             (long long)n, tile);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "tile", "must be in [0, %lld), got %d", (long long)n,
+                             tile);
     return TSK_OK;
 }
 
@@ -416,8 +416,10 @@ int32_t tsk_blade_sim_pending_count(const tsk_blade_sim* sim) {
 
 tsk_status tsk_blade_sim_get_pending(const tsk_blade_sim* sim, int32_t* tiles) {
     if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
-    if (sim->pending_count > 0 && !tiles) return tsk_error_arg(TSK_ERR_ARGUMENT, "tiles", "is NULL");
-    if (sim->pending_count > 0) memcpy(tiles, sim->pending, sizeof(int32_t) * (size_t)sim->pending_count);
+    if (sim->pending_count > 0 && !tiles)
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "tiles", "is NULL");
+    if (sim->pending_count > 0)
+        memcpy(tiles, sim->pending, sizeof(int32_t) * (size_t)sim->pending_count);
     return TSK_OK;
 }
 
@@ -476,17 +478,19 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
         const float* x = knots + (size_t)b * K * 3;
         for (int32_t k = 0; k < K; ++k) {
             if (!finite3(x + 3 * k))
-                return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "blade %d knot %d is not finite", b, k);
+                return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "blade %d knot %d is not finite", b,
+                                     k);
             if (!bounded3(x + 3 * k))
-                return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "blade %d knot %d is beyond %g m", b,
-                                     k, (double)TSK_BLADE_SIM_MAX_COORD);
+                return tsk_error_arg(TSK_ERR_ARGUMENT, "knots", "blade %d knot %d is beyond %g m",
+                                     b, k, (double)TSK_BLADE_SIM_MAX_COORD);
             const float w = widths[(size_t)b * K + k];
             if (!(isfinite(w) && w >= 0))
                 return tsk_error_arg(TSK_ERR_ARGUMENT, "widths",
                                      "blade %d knot %d: width must be >= 0 and finite, got %g", b,
                                      k, (double)w);
             if (k > 0) {
-                double d0 = (double)x[3 * k] - x[3 * k - 3], d1 = (double)x[3 * k + 1] - x[3 * k - 2],
+                double d0 = (double)x[3 * k] - x[3 * k - 3],
+                       d1 = (double)x[3 * k + 1] - x[3 * k - 2],
                        d2 = (double)x[3 * k + 2] - x[3 * k - 1];
                 if (!(d0 * d0 + d1 * d1 + d2 * d2 > 1e-18))
                     return tsk_error_arg(TSK_ERR_ARGUMENT, "knots",
@@ -518,8 +522,9 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
     if (t.block_count > 0) { /* the state of every active tile with this one: within the budget */
         double held = 0;
         for (int32_t i = 0; i < sim->tile_count; ++i) held += (double)sim->tiles[i].bytes;
-        s = tsk_memory_check(held + (double)t.block_count * (SIM_BLOCK_FLOATS(K) + 6) * sizeof(float),
-                             "blade_count");
+        s = tsk_memory_check(
+            held + (double)t.block_count * (SIM_BLOCK_FLOATS(K) + 6) * sizeof(float),
+            "blade_count");
         if (s != TSK_OK) return s;
     }
     if (t.block_count > 0) {
@@ -530,7 +535,8 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
             free_tile(&t);
             return TSK_ERR_MEMORY;
         }
-        t.bytes = (size_t)t.block_count * bf * sizeof(float) + sizeof(float) * 6 * (size_t)t.block_count;
+        t.bytes =
+            (size_t)t.block_count * bf * sizeof(float) + sizeof(float) * 6 * (size_t)t.block_count;
         for (int32_t blk = 0; blk < t.block_count; ++blk) {
             float* block = t.blocks + (size_t)blk * bf;
             float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -571,7 +577,8 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
     }
     int32_t pos = 0;
     while (pos < sim->tile_count && sim->tiles[pos].index < tile) ++pos;
-    memmove(sim->tiles + pos + 1, sim->tiles + pos, sizeof(sim_tile) * (size_t)(sim->tile_count - pos));
+    memmove(sim->tiles + pos + 1, sim->tiles + pos,
+            sizeof(sim_tile) * (size_t)(sim->tile_count - pos));
     t.touched = (find_i32(sim->touched, sim->touched_count, tile) >= 0) |
                 (find_i32(sim->forced, sim->forced_count, tile) >= 0 ? 2 : 0);
     sim->tiles[pos] = t;
@@ -589,10 +596,10 @@ tsk_status tsk_blade_sim_provide_tile(tsk_blade_sim* sim, int32_t tile, int32_t 
 typedef struct step_ctx {
     tsk_blade_sim* sim;
     sim_step_params params;
-    const int32_t* blk_slot;   /* per work block: active tile slot */
-    const int32_t* blk_index;  /* per work block: block within the tile */
-    const int64_t* first_blade;/* per slot: index of its first blade among active blades */
-    const int32_t* col_start;  /* per slot: start in col_list; col_start[slot+1] is the end */
+    const int32_t* blk_slot; /* per work block: active tile slot */
+    const int32_t* blk_index; /* per work block: block within the tile */
+    const int64_t* first_blade; /* per slot: index of its first blade among active blades */
+    const int32_t* col_start; /* per slot: start in col_list; col_start[slot+1] is the end */
     const int32_t* col_list;
     const float* wind;
     tsk_wind_layout layout;
@@ -639,7 +646,8 @@ static void step_blocks(size_t begin, size_t end, size_t chunk, void* vctx) {
                 if (b >= t->blade_count) b = 0;
                 const float* src = ctx->wind + 3 * ((ctx->first_blade[slot] + b) * K);
                 for (int32_t k = 0; k < K; ++k)
-                    for (int c = 0; c < 3; ++c) wind[((size_t)k * 3 + c) * SIM_W + l] = src[3 * k + c];
+                    for (int c = 0; c < 3; ++c)
+                        wind[((size_t)k * 3 + c) * SIM_W + l] = src[3 * k + c];
             }
             wp = wind;
         } else if (ctx->layout != TSK_WIND_NONE) {
@@ -699,7 +707,8 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
                               tsk_wind_layout layout) {
     if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
     if (!(isfinite(dt) && dt > 0.0f && dt <= 1.0f))
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "dt", "must be in (0, 1] seconds, got %g", (double)dt);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "dt", "must be in (0, 1] seconds, got %g",
+                             (double)dt);
     if (layout < TSK_WIND_NONE || layout > TSK_WIND_PER_KNOT)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "layout", "unknown wind layout %d", (int)layout);
     const int32_t K = sim->K;
@@ -710,7 +719,7 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
     }
     if (layout != TSK_WIND_NONE) {
         if (!wind) return tsk_error_arg(TSK_ERR_ARGUMENT, "wind", "is NULL");
-        size_t n = layout == TSK_WIND_UNIFORM ? 3
+        size_t n = layout == TSK_WIND_UNIFORM     ? 3
                    : layout == TSK_WIND_PER_BLADE ? (size_t)(3 * blades)
                                                   : (size_t)(3 * blades * K);
         const size_t grain = 1 << 16;
@@ -759,7 +768,8 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
         for (int32_t i = 0; i < nt; ++i) {
             first[i] = fb;
             fb += sim->tiles[i].blade_count;
-            for (int32_t b = 0; b < sim->tiles[i].block_count; ++b) blk_slot[w] = i, blk_index[w++] = b;
+            for (int32_t b = 0; b < sim->tiles[i].block_count; ++b)
+                blk_slot[w] = i, blk_index[w++] = b;
         }
         /* per-tile collider lists: bin each collider into the tiles whose reach it may meet */
         for (int pass = 0; pass < 2; ++pass) {
@@ -851,8 +861,7 @@ tsk_status tsk_blade_sim_step(tsk_blade_sim* sim, float dt, const float* wind,
             } else {
                 t->quiet_frames = (md < rd2 && ms < rs2) ? t->quiet_frames + 1 : 0;
                 t->untouched += t->untouched < INT32_MAX;
-                if (t->quiet_frames >= d->rest_frames)
-                    t->blend_left = d->blend_frames;
+                if (t->quiet_frames >= d->rest_frames) t->blend_left = d->blend_frames;
                 else if (t->untouched >= d->settle_frames) /* wind keeps it from resting */
                     t->blend_left = d->settle_blend_frames;
                 t->blend_total = t->blend_left;
@@ -895,7 +904,8 @@ tsk_status tsk_blade_sim_get_info(const tsk_blade_sim* sim, tsk_blade_sim_info* 
     return TSK_OK;
 }
 
-tsk_status tsk_blade_sim_get_active(const tsk_blade_sim* sim, int32_t* tiles, int32_t* blade_counts) {
+tsk_status tsk_blade_sim_get_active(const tsk_blade_sim* sim, int32_t* tiles,
+                                    int32_t* blade_counts) {
     if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
     for (int32_t i = 0; i < sim->tile_count; ++i) {
         if (tiles) tiles[i] = sim->tiles[i].index;
@@ -988,8 +998,8 @@ static void ribbons_range(size_t begin, size_t end, size_t chunk, void* vctx) {
 static tsk_status report_bad_ribbon(const tsk_blade_sim* sim, const ribbon_job* j,
                                     const float* widths, const float* sides) {
     const int32_t K = sim->K;
-    const float* P = sim->tiles[j->slot].blocks + (size_t)j->block * SIM_BLOCK_FLOATS(K) +
-                     SIM_OFF_P(K);
+    const float* P =
+        sim->tiles[j->slot].blocks + (size_t)j->block * SIM_BLOCK_FLOATS(K) + SIM_OFF_P(K);
     float knots[3 * TSK_BLADE_SIM_MAX_KNOTS];
     for (int32_t l = j->l0; l < j->l1; ++l) {
         const size_t b = (size_t)(j->at + (l - j->l0));
@@ -1010,7 +1020,8 @@ static size_t range_jobs(const tsk_blade_sim* sim, const int64_t* prefix, int64_
     int32_t lo = 0, hi = sim->tile_count; /* the last slot whose first blade is <= first */
     while (hi - lo > 1) {
         const int32_t mid = lo + (hi - lo) / 2;
-        if (prefix[mid] <= first) lo = mid; else hi = mid;
+        if (prefix[mid] <= first) lo = mid;
+        else hi = mid;
     }
     size_t nj = 0;
     for (int32_t i = lo; i < sim->tile_count && prefix[i] < end; ++i) {
@@ -1038,7 +1049,8 @@ static tsk_status ribbons_of_runs(const tsk_blade_sim* sim, const int64_t* start
     int64_t* prefix = tsk_alloc(((size_t)sim->tile_count + 1) * sizeof *prefix, "ribbon runs");
     if (!prefix) return TSK_ERR_MEMORY;
     prefix[0] = 0;
-    for (int32_t i = 0; i < sim->tile_count; ++i) prefix[i + 1] = prefix[i] + sim->tiles[i].blade_count;
+    for (int32_t i = 0; i < sim->tile_count; ++i)
+        prefix[i + 1] = prefix[i] + sim->tiles[i].blade_count;
     size_t room = 0;
     for (int64_t r = 0; r < run_count; ++r)
         room += range_jobs(sim, prefix, starts[r], counts[r], 0, NULL);
@@ -1076,8 +1088,7 @@ static int64_t active_blades(const tsk_blade_sim* sim) {
 }
 
 tsk_status tsk_blade_sim_get_ribbons(const tsk_blade_sim* sim, int64_t first, int64_t count,
-                                     const float* widths, const float* sides,
-                                     float* positions) {
+                                     const float* widths, const float* sides, float* positions) {
     if (!sim) return tsk_error_arg(TSK_ERR_ARGUMENT, "sim", "is NULL");
     const int64_t total = active_blades(sim);
     if (first < 0 || count < 0 || first > total || count > total - first)

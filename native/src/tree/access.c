@@ -49,8 +49,8 @@ static void leaf_pose(const tsk_tree* t, size_t j, v3* pos, v3* dir, v3* nrm, v3
     *nrm = v3_norm_or(v3_cross(*dir, *wid), V);
 }
 
-tsk_status tsk_tree_get_leaves(const tsk_tree* t, float* position, float* direction,
-                               float* normal, float* size, int32_t* parent) {
+tsk_status tsk_tree_get_leaves(const tsk_tree* t, float* position, float* direction, float* normal,
+                               float* size, int32_t* parent) {
     if (t == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "tree", "is NULL");
     for (size_t j = 0; j < t->leaf_n; ++j) {
         v3 pos, dir, nrm, wid;

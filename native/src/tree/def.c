@@ -8,8 +8,8 @@
 
 static tsk_tree_level_def lvl(float length, float length_v, float taper, float seg_splits,
                               float split_angle, float split_angle_v, int curve_res, float curve,
-                              float curve_back, float curve_v, float down_angle,
-                              float down_angle_v, float rotate, float rotate_v, int branches) {
+                              float curve_back, float curve_v, float down_angle, float down_angle_v,
+                              float rotate, float rotate_v, int branches) {
     tsk_tree_level_def l;
     l.length = length;
     l.length_v = length_v;
@@ -154,8 +154,8 @@ typedef struct preset_entry {
 } preset_entry;
 
 static const preset_entry g_presets[] = {
-    {"quaking_aspen", preset_quaking_aspen},   {"black_tupelo", preset_black_tupelo},
-    {"weeping_willow", preset_weeping_willow}, {"ca_black_oak", preset_ca_black_oak},
+    {"quaking_aspen", preset_quaking_aspen},     {"black_tupelo", preset_black_tupelo},
+    {"weeping_willow", preset_weeping_willow},   {"ca_black_oak", preset_ca_black_oak},
     {"lombardy_poplar", preset_lombardy_poplar}, {"european_larch", preset_european_larch},
 };
 enum { PRESET_COUNT = (int)(sizeof g_presets / sizeof g_presets[0]) };
@@ -191,23 +191,24 @@ static tsk_status check_range(const char* name, double v, double lo, double hi) 
     return TSK_OK;
 }
 
-#define CHECK_FIELD(expr, name, lo, hi)                                                      \
-    do {                                                                                     \
-        tsk_status s_ = check_range(name, (double)(expr), lo, hi);                           \
-        if (s_ != TSK_OK) return s_;                                                         \
+#define CHECK_FIELD(expr, name, lo, hi)                            \
+    do {                                                           \
+        tsk_status s_ = check_range(name, (double)(expr), lo, hi); \
+        if (s_ != TSK_OK) return s_;                               \
     } while (0)
 
 static tsk_status check_level(const tsk_tree_level_def* l, int n, int used, int placed) {
     char name[48];
 #define LNAME(field) (snprintf(name, sizeof name, "level[%d]." field, n), name)
     /* every field must be finite, used or not */
-    const float fields[] = {l->length,  l->length_v,   l->taper,        l->seg_splits,
-                            l->split_angle, l->split_angle_v, l->curve, l->curve_back,
-                            l->curve_v, l->down_angle, l->down_angle_v, l->rotate,
+    const float fields[] = {l->length,      l->length_v,      l->taper,        l->seg_splits,
+                            l->split_angle, l->split_angle_v, l->curve,        l->curve_back,
+                            l->curve_v,     l->down_angle,    l->down_angle_v, l->rotate,
                             l->rotate_v};
-    static const char* names[] = {"length",  "length_v",   "taper",        "seg_splits",
-                                  "split_angle", "split_angle_v", "curve", "curve_back",
-                                  "curve_v", "down_angle", "down_angle_v", "rotate", "rotate_v"};
+    static const char* names[] = {"length",      "length_v",      "taper",        "seg_splits",
+                                  "split_angle", "split_angle_v", "curve",        "curve_back",
+                                  "curve_v",     "down_angle",    "down_angle_v", "rotate",
+                                  "rotate_v"};
     for (size_t i = 0; i < sizeof fields / sizeof fields[0]; ++i) {
         if (!isfinite(fields[i])) {
             snprintf(name, sizeof name, "level[%d].%s", n, names[i]);
@@ -276,9 +277,9 @@ tsk_status tsk_tree_validate(const tsk_tree_def* d) {
     CHECK_FIELD(d->base_splits, "base_splits", 0.0, 32.0);
     for (int n = 0; n < TSK_TREE_MAX_LEVELS; ++n) {
         int used = n < d->levels;
-        int placed = (n >= 1 && n < d->levels) || (n == d->levels && d->leaves > 0) ||
-                     (n == TSK_TREE_MAX_LEVELS - 1 && d->levels == TSK_TREE_MAX_LEVELS &&
-                      d->leaves > 0);
+        int placed =
+            (n >= 1 && n < d->levels) || (n == d->levels && d->leaves > 0) ||
+            (n == TSK_TREE_MAX_LEVELS - 1 && d->levels == TSK_TREE_MAX_LEVELS && d->leaves > 0);
         tsk_status s = check_level(&d->level[n], n, used, placed);
         if (s != TSK_OK) return s;
     }
@@ -317,15 +318,23 @@ tsk_status tsk_tree_validate(const tsk_tree_def* d) {
 float tree_shape_ratio(int shape, float r) {
     const float pi = 3.14159265358979f;
     switch (shape) {
-    case TSK_TREE_CONICAL: return 0.2f + 0.8f * r;
-    case TSK_TREE_SPHERICAL: return 0.2f + 0.8f * sinf(pi * r);
-    case TSK_TREE_HEMISPHERICAL: return 0.2f + 0.8f * sinf(0.5f * pi * r);
-    case TSK_TREE_CYLINDRICAL: return 1.0f;
-    case TSK_TREE_TAPERED_CYLINDRICAL: return 0.5f + 0.5f * r;
-    case TSK_TREE_FLAME: return r <= 0.7f ? r / 0.7f : (1.0f - r) / 0.3f;
-    case TSK_TREE_INVERSE_CONICAL: return 1.0f - 0.8f * r;
-    case TSK_TREE_TEND_FLAME: return r <= 0.7f ? 0.5f + 0.5f * r / 0.7f
-                                               : 0.5f + 0.5f * (1.0f - r) / 0.3f;
-    default: return 1.0f;
+        case TSK_TREE_CONICAL:
+            return 0.2f + 0.8f * r;
+        case TSK_TREE_SPHERICAL:
+            return 0.2f + 0.8f * sinf(pi * r);
+        case TSK_TREE_HEMISPHERICAL:
+            return 0.2f + 0.8f * sinf(0.5f * pi * r);
+        case TSK_TREE_CYLINDRICAL:
+            return 1.0f;
+        case TSK_TREE_TAPERED_CYLINDRICAL:
+            return 0.5f + 0.5f * r;
+        case TSK_TREE_FLAME:
+            return r <= 0.7f ? r / 0.7f : (1.0f - r) / 0.3f;
+        case TSK_TREE_INVERSE_CONICAL:
+            return 1.0f - 0.8f * r;
+        case TSK_TREE_TEND_FLAME:
+            return r <= 0.7f ? 0.5f + 0.5f * r / 0.7f : 0.5f + 0.5f * (1.0f - r) / 0.3f;
+        default:
+            return 1.0f;
     }
 }

@@ -15,8 +15,19 @@
 #define DEG (3.14159265358979f / 180.0f)
 
 enum rand_purpose {
-    R_SCALE = 1, R_ZSCALE, R_SCALE0, R_LEN, R_DOWN, R_ROT0, R_ROT, R_CURVEV, R_SPLIT_ANGLE,
-    R_SPLIT_ROT, R_LEAF_DOWN, R_LEAF_ROT0, R_LEAF_ROT,
+    R_SCALE = 1,
+    R_ZSCALE,
+    R_SCALE0,
+    R_LEN,
+    R_DOWN,
+    R_ROT0,
+    R_ROT,
+    R_CURVEV,
+    R_SPLIT_ANGLE,
+    R_SPLIT_ROT,
+    R_LEAF_DOWN,
+    R_LEAF_ROT0,
+    R_LEAF_ROT,
 };
 
 /* One stem while growing (array of structs; turned into the tree's SoA at the end). */
@@ -24,10 +35,10 @@ typedef struct gstem {
     int32_t parent, level, depth, is_clone;
     float v, theta, alpha; /* attachment, radians */
     float length, radius;
-    float len_max;       /* the nLength(+V) factor drawn for this stem */
+    float len_max; /* the nLength(+V) factor drawn for this stem */
     float wp_parent_len; /* length of the level-(n-1) stem it grows from */
-    float wp_offset;     /* distance from that stem's base */
-    float base_frac;     /* fraction of the stem without children (BaseSize on the trunk) */
+    float wp_offset; /* distance from that stem's base */
+    float base_frac; /* fraction of the stem without children (BaseSize on the trunk) */
     float taper;
     float child_factor; /* 1/(1 + clones): a split stem shares its children with its clones */
     float Q[9];
@@ -138,10 +149,8 @@ static int inside_envelope(const gen* g, v3 p) {
     if (!(ratio >= 0.0f && ratio <= 1.0f)) return 0;
     const float peak = d->prune_width_peak;
     float env;
-    if (ratio < 1.0f - peak)
-        env = powf(ratio / (1.0f - peak), d->prune_power_high);
-    else
-        env = peak > 0.0f ? powf((1.0f - ratio) / peak, d->prune_power_low) : 1.0f;
+    if (ratio < 1.0f - peak) env = powf(ratio / (1.0f - peak), d->prune_power_high);
+    else env = peak > 0.0f ? powf((1.0f - ratio) / peak, d->prune_power_low) : 1.0f;
     return sqrtf(p.x * p.x + p.y * p.y) / S < d->prune_width * env;
 }
 
@@ -160,10 +169,8 @@ static int shape_stem(const gen* g, const gstem* s, size_t idx, float L, v3 orig
     int inside = 1;
     for (int k = 0; k < R; ++k) {
         float inc;
-        if (lv->curve_back == 0.0f || R < 2)
-            inc = lv->curve / (float)R;
-        else
-            inc = k < half ? lv->curve / (float)half : lv->curve_back / (float)(R - half);
+        if (lv->curve_back == 0.0f || R < 2) inc = lv->curve / (float)R;
+        else inc = k < half ? lv->curve / (float)half : lv->curve_back / (float)(R - half);
         inc += rnd_sym(g, s->level, idx, R_CURVEV, (size_t)k) * fabsf(lv->curve_v) / (float)R;
         inc *= DEG;
         const float b_mid = beta + 0.5f * inc; /* midpoint rule along the segment */
@@ -183,7 +190,8 @@ static int shape_stem(const gen* g, const gstem* s, size_t idx, float L, v3 orig
     }
     /* end direction: the last segment's (with the second half of its bend) */
     v3 t_end = dir;
-    if (s->level < 2 || d->attraction_up == 0.0f) t_end = v3_comb(axis, cosf(beta), side, sinf(beta));
+    if (s->level < 2 || d->attraction_up == 0.0f)
+        t_end = v3_comb(axis, cosf(beta), side, sinf(beta));
     v3 t0 = axis;
     if (s->level == 0) {
         t0 = v3_norm_or(v3_make(t0.x, t0.y, t0.z * g->z_scale), t0);
@@ -326,9 +334,9 @@ static tsk_status grow_clones(gen* g, size_t idx) {
             c->is_clone = 1;
             c->v = vs;
             c->theta = (theta0 + 360.0f * (float)(j + 1) / (float)(splits + 1)) * DEG;
-            const float sa = lv->split_angle + rnd_sym(g, b->level, idx, R_SPLIT_ANGLE,
-                                                       (size_t)(k * 64 + j)) *
-                                                   fabsf(lv->split_angle_v);
+            const float sa =
+                lv->split_angle + rnd_sym(g, b->level, idx, R_SPLIT_ANGLE, (size_t)(k * 64 + j)) *
+                                      fabsf(lv->split_angle_v);
             c->alpha = sa * DEG;
             c->length = (1.0f - vs) * b->length;
             c->radius = stem_radius_at(d, b, vs);
@@ -350,12 +358,10 @@ static int child_count(const gen* g, const gstem* s, int c) {
     const tsk_tree_def* d = g->d;
     const float stems_max = (float)d->level[c].branches;
     float n;
-    if (s->level == 0)
-        n = stems_max;
+    if (s->level == 0) n = stems_max;
     else if (s->level == 1)
         n = stems_max * (0.2f + 0.8f * (s->length / s->wp_parent_len) / s->len_max);
-    else
-        n = stems_max * (1.0f - 0.5f * s->wp_offset / s->wp_parent_len);
+    else n = stems_max * (1.0f - 0.5f * s->wp_offset / s->wp_parent_len);
     n *= s->child_factor;
     if (!(n > 0.0f)) return 0;
     return (int)floorf(n + 0.5f);
@@ -390,14 +396,12 @@ static tsk_status grow_children(gen* g, size_t idx) {
     for (int j = 0; j < n; ++j) {
         const float v = s.base_frac + (1.0f - s.base_frac) * ((float)j + 0.5f) / (float)n;
         const float offset = v * s.length;
-        const float len_max = fmaxf(0.0f, lc->length + rnd_sym(g, c, idx, R_LEN, (size_t)j) *
-                                                           lc->length_v);
+        const float len_max =
+            fmaxf(0.0f, lc->length + rnd_sym(g, c, idx, R_LEN, (size_t)j) * lc->length_v);
         float L;
         const float ratio = (s.length - offset) / fmaxf(s.length - base_len, 1e-12f);
-        if (c == 1)
-            L = s.length * len_max * tree_shape_ratio(d->shape, ratio);
-        else
-            L = len_max * (s.length - 0.6f * offset);
+        if (c == 1) L = s.length * len_max * tree_shape_ratio(d->shape, ratio);
+        else L = len_max * (s.length - 0.6f * offset);
         if (!(L > 1e-6f)) continue; /* Weber–Penn: stems of no length are not grown */
         float alpha;
         if (lc->down_angle_v >= 0.0f)
@@ -447,8 +451,9 @@ static tsk_status grow_leaves(gen* g, size_t idx) {
         rot = next_rotation(rot, lc->rotate,
                             rnd_sym(g, 9, idx, R_LEAF_ROT, (size_t)j) * fabsf(lc->rotate_v), j);
         l->theta = rot * DEG;
-        l->alpha = (lc->down_angle + rnd_sym(g, 9, idx, R_LEAF_DOWN, (size_t)j) *
-                                         fabsf(lc->down_angle_v)) * DEG;
+        l->alpha = (lc->down_angle +
+                    rnd_sym(g, 9, idx, R_LEAF_DOWN, (size_t)j) * fabsf(lc->down_angle_v)) *
+                   DEG;
         l->length = d->leaf_scale;
         l->width = d->leaf_scale * d->leaf_scale_x;
     }
@@ -456,10 +461,12 @@ static tsk_status grow_leaves(gen* g, size_t idx) {
 }
 
 static void free_tree_arrays(tsk_tree* t) {
-    void* arrays[] = {t->seg12, t->inv_l, t->parent, t->level, t->depth, t->attach_v, t->attach_theta,
-                      t->attach_alpha, t->trig, t->has_kids, t->frames, t->prev_frames, t->length, t->rest_seg, t->shape, t->local, t->root,
-                      t->rest, t->rest_O, t->cur, t->cur_O, t->prev, t->prev_O,
-                      t->leaf_parent, t->leaf_attach, t->leaf_size, t->leaf_trig};
+    void* arrays[] = {
+        t->seg12,        t->inv_l,        t->parent,   t->level,    t->depth,  t->attach_v,
+        t->attach_theta, t->attach_alpha, t->trig,     t->has_kids, t->frames, t->prev_frames,
+        t->length,       t->rest_seg,     t->shape,    t->local,    t->root,   t->rest,
+        t->rest_O,       t->cur,          t->cur_O,    t->prev,     t->prev_O, t->leaf_parent,
+        t->leaf_attach,  t->leaf_size,    t->leaf_trig};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i) tsk_free(arrays[i]);
 }
 
@@ -589,8 +596,8 @@ static tsk_status build_tree(gen* g, tsk_tree** out) {
     t->leaf_trig = tsk_alloc(4 * m * sizeof(float), "tree leaves");
     if (!t->parent || !t->level || !t->depth || !t->attach_v || !t->attach_theta ||
         !t->attach_alpha || !t->trig || !t->has_kids || !t->frames || !t->prev_frames ||
-        !t->length || !t->rest_seg || !t->seg12 || !t->inv_l || !t->shape || !t->local || !t->root ||
-        !t->rest || !t->rest_O || !t->cur || !t->cur_O || !t->prev || !t->prev_O ||
+        !t->length || !t->rest_seg || !t->seg12 || !t->inv_l || !t->shape || !t->local ||
+        !t->root || !t->rest || !t->rest_O || !t->cur || !t->cur_O || !t->prev || !t->prev_O ||
         !t->leaf_parent || !t->leaf_attach || !t->leaf_size || !t->leaf_trig) {
         tsk_tree_destroy(t);
         return TSK_ERR_MEMORY;
@@ -638,12 +645,12 @@ tsk_status tsk_tree_create(const tsk_tree_def* def, tsk_tree** out) {
     trunk->length = (def->level[0].length + rnd_sym(&g, 0, 0, R_LEN, 0) * def->level[0].length_v) *
                     g.scale_tree;
     if (!(trunk->length > 1e-6f)) {
-        st = tsk_error_arg(TSK_ERR_ARGUMENT, "level[0].length",
-                           "the trunk has no length (%g m)", (double)trunk->length);
+        st = tsk_error_arg(TSK_ERR_ARGUMENT, "level[0].length", "the trunk has no length (%g m)",
+                           (double)trunk->length);
         goto done;
     }
-    trunk->radius = trunk->length * def->ratio *
-                    (def->scale0 + rnd_sym(&g, 0, 0, R_SCALE0, 0) * def->scale0_v);
+    trunk->radius =
+        trunk->length * def->ratio * (def->scale0 + rnd_sym(&g, 0, 0, R_SCALE0, 0) * def->scale0_v);
     trunk->taper = def->level[0].taper;
     trunk->len_max = def->level[0].length;
     trunk->wp_parent_len = trunk->length;

@@ -82,9 +82,9 @@ float tsk_branch_radius(const tsk_branch_shape* shape, float v, float theta) {
 /* ---- eq. 6–10 at one (v, theta) ------------------------------------------------------------ */
 
 typedef struct ring_eval {
-    v3 B, dB;      /* curve point and derivative at u = v */
-    v3 S, T;       /* blended handles (eq. 9) */
-    v3 dS, dT;     /* their derivatives in u */
+    v3 B, dB; /* curve point and derivative at u = v */
+    v3 S, T; /* blended handles (eq. 9) */
+    v3 dS, dT; /* their derivatives in u */
 } ring_eval;
 
 static void ring_setup(const v3* P, const sloan_frames* f, float u, ring_eval* r) {
@@ -93,8 +93,10 @@ static void ring_setup(const v3* P, const sloan_frames* f, float u, ring_eval* r
     float q[3], dq[3];
     bern2(u, q);
     bern2_deriv(u, dq);
-    r->S = v3_add(v3_add(v3_scale(f->S[0], q[0]), v3_scale(f->S[1], q[1])), v3_scale(f->S[2], q[2]));
-    r->T = v3_add(v3_add(v3_scale(f->T[0], q[0]), v3_scale(f->T[1], q[1])), v3_scale(f->T[2], q[2]));
+    r->S =
+        v3_add(v3_add(v3_scale(f->S[0], q[0]), v3_scale(f->S[1], q[1])), v3_scale(f->S[2], q[2]));
+    r->T =
+        v3_add(v3_add(v3_scale(f->T[0], q[0]), v3_scale(f->T[1], q[1])), v3_scale(f->T[2], q[2]));
     r->dS = v3_add(v3_add(v3_scale(f->S[0], dq[0]), v3_scale(f->S[1], dq[1])),
                    v3_scale(f->S[2], dq[2]));
     r->dT = v3_add(v3_add(v3_scale(f->T[0], dq[0]), v3_scale(f->T[1], dq[1])),
@@ -105,8 +107,8 @@ static void ring_setup(const v3* P, const sloan_frames* f, float u, ring_eval* r
  * b = cos(theta) rho, mapped by eq. 9: X = B(u) + S(u) a + T(u) b. The tangents of the
  * unbent surface, d/dv and d/dtheta of (u, a, b), are multiplied by the Jacobian
  * [dX/du dX/da dX/db] = [B' + S' a + T' b, S, T] (eq. 10). */
-static inline void surface_point(const ring_eval* r, float st, float ct, radius_terms rho,
-                                 v3* pos, v3* nrm) {
+static inline void surface_point(const ring_eval* r, float st, float ct, radius_terms rho, v3* pos,
+                                 v3* nrm) {
     const float a = st * rho.value, b = ct * rho.value;
     *pos = v3_make(r->B.x + r->S.x * a + r->T.x * b, r->B.y + r->S.y * a + r->T.y * b,
                    r->B.z + r->S.z * a + r->T.z * b);
@@ -118,8 +120,8 @@ static inline void surface_point(const ring_eval* r, float st, float ct, radius_
     const float at = ct * rho.value + st * rho.dtheta, bt = -st * rho.value + ct * rho.dtheta;
     const v3 tv = v3_make(Ju.x + r->S.x * av + r->T.x * bv, Ju.y + r->S.y * av + r->T.y * bv,
                           Ju.z + r->S.z * av + r->T.z * bv);
-    const v3 tt = v3_make(r->S.x * at + r->T.x * bt, r->S.y * at + r->T.y * bt,
-                          r->S.z * at + r->T.z * bt);
+    const v3 tt =
+        v3_make(r->S.x * at + r->T.x * bt, r->S.y * at + r->T.y * bt, r->S.z * at + r->T.z * bt);
     const v3 n = v3_cross(tt, tv);
     const float l2 = v3_dot(n, n), tl2 = v3_dot(tv, tv);
     if (l2 > 1e-24f * (tl2 * tl2 + 1e-30f)) {
@@ -273,8 +275,7 @@ static void leaf_topology_range(size_t b, size_t e, size_t chunk, void* vctx) {
         q[0] = v, q[1] = v + 3, q[2] = v + 2, q[3] = v + 1;
         if (c->uvs) {
             float* uv = c->uvs + 8 * f;
-            uv[0] = 0, uv[1] = 0, uv[2] = 0, uv[3] = 1, uv[4] = 1, uv[5] = 1, uv[6] = 1,
-            uv[7] = 0;
+            uv[0] = 0, uv[1] = 0, uv[2] = 0, uv[3] = 1, uv[4] = 1, uv[5] = 1, uv[6] = 1, uv[7] = 0;
         }
     }
 }
@@ -361,8 +362,10 @@ tsk_status tsk_tree_mesh_edges(const tsk_tree* t, const tsk_tree_mesh_def* m, in
     if (s != TSK_OK) return s;
     if (nf == 0) return TSK_OK;
     if (nf > (size_t)INT32_MAX / 4) /* edge and corner indices are int32 */
-        return tsk_error_arg(TSK_ERR_LIMIT, "mesh", "%zu quads have more corners than int32 "
-                             "indices reach; lower mesh.along/around", nf);
+        return tsk_error_arg(TSK_ERR_LIMIT, "mesh",
+                             "%zu quads have more corners than int32 "
+                             "indices reach; lower mesh.along/around",
+                             nf);
     if (edges == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "edges", "is NULL");
     if (corner_edges == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "corner_edges", "is NULL");
     topo_ctx c = {t, m, {NULL, NULL, NULL}, NULL, NULL, edges, corner_edges};

@@ -53,7 +53,9 @@ void tsk_subdiv_destroy(tsk_subdiv* sd) {
 }
 
 size_t tsk_subdiv_cage_vertex_count(const tsk_subdiv* sd) { return sd ? sd->cage_vertices : 0; }
-size_t tsk_subdiv_vertex_count(const tsk_subdiv* sd) { return sd ? tsk_osd_vertex_count(sd->osd) : 0; }
+size_t tsk_subdiv_vertex_count(const tsk_subdiv* sd) {
+    return sd ? tsk_osd_vertex_count(sd->osd) : 0;
+}
 size_t tsk_subdiv_face_count(const tsk_subdiv* sd) { return sd ? tsk_osd_face_count(sd->osd) : 0; }
 
 tsk_status tsk_subdiv_faces(const tsk_subdiv* sd, int32_t* quads) {

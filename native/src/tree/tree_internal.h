@@ -113,32 +113,31 @@ struct tsk_tree {
     float* attach_v;
     float* attach_theta;
     float* attach_alpha;
-    float* trig;     /* 4n: cos theta, sin theta, cos alpha, sin alpha */
+    float* trig; /* 4n: cos theta, sin theta, cos alpha, sin alpha */
     uint8_t* has_kids;
-    sloan_frames* frames;      /* current Sloan frames of branches with children */
+    sloan_frames* frames; /* current Sloan frames of branches with children */
     sloan_frames* prev_frames; /* those of the last step (lagged mode) */
     float* length;
     float* rest_seg; /* |Q3 - Q2| of the rest shape, the l of seed 001, eq. 14 */
-    float* seg12;    /* |Q2 - Q1| */
-    float* inv_l;    /* 1 / l^length_power (0 for l <= 1e-12): the divisor of seed 001, eq. 14 */
+    float* seg12; /* |Q2 - Q1| */
+    float* inv_l; /* 1 / l^length_power (0 for l <= 1e-12): the divisor of seed 001, eq. 14 */
     float inv_l_power; /* the length_power inv_l was made for */
     tsk_branch_shape* shape;
-    float* local;    /* 9n: Q1, Q2, Q3 in the attachment frame (Q0 = 0) */
-    float* root;     /* 3n: P0 of a trunk (parent -1); unused otherwise */
-    float* rest;     /* 12n: rest P0..P3 */
-    float* rest_O;   /* 3n */
-    float* cur;      /* 12n: current pose */
-    float* cur_O;    /* 3n */
-    int at_rest;     /* cur, cur_O and frames hold the rest pose: a reset has nothing to do */
-    float* prev;     /* 12n: scratch for the lagged step (pose of the last step) */
-    float* prev_O;   /* 3n */
+    float* local; /* 9n: Q1, Q2, Q3 in the attachment frame (Q0 = 0) */
+    float* root; /* 3n: P0 of a trunk (parent -1); unused otherwise */
+    float* rest; /* 12n: rest P0..P3 */
+    float* rest_O; /* 3n */
+    float* cur; /* 12n: current pose */
+    float* cur_O; /* 3n */
+    int at_rest; /* cur, cur_O and frames hold the rest pose: a reset has nothing to do */
+    float* prev; /* 12n: scratch for the lagged step (pose of the last step) */
+    float* prev_O; /* 3n */
     /* leaves */
     int32_t* leaf_parent;
     float* leaf_attach; /* 3m: v, theta, alpha */
-    float* leaf_size;   /* 2m: length, width */
-    float* leaf_trig;   /* 4m: cos theta, sin theta, cos alpha, sin alpha (per-frame leaf pose) */
+    float* leaf_size; /* 2m: length, width */
+    float* leaf_trig; /* 4m: cos theta, sin theta, cos alpha, sin alpha (per-frame leaf pose) */
 };
-
 
 static inline void tree_load_points(const float* a, size_t i, v3* P) {
     const float* p = a + 12 * i;
@@ -166,19 +165,32 @@ static inline void tree_store3(float* a, size_t i, v3 v) {
  * error < 1e-5.
  * Used for the bend factor of seed 001, eq. 16, where powf was a third of the step. */
 static inline float bend_pow(float m, float e) {
-    union { float f; uint32_t u; } b = {m};
+    union {
+        float f;
+        uint32_t u;
+    } b = {m};
     const float ex = (float)((int32_t)((b.u >> 23) & 255u) - 127);
     b.u = (b.u & 0x7FFFFFu) | 0x3F800000u; /* mantissa in [1, 2) */
     const float s = (b.f - 1.0f) / (b.f + 1.0f), s2 = s * s;
     /* ln(mant) = 2 (s + s^3/3 + s^5/5 + s^7/7 + s^9/9) */
-    const float ln = 2.0f * s * (1.0f + s2 * (0.333333333f + s2 * (0.2f + s2 * (0.142857143f + s2 * 0.111111111f))));
+    const float ln =
+        2.0f * s *
+        (1.0f + s2 * (0.333333333f + s2 * (0.2f + s2 * (0.142857143f + s2 * 0.111111111f))));
     float y = e * (ex + ln * 1.44269504f);
     y = y < -126.0f ? -126.0f : (y > 126.0f ? 126.0f : y);
     float n = (float)(int32_t)y; /* truncation, then floor */
     if (n > y) n = n - 1.0f;
     const float f = (y - n) * 0.693147181f; /* 2^(y-n) = e^f, f in [0, ln 2) */
-    const float p = 1.0f + f * (1.0f + f * (0.5f + f * (0.166666667f + f * (0.0416666667f + f * (0.00833333333f + f * (0.00138888889f + f * 0.000198412698f))))));
-    union { uint32_t u; float f; } sc = {(uint32_t)((int32_t)n + 127) << 23};
+    const float p =
+        1.0f +
+        f * (1.0f + f * (0.5f + f * (0.166666667f +
+                                     f * (0.0416666667f +
+                                          f * (0.00833333333f +
+                                               f * (0.00138888889f + f * 0.000198412698f))))));
+    union {
+        uint32_t u;
+        float f;
+    } sc = {(uint32_t)((int32_t)n + 127) << 23};
     return p * sc.f;
 }
 
@@ -186,8 +198,8 @@ static inline float bend_pow(float m, float e) {
  * generator, the wind step and the attachment checks all go through these functions, so a
  * zero wind reproduces the generated rest pose bit for bit. Inline: the wind step's loop. */
 
-static inline void tree_attach_frame(const v3* P, const sloan_frames* f, float v, float ct, float st, v3* origin,
-                       v3* U, v3* V) {
+static inline void tree_attach_frame(const v3* P, const sloan_frames* f, float v, float ct,
+                                     float st, v3* origin, v3* U, v3* V) {
     *origin = bez_point(P, v);
     /* U: the parent's direction at v (derivative of its Bézier) */
     v3 chord = v3_norm_or(v3_sub(P[3], P[0]), v3_make(0, 0, 1));
@@ -206,8 +218,9 @@ static inline void tree_attach_frame(const v3* P, const sloan_frames* f, float v
  * wind step's vector paths hand a block with a larger one to the scalar path. */
 #define TREE_BEND_MAX 1e4f
 
-static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3* Pp, const sloan_frames* fp,
-                      v3 force, float bend_power, float b2_scale, v3* P_out, v3* O_out) {
+static inline void tree_pose_branch(const struct tsk_tree* t, size_t i, const v3* Pp,
+                                    const sloan_frames* fp, v3 force, float bend_power,
+                                    float b2_scale, v3* P_out, v3* O_out) {
     const float* trig = t->trig + 4 * i;
     v3 origin, U, V;
     if (t->parent[i] < 0) {

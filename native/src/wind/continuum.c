@@ -105,16 +105,14 @@ static void step_rows(size_t b, size_t e, size_t chunk, void* vctx) {
             if (f) {
                 for (size_t i = 0; i < nx; ++i) {
                     /* seed 004, eq. 3 plus the drive spring towards the wind */
-                    const float lap = ((pl[i] + pr[i]) + (pd[i] + pu[i])) -
-                                      4.0f * p[i];
+                    const float lap = ((pl[i] + pr[i]) + (pd[i] + pu[i])) - 4.0f * p[i];
                     const float a = c2 * lap + drive * (f[i] - p[i]);
                     /* seed 004, eq. 4 */
                     r[i] = (g1 * p[i] - g * q[i]) + a * dt2;
                 }
             } else {
                 for (size_t i = 0; i < nx; ++i) {
-                    const float lap = ((pl[i] + pr[i]) + (pd[i] + pu[i])) -
-                                      4.0f * p[i];
+                    const float lap = ((pl[i] + pr[i]) + (pd[i] + pu[i])) - 4.0f * p[i];
                     const float a = c2 * lap - drive * p[i];
                     r[i] = (g1 * p[i] - g * q[i]) + a * dt2;
                 }
@@ -173,8 +171,7 @@ static inline float bilinear_cells(const float* q, int nx, int ny, float fx, flo
     return a + (b - a) * ty;
 }
 
-void tsk_continuum_sample_cells(const tsk_continuum* w, float cx, float cy, float* px,
-                                float* py) {
+void tsk_continuum_sample_cells(const tsk_continuum* w, float cx, float cy, float* px, float* py) {
     *px = bilinear_cells(w->x[w->cur], w->nx, w->ny, cx, cy);
     *py = bilinear_cells(w->y[w->cur], w->nx, w->ny, cx, cy);
 }

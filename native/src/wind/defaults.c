@@ -117,10 +117,10 @@ static tsk_status check_dir(const char* name, float dx, float dy) {
     return TSK_OK;
 }
 
-#define TRY(call)                                                                            \
-    do {                                                                                     \
-        tsk_status s_ = (call);                                                              \
-        if (s_ != TSK_OK) return s_;                                                         \
+#define TRY(call)                    \
+    do {                             \
+        tsk_status s_ = (call);      \
+        if (s_ != TSK_OK) return s_; \
     } while (0)
 
 tsk_status tsk_wind_sines_def_validate(const tsk_wind_sines_def* d) {

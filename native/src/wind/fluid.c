@@ -387,12 +387,14 @@ int tsk_fluid_source_pushes(const tsk_wind_source* s, double t0, double t1) {
 }
 
 /* v <- v + falloff (target - v) on the faces of one component inside the radius */
-static void push_faces(float* q, int w, int h, float off_x, float off_y, float cell,
-                       float ox, float oy, const tsk_wind_source* s, float target) {
+static void push_faces(float* q, int w, int h, float off_x, float off_y, float cell, float ox,
+                       float oy, const tsk_wind_source* s, float target) {
     const float R = s->radius;
     /* face (i, j) lies at origin + cell * (i + off_x, j + off_y) */
-    int i0 = (int)floorf((s->x - R - ox) / cell - off_x), i1 = (int)ceilf((s->x + R - ox) / cell - off_x);
-    int j0 = (int)floorf((s->y - R - oy) / cell - off_y), j1 = (int)ceilf((s->y + R - oy) / cell - off_y);
+    int i0 = (int)floorf((s->x - R - ox) / cell - off_x),
+        i1 = (int)ceilf((s->x + R - ox) / cell - off_x);
+    int j0 = (int)floorf((s->y - R - oy) / cell - off_y),
+        j1 = (int)ceilf((s->y + R - oy) / cell - off_y);
     i0 = clampi(i0, 0, w - 1);
     i1 = clampi(i1, 0, w - 1);
     j0 = clampi(j0, 0, h - 1);

@@ -7,7 +7,7 @@
 typedef struct gust_slot {
     int64_t slot;
     double start; /* s, local time the gust starts */
-    float peak;   /* m/s */
+    float peak; /* m/s */
 } gust_slot;
 
 static void slot_of(const tsk_wind_gust_def* g, int64_t slot, gust_slot* out) {

@@ -22,10 +22,9 @@ typedef struct sample_ctx {
  * at cell coordinates (x - ox) / h; beyond the edge the edge value repeats.
  * oa[i] += scale * a, ob[i] += scale * b. Branch-free so that the loop vectorises. */
 TSK_WIND_CLONES
-static void bilinear2_add(const float* qa, const float* qb, int nx, int ny, size_t stride,
-                          float ox, float oy, float inv_h, float scale, size_t n,
-                          const float* restrict x, const float* restrict y, float* restrict oa,
-                          float* restrict ob) {
+static void bilinear2_add(const float* qa, const float* qb, int nx, int ny, size_t stride, float ox,
+                          float oy, float inv_h, float scale, size_t n, const float* restrict x,
+                          const float* restrict y, float* restrict oa, float* restrict ob) {
     const float mx = (float)(nx - 1), my = (float)(ny - 1);
     const int lx = nx - 2, ly = ny - 2, st = (int)stride; /* grids <= 1026 wide: int fits */
     for (int i = 0; i < (int)n; ++i) {
@@ -48,8 +47,8 @@ static void bilinear2_add(const float* qa, const float* qb, int nx, int ny, size
     }
 }
 
-static void sample_block(const sample_ctx* c, size_t n, const float* x, const float* y,
-                         float* vx, float* vy, float* sx, float* sy) {
+static void sample_block(const sample_ctx* c, size_t n, const float* x, const float* y, float* vx,
+                         float* vy, float* sx, float* sy) {
     const tsk_wind* w = c->w;
     const tsk_sines_eval* ev = c->ev;
     for (size_t i = 0; i < n; ++i) {
@@ -63,8 +62,8 @@ static void sample_block(const sample_ctx* c, size_t n, const float* x, const fl
     if (!w->has_fluid) return;
     const tsk_fluid* f = &w->fluid;
     const float ox = w->def.fluid.origin_x, oy = w->def.fluid.origin_y, inv_h = 1.0f / f->h;
-    bilinear2_add(f->cx, f->cy, f->nx, f->ny, (size_t)f->nx, ox, oy, inv_h, f->speed, n, x, y,
-                  vx, vy);
+    bilinear2_add(f->cx, f->cy, f->nx, f->ny, (size_t)f->nx, ox, oy, inv_h, f->speed, n, x, y, vx,
+                  vy);
     if (sx && w->has_continuum) {
         const tsk_continuum* k = &w->continuum;
         const size_t s = (size_t)k->nx + 2;

@@ -27,7 +27,7 @@ static inline float fast_pow01(float u, float k) {
     bits = bits < tiny ? tiny : bits;
     /* u = 2^e * m with m in [sqrt(1/2), sqrt(2)) */
     const int32_t mant = (bits & 0x007FFFFF) | 0x3F800000; /* [1, 2) */
-    const int32_t big = mant > 0x3FB504F3 ? 1 : 0;        /* m > sqrt(2) */
+    const int32_t big = mant > 0x3FB504F3 ? 1 : 0; /* m > sqrt(2) */
     const int32_t e = ((bits >> 23) & 255) - 127 + big;
     const float m = i2f_bits(mant - (big << 23));
     const float z = (m - 1.0f) / (m + 1.0f);
@@ -58,8 +58,7 @@ static inline float fast_pow01(float u, float k) {
 float tsk_wind_sin(float x) { return tsk_fast_sin(x); }
 float tsk_wind_pow01(float u, float k) { return fast_pow01(u, k); }
 
-void tsk_sines_eval_add(tsk_sines_eval* ev, const tsk_wind_sines_def* def, float weight,
-                        double t) {
+void tsk_sines_eval_add(tsk_sines_eval* ev, const tsk_wind_sines_def* def, float weight, double t) {
     const double two_pi = 6.283185307179586476925;
     ev->base_x += weight * def->base_x;
     ev->base_y += weight * def->base_y;

@@ -183,8 +183,8 @@ static uint64_t fnv(const void* p, size_t n, uint64_t h) {
 /* both definitions are plain 4-byte fields: no padding bytes enter the hash */
 static uint64_t def_hash(const tsk_wind* w) {
     uint64_t h = fnv(&w->def.fluid, sizeof w->def.fluid, 1469598103934665603ull);
-    const tsk_wind_continuum_def c = w->has_continuum ? w->def.continuum
-                                                      : (tsk_wind_continuum_def){0, 0, 0, 0};
+    const tsk_wind_continuum_def c =
+        w->has_continuum ? w->def.continuum : (tsk_wind_continuum_def){0, 0, 0, 0};
     return fnv(&c, sizeof c, h);
 }
 
@@ -222,8 +222,8 @@ tsk_status tsk_wind_save_state(const tsk_wind* w, void* buf, size_t size) {
     if (buf == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "buf", "must not be NULL");
     const size_t need = tsk_wind_state_size(w);
     if (size != need)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "size", "must be the state size %zu, got %zu",
-                             need, size);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "size", "must be the state size %zu, got %zu", need,
+                             size);
     state_header hd;
     memset(&hd, 0, sizeof hd);
     hd.magic = STATE_MAGIC;
@@ -279,7 +279,8 @@ tsk_status tsk_wind_load_state(tsk_wind* w, const void* buf, size_t size) {
     if (size != need)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "size",
                              "must be this wind's state size %zu, got %zu (a state of another "
-                             "grid?)", need, size);
+                             "grid?)",
+                             need, size);
     /* everything is checked before anything changes */
     const unsigned char* p = buf;
     state_header hd;

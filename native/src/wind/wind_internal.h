@@ -19,9 +19,9 @@ typedef struct tsk_fluid {
     int iterations, diffusion_iterations;
     float *u, *v, *u_tmp, *v_tmp;
     float *phi, *phi_tmp, *div, *scratch;
-    float *cx, *cy;          /* centre velocities, |v| <= 1, refreshed after each step */
-    int last_iterations;     /* iterations run by the last projection */
-    float last_divergence;   /* max |div| after the last projection (when measured) */
+    float *cx, *cy; /* centre velocities, |v| <= 1, refreshed after each step */
+    int last_iterations; /* iterations run by the last projection */
+    float last_divergence; /* max |div| after the last projection (when measured) */
 } tsk_fluid;
 
 tsk_status tsk_fluid_init(tsk_fluid* f, const tsk_wind_fluid_def* def);
@@ -78,13 +78,12 @@ float* tsk_continuum_cur_y(tsk_continuum* w);
 float* tsk_continuum_prev_x(tsk_continuum* w);
 float* tsk_continuum_prev_y(tsk_continuum* w);
 /* Bilinear Vp at a point in cell units. */
-void tsk_continuum_sample_cells(const tsk_continuum* w, float cx, float cy, float* px,
-                                float* py);
+void tsk_continuum_sample_cells(const tsk_continuum* w, float cx, float cy, float* px, float* py);
 
 /* Hot point loops are compiled twice, for AVX2 and for the x86-64 baseline, and picked at
  * load time. Both versions do the same IEEE operations in the same order (no FMA: the
  * build uses -ffp-contract=off), so they give the same bytes. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) &&                    \
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
     !defined(__SANITIZE_ADDRESS__) && !defined(TSK_NO_CLONES)
 #define TSK_WIND_CLONES __attribute__((target_clones("avx2", "default")))
 #else
@@ -100,7 +99,7 @@ enum { TSK_SINES_MAX_EVAL = TSK_WIND_MAX_WAVES * TSK_WIND_BLEND_HISTORY };
 typedef struct tsk_sines_eval {
     int wave_count;
     float amp_x[TSK_SINES_MAX_EVAL], amp_y[TSK_SINES_MAX_EVAL]; /* A * weight * D */
-    float kx[TSK_SINES_MAX_EVAL], ky[TSK_SINES_MAX_EVAL];       /* (2 pi / L) D */
+    float kx[TSK_SINES_MAX_EVAL], ky[TSK_SINES_MAX_EVAL]; /* (2 pi / L) D */
     float phase[TSK_SINES_MAX_EVAL];
     float power[TSK_SINES_MAX_EVAL];
     float base_x, base_y;
