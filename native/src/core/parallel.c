@@ -5,8 +5,8 @@
  * add-on can set OMP_WAIT_POLICY, and libgomp's default waiters spin (~300,000 pause
  * instructions, milliseconds on recent CPUs) after every region. Inside Blender those
  * spinning waiters took the cores from Blender's own threads: on 2 cores a tree's deform
- * took 20 ms with 2 threads against 6 ms with 1, and Blender's depsgraph slowed down as
- * well (docs/performance.md). These workers sleep on a condition variable between loops. */
+ * was slower with 2 threads than with 1, and Blender's depsgraph slowed down as well
+ * (docs/performance.md). These workers sleep on a condition variable between loops. */
 #define _GNU_SOURCE /* sched_getaffinity */
 #include "tussock/core.h"
 

@@ -306,7 +306,7 @@ static void sample_row(const warp_ctx* c, const float* sxs, const float* sys, fl
  * source row and the output row sit at nearly the same offset in their 4 KiB pages, most
  * loads wait. Two large buffers from mmap do sit so (the picture's layer and a frame
  * allocated the same way), and the rows of a 1920-pixel picture alternate between two
- * offsets: there the RGBA warp took 35-40 % longer (docs/performance.md, session 14). Such a
+ * offsets: there the RGBA warp was markedly slower (docs/performance.md, "Picture warp"). Such a
  * row is sampled into a row buffer with ordinary stores, which leave for the cache at once
  * wherever the buffer sits, then streamed out. Speed only: a pixel's bytes are the same
  * wherever it is sampled. */

@@ -3,8 +3,8 @@
  *
  * When the library is built by GCC and Clang is installed, this file is compiled twice
  * (native/CMakeLists.txt): Clang builds the step and the rest pose (SIM_AVX512_STEP_UNIT), GCC
- * the ribbons (SIM_AVX512_STEP_BY_CLANG). Clang's code for the step is about a tenth faster on
- * this machine (docs/performance.md) and gives the same bytes: the kernel uses only IEEE
+ * the ribbons (SIM_AVX512_STEP_BY_CLANG). Clang's code for the step is faster
+ * (docs/performance.md, "Blade solver") and gives the same bytes: the kernel uses only IEEE
  * operations and written-out fused multiply-adds, and both compilers run with
  * -ffp-contract=off (test_sim_kernel_paths_give_identical_bytes). */
 #define TSK_SIMD_KERNEL_AVX512

@@ -260,8 +260,8 @@ INL vf ld_u8(const uint8_t* p) {
 #endif
 /* a where m is set, else b; m's lanes are all ones or all zeros (comparisons). With AVX2 one
    vblendvps, which looks at each lane's sign bit only, gives the bits of sel_bits' three
-   and-or instructions: the AVX2 kernel 1.3 % faster on Zen 1. (AVX-512 builds need no such
-   help: GCC makes the and-or one vpternlogd, Clang a masked move.) */
+   and-or instructions in one, on the kernel's most frequent operation. (AVX-512 builds need
+   no such help: GCC makes the and-or one vpternlogd, Clang a masked move.) */
 #if defined(TSK_SIMD_KERNEL_AVX2)
 INL vf sel(vi m, vf a, vf b) {
     SPLIT(reg, x, a);
@@ -883,7 +883,7 @@ void SIM_KFN(tsk_sim_block_step)(const sim_step_params* p, float* block, const f
             and collisions, iterated; then pass 3, follow the leader, with the new velocities
             and the statistics. Without colliders near (most blocks), every slice of the block
             goes through the iterations together, and pass 3 runs inside the last one: with
-            AVX2's four slices that is 3 % faster than two at a time (Zen 1); with colliders,
+            AVX2's four slices that measured faster than two at a time; with colliders,
             two slices at a time. */
     vf md = splat(0.0f), ms = splat(0.0f);
     if (nnear == 0) {

@@ -612,8 +612,9 @@ static int box_overlap(const float* lo, const float* hi, const sim_collider* c) 
 }
 
 /* Blocks per chunk of the step's parallel loop. A chunk's blocks run in order, each prefetching
- * the next while it computes, so only a chunk's first block comes from memory unannounced (at 1M
- * blades, chunks of 4 left a quarter of the blocks cold, each 30 % slower). Long chunks, but 16
+ * the next while it computes, so only a chunk's first block comes from memory unannounced
+ * (chunks of 4 would leave a quarter of the blocks cold at 1M blades, and a cold block is
+ * markedly slower: docs/performance.md, "Blade solver"). Long chunks, but 16
  * per thread where there are blocks enough, so that the threads still finish together; never
  * fewer than 4 blocks. */
 static size_t step_grain(int64_t blocks) {
