@@ -208,6 +208,19 @@ run_valgrind_tests() { # dir
   done
 }
 
+# The meadow's solver driver under plain Python (tests/test_runner.py); adds to PASSED/FAILED.
+run_runner_tests() {
+  local out line p f
+  if out="$("$PY" "$ROOT/tests/test_runner.py" 2>&1)"; then :; fi
+  printf '%s\n' "$out" | grep -E '^FAIL|Error' || true
+  line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed$' | tail -n 1 || true)"
+  if [ -z "$line" ]; then p=0; f=1; else
+    p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
+  fi
+  printf '%-8s %-28s %s passed, %s failed\n' python "test_runner.py" "$p" "$f"
+  PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+}
+
 # The Blender suite (blender_tests/run.py) in Blender `major`; adds to PASSED/FAILED.
 run_blender_suite() { # major
   local out line p f
@@ -266,6 +279,7 @@ cmd_test() {
     export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1"
     export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
     run_native_tests "$BUILD/release" native
+    run_runner_tests
     run_native_tests "$BUILD/asan" asan+ubsan
     unset ASAN_OPTIONS UBSAN_OPTIONS
     # valgrind memcheck (TSK_VALGRIND=0 skips)
