@@ -56,7 +56,7 @@ def cache_key(obj, scene):
 
 def cached_range(obj, scene):
     """(start, end) of a complete, up-to-date bake of obj, or None (see cache.cached_range)."""
-    return cache.cached_range(obj, scene, cache_key(obj, scene))
+    return cache.cached_range(obj, scene, cache_key)
 
 
 # ---- what a bake wrote: Free Bake removes all of it, even after a failed bake ------------

@@ -132,15 +132,15 @@ def wire_mesh_cache(obj, rel_pc2, frame_range, key):
     return mod
 
 
-def cached_range(obj, scene, key):
-    """(start, end) of a bake of obj that is complete and made from the inputs whose key is
-    `key` (the object's source's cache_key now), or None (missing, incomplete, or out of
-    date)."""
+def cached_range(obj, scene, key_of):
+    """(start, end) of a bake of obj that is complete and made from the inputs it has now,
+    or None (missing, incomplete, or out of date). key_of(obj, scene): the inputs key now
+    (the object's source's cache_key), computed only for an object with a cache."""
     mod = obj.modifiers.get(MODIFIER)
     rng = obj.get("tussock_baked_range")
     if mod is None or rng is None or not native.available():
         return None
-    if obj.get("tussock_bake_key") != key:
+    if obj.get("tussock_bake_key") != key_of(obj, scene):
         return None
     try:
         info = native.lib.pc2_info(bpy.path.abspath(mod.filepath))
@@ -154,15 +154,15 @@ def cached_range(obj, scene, key):
     return start, end
 
 
-def baked_frame(obj, scene, frame, key):
-    """True when obj's cache holds `frame` (its pose comes from the cache); `key` as for
+def baked_frame(obj, scene, frame, key_of):
+    """True when obj's cache holds `frame` (its pose comes from the cache); key_of as for
     cached_range. When the cache is out of date or the frame lies outside it, the cache is
     switched off so that it cannot show a wrong frame, and the live animation is used
     instead."""
     mod = obj.modifiers.get(MODIFIER)
     if mod is None:
         return False
-    rng = cached_range(obj, scene, key)
+    rng = cached_range(obj, scene, key_of)
     ok = rng is not None and rng[0] <= frame <= rng[1]
     if mod.show_render != ok or mod.show_viewport != ok:
         mod.show_render = mod.show_viewport = ok

@@ -633,7 +633,7 @@ def test_bake_cache_read_only_or_forged_is_refused():
         f.seek(20)
         f.write(struct.pack("<f", NAN))
     assert bake.cached_range(first, scene) is None
-    assert cache.baked_frame(first, scene, 2, bake.cache_key(first, scene)) is False
+    assert cache.baked_frame(first, scene, 2, bake.cache_key) is False
     assert ops.free_bake() == {"FINISHED"}
     assert not any(o.modifiers.get(cache.MODIFIER) for o in scene.objects)
 

@@ -77,7 +77,7 @@ def show_baked(meadow, scene, frame):
     child = blade_objects.find_blades_object(meadow)
     if child is None or child.modifiers.get(cache.MODIFIER) is None:
         return False
-    if not cache.baked_frame(child, scene, frame, inputs_key(meadow, scene)):
+    if not cache.baked_frame(child, scene, frame, lambda _c, scene: inputs_key(meadow, scene)):
         return False
     restore_layout(child, scene, meadow)
     return True

@@ -17,7 +17,7 @@ def on_frame_change(scene, depsgraph=None):
         s = compat.settings_of(obj, "tussock_tree")
         if s is None or not s.is_tree:
             continue
-        if cache.baked_frame(obj, scene, scene.frame_current, baking.inputs_key(obj, scene)):
+        if cache.baked_frame(obj, scene, scene.frame_current, baking.inputs_key):
             continue  # the Mesh Cache modifier shows the baked frame
         # any failure goes to the panel (once, not a write on every frame), never a
         # traceback out of the handler
