@@ -3,7 +3,7 @@ pass of that frame is computed in C and written into its UV image. Two handlers,
 a picture's render is the compositor alone (no Render Layers node): Blender (3.4, measured)
 then evaluates no view layer and calls no frame_change handler between the frames of an
 animation render, only render_pre, with the scene already on the frame to render.
-A baked picture (picture/bake.py) is read from its files instead, frame by frame as long
+A baked picture (picture/baking.py) is read from its files instead, frame by frame as long
 as they verify."""
 
 import sys
