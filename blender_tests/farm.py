@@ -20,14 +20,14 @@ def bake_refused_in(cache_parent, needle, unmount=False, after=None):
     unmounts `cache_parent` (a tmpfs) at the end."""
     import bpy
     from harness import expect_cancel
-    from tussock import bake
-    bake.CACHE_DIR_OVERRIDE = os.path.join(cache_parent, "tussock_cache")
+    from tussock import cache
+    cache.CACHE_DIR_OVERRIDE = os.path.join(cache_parent, "tussock_cache")
     try:
         expect_cancel(bpy.ops.tussock.bake, needle)
         if after is not None:
             after()
     finally:
-        bake.CACHE_DIR_OVERRIDE = None
+        cache.CACHE_DIR_OVERRIDE = None
         if unmount:
             subprocess.run(["umount", cache_parent])
 

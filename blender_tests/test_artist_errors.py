@@ -335,7 +335,7 @@ class _Raising:
 
 @test
 def test_update_callbacks_report_any_exception_in_the_panel():
-    from tussock.meadow import simulate
+    from tussock.meadow import blade_objects
     blades, tree, meadow = edit_mode_scene()
     s = meadow.tussock_meadow
     points = vertex_digest(meadow)
@@ -349,7 +349,7 @@ def test_update_callbacks_report_any_exception_in_the_panel():
     with _Raising(meadow_build, "rebuild", KeyError("boom")):
         s.seed = 3
     assert "KeyError" in s.last_error and "unexpectedly" in s.last_error, s.last_error
-    with _Raising(simulate, "ensure_chunks", RuntimeError("no chunks")):
+    with _Raising(blade_objects, "ensure_chunks", RuntimeError("no chunks")):
         s.use_simulation = True
     assert "no chunks" in s.last_error, s.last_error
     t = tree.tussock_tree

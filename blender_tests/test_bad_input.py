@@ -561,7 +561,7 @@ def mount_tmpfs(where, options):
 
 @test
 def test_bake_bad_input_cancels():
-    from tussock import bake
+    from tussock import cache
     fresh()
     assert ops.add_tree(preset=lib.tree_presets()[0], leaves=False) == {"FINISHED"}
     expect_cancel(ops.bake, "save the .blend first")              # unsaved .blend
@@ -577,15 +577,15 @@ def test_bake_bad_input_cancels():
     # read-only output: sysfs refuses new folders even to root; a file in the folder's way
     for where, needle in (("/sys/tussock_cache", ""), ("/proc/tussock_cache", ""),
                           (tmp("in_the_way", b"a file, not a folder"), "")):
-        bake.CACHE_DIR_OVERRIDE = where
+        cache.CACHE_DIR_OVERRIDE = where
         try:
             expect_cancel(ops.bake, needle)
         finally:
-            bake.CACHE_DIR_OVERRIDE = None
+            cache.CACHE_DIR_OVERRIDE = None
     # a cache of another format version is refused, not used
     assert ops.bake() == {"FINISHED"}
-    tree = next(o for o in bpy.context.scene.objects if o.modifiers.get(bake.MODIFIER))
-    frame = bake.frame_path(os.path.join(bake.cache_root(), bake.safe_name(tree.name)), 2)
+    tree = next(o for o in bpy.context.scene.objects if o.modifiers.get(cache.MODIFIER))
+    frame = cache.frame_path(os.path.join(cache.cache_root(), cache.safe_name(tree.name)), 2)
     with open(frame, "r+b") as f:
         f.seek(8)
         f.write(struct.pack("<I", 99))
@@ -596,17 +596,17 @@ def test_bake_bad_input_cancels():
 def test_bake_cache_read_only_or_forged_is_refused():
     """free_bake on a cache it cannot delete: CANCELLED, every modifier kept. A .pc2 whose
     header is forged (NaN start frame) is not used: the live tree shows, no traceback."""
-    from tussock import bake
+    from tussock import bake, cache
     scene = bake_scene(tmp("bake_forged"))
     assert ops.add_tree(preset=lib.tree_presets()[0], leaves=False) == {"FINISHED"}
     bpy.ops.wm.save_mainfile()
     assert ops.bake() == {"FINISHED"}
-    trees = [o for o in scene.objects if o.modifiers.get(bake.MODIFIER)]
+    trees = [o for o in scene.objects if o.modifiers.get(cache.MODIFIER)]
     assert len(trees) == 2
-    root = bake.cache_root()
+    root = cache.cache_root()
     # the second tree's folder becomes read-only (root: a read-only tmpfs over it holding
     # the same files; otherwise: no write permission), so the first could be freed alone
-    second = os.path.join(root, bake.safe_name(trees[1].name))
+    second = os.path.join(root, cache.safe_name(trees[1].name))
     saved = {n: open(os.path.join(second, n), "rb").read() for n in os.listdir(second)}
     mounted = False
     if os.geteuid() == 0 and mount_tmpfs(second, "size=4m"):
@@ -620,7 +620,7 @@ def test_bake_cache_read_only_or_forged_is_refused():
     try:
         if mounted or os.geteuid() != 0:
             expect_cancel(ops.free_bake, "")
-            assert all(o.modifiers.get(bake.MODIFIER) for o in trees)
+            assert all(o.modifiers.get(cache.MODIFIER) for o in trees)
     finally:
         if mounted:
             subprocess.run(["umount", second])
@@ -628,14 +628,14 @@ def test_bake_cache_read_only_or_forged_is_refused():
             os.chmod(second, 0o755)
     # a forged .pc2: NaN start frame
     first = trees[0]
-    pc2 = bpy.path.abspath(first.modifiers[bake.MODIFIER].filepath)
+    pc2 = bpy.path.abspath(first.modifiers[cache.MODIFIER].filepath)
     with open(pc2, "r+b") as f:
         f.seek(20)
         f.write(struct.pack("<f", NAN))
     assert bake.cached_range(first, scene) is None
-    assert bake.baked_frame(first, scene, 2) is False
+    assert cache.baked_frame(first, scene, 2, bake.cache_key) is False
     assert ops.free_bake() == {"FINISHED"}
-    assert not any(o.modifiers.get(bake.MODIFIER) for o in scene.objects)
+    assert not any(o.modifiers.get(cache.MODIFIER) for o in scene.objects)
 
 
 # ---- pictures ---------------------------------------------------------------------------------

@@ -20,9 +20,8 @@ import numpy as np  # noqa: E402
 from farm import assert_same_caches, bake_killed, bake_refused_in, blender, cache_files, mount_tmpfs  # noqa: E402,F401,E501
 
 harness.enable_addon()
-from tussock import bake, native  # noqa: E402
-from tussock.meadow import baking as meadow_baking  # noqa: E402
-from tussock.meadow import simulate  # noqa: E402
+from tussock import bake, cache, native  # noqa: E402
+from tussock.meadow import baked, simulate, writer  # noqa: E402
 
 lib = native.require()
 TMP = os.environ.get("TSK_TEST_TMP", "/tmp")
@@ -76,7 +75,7 @@ def test_pc2_holds_live_poses_and_mesh_cache_plays_them():
         obj.data.vertices.foreach_get("co", co)
         live[f] = co
     assert bpy.ops.tussock.bake() == {"FINISHED"}
-    pc2 = os.path.join(os.path.dirname(path), "tussock_cache", bake.safe_name(obj.name) + ".pc2")
+    pc2 = os.path.join(os.path.dirname(path), "tussock_cache", cache.safe_name(obj.name) + ".pc2")
     info = lib.pc2_info(pc2)
     assert info["samples"] == FRAMES and info["start_frame"] == 1.0
     out = np.empty(info["points"] * 3, np.float32)
@@ -152,9 +151,9 @@ def test_version_missing_frame_and_range_change_are_reported():
     scene = bpy.context.scene
     obj = [o for o in scene.objects if o.type == "MESH"][0]
     assert bpy.ops.tussock.bake() == {"FINISHED"}
-    folder = os.path.join(os.path.dirname(path), "tussock_cache", bake.safe_name(obj.name))
+    folder = os.path.join(os.path.dirname(path), "tussock_cache", cache.safe_name(obj.name))
     # a frame from another format version: refused with its path, nothing baked over it
-    f3 = bake.frame_path(folder, 3)
+    f3 = cache.frame_path(folder, 3)
     with open(f3, "r+b") as f:
         f.seek(8)
         f.write(bytes([9, 0, 0, 0]))
@@ -163,7 +162,7 @@ def test_version_missing_frame_and_range_change_are_reported():
     os.remove(f3)
     try:
         lib.bake_assemble_pc2(os.path.join(TMP, "x.pc2"),
-                              [bake.frame_path(folder, f) for f in range(1, FRAMES + 1)], 1.0, 1.0)
+                              [cache.frame_path(folder, f) for f in range(1, FRAMES + 1)], 1.0, 1.0)
     except lib.Error as exc:
         assert "frame_000003" in str(exc)
     else:
@@ -171,7 +170,7 @@ def test_version_missing_frame_and_range_change_are_reported():
     assert bpy.ops.tussock.bake() == {"FINISHED"} and os.path.exists(f3)
     # the frame range grows after baking: frames beyond the cache show the live tree,
     # never the cache's held last frame
-    mod = obj.modifiers[bake.MODIFIER]
+    mod = obj.modifiers[cache.MODIFIER]
     scene.frame_end = FRAMES + 4
     scene.frame_set(FRAMES + 2)
     assert not mod.show_render and bake.cached_range(obj, scene) == (1, FRAMES)
@@ -195,13 +194,13 @@ def test_version_missing_frame_and_range_change_are_reported():
     obj.data.vertices.foreach_get("co", live4)
     assert bpy.ops.tussock.bake() == {"FINISHED"}
     assert bake.cached_range(obj, scene) == (1, FRAMES)
-    pc2 = os.path.join(os.path.dirname(folder), bake.safe_name(obj.name) + ".pc2")
+    pc2 = os.path.join(os.path.dirname(folder), cache.safe_name(obj.name) + ".pc2")
     got = np.empty(lib.pc2_info(pc2)["points"] * 3, np.float32)
     lib.pc2_read_sample(pc2, 3, got)
     assert np.array_equal(got, live4)
     # free: caches gone, live animation back
     assert bpy.ops.tussock.free_bake() == {"FINISHED"}
-    assert bake.MODIFIER not in obj.modifiers and not os.path.exists(folder)
+    assert cache.MODIFIER not in obj.modifiers and not os.path.exists(folder)
 
 
 # ---- simulated meadows ------------------------------------------------------------------------
@@ -228,7 +227,7 @@ def test_meadow_pc2_holds_the_live_ribbons_and_rest_elsewhere():
         scene.frame_set(f)
         pb = simulate.playback_of(meadow)
         tiles, counts = pb.runner.active()
-        live[f] = (tiles.copy(), counts.copy(), simulate.active_ribbons(meadow))
+        live[f] = (tiles.copy(), counts.copy(), writer.active_ribbons(meadow))
     assert any(len(v[0]) for v in live.values())
     assert bpy.ops.tussock.bake() == {"FINISHED"}
     child = bpy.data.objects["Meadow blades"]
@@ -240,7 +239,7 @@ def test_meadow_pc2_holds_the_live_ribbons_and_rest_elsewhere():
     assert info["samples"] == FRAMES and info["points"] == len(child.data.vertices)
     # per tile: its slot in the baked mesh, and its blades at rest
     runner = simulate.playback_of(meadow).runner
-    rest = meadow_baking.rest_layout(runner, baked_tiles)
+    rest = baked.rest_layout(runner, baked_tiles)
     offset = np.concatenate([[0], np.cumsum(rest["counts"])]) * 2 * k * 3
     out = np.empty(info["points"] * 3, np.float32)
     for f in range(1, FRAMES + 1):
@@ -317,10 +316,10 @@ def test_meadow_range_change_is_reported_and_free_bake_restores_the_live_simulat
     live = {}
     for f in range(1, FRAMES + 1):  # ribbons of the simulated blades (the rest of the
         scene.frame_set(f)           # dynamic mesh is spare room, all zero)
-        live[f] = simulate.active_ribbons(meadow)
+        live[f] = writer.active_ribbons(meadow)
     assert bpy.ops.tussock.bake() == {"FINISHED"}
     child = bpy.data.objects["Meadow blades"]
-    mod = child.modifiers[bake.MODIFIER]
+    mod = child.modifiers[cache.MODIFIER]
     baked_count = len(child.data.vertices)
     # the range grows: baking again is refused with what to do; the baked frames still
     # play from the cache, the new ones live
@@ -357,11 +356,11 @@ def test_meadow_range_change_is_reported_and_free_bake_restores_the_live_simulat
     # free: caches gone, and the live simulation is back with the live frames' bytes
     assert bpy.ops.tussock.free_bake() == {"FINISHED"}
     root = os.path.join(os.path.dirname(path), "tussock_cache")
-    assert bake.MODIFIER not in child.modifiers and not os.listdir(root), os.listdir(root)
+    assert cache.MODIFIER not in child.modifiers and not os.listdir(root), os.listdir(root)
     for f in (1, 2, 3, 4, 5, 6):
         scene.frame_set(f)
         assert child.data.get("tussock_layout") == "live"
-        assert np.array_equal(simulate.active_ribbons(meadow), live[f]), f
+        assert np.array_equal(writer.active_ribbons(meadow), live[f]), f
     assert bpy.ops.tussock.bake() == {"FINISHED"}  # and it bakes again after the free
 
 
@@ -405,7 +404,7 @@ def test_free_bake_removes_a_failed_bake_and_a_renamed_cache():
     frame_bytes = len(tree.data.vertices) * 12 + 64
     small = os.path.join(TMP, "small")
     if os.geteuid() == 0 and mount_tmpfs(small, f"size={3 * frame_bytes + 8192}"):
-        cache = os.path.join(small, "tussock_cache")
+        small_cache = os.path.join(small, "tussock_cache")
         try:
             bake_refused_in(small, "No space left for the bake: it needs about")
             assert cache_files(small) == [], cache_files(small)
@@ -417,11 +416,11 @@ def test_free_bake_removes_a_failed_bake_and_a_renamed_cache():
                 bake.check_free_space = check
             written = cache_files(small)
             assert any(f.endswith(".tskf") for f in written), written
-            bake.CACHE_DIR_OVERRIDE = cache
+            cache.CACHE_DIR_OVERRIDE = small_cache
             try:
                 assert bpy.ops.tussock.free_bake() == {"FINISHED"}
             finally:
-                bake.CACHE_DIR_OVERRIDE = None
+                cache.CACHE_DIR_OVERRIDE = None
             assert cache_files(small) == [], cache_files(small)
         finally:
             subprocess.run(["umount", small])
@@ -431,7 +430,7 @@ def test_free_bake_removes_a_failed_bake_and_a_renamed_cache():
     tree.name = "Renamed tree"
     assert bpy.ops.tussock.free_bake() == {"FINISHED"}
     assert cache_files(folder) == [], cache_files(folder)
-    assert tree.modifiers.get(bake.MODIFIER) is None
+    assert tree.modifiers.get(cache.MODIFIER) is None
 
 
 harness.main()

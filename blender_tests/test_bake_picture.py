@@ -24,8 +24,8 @@ import numpy as np  # noqa: E402
 from farm import assert_same_caches, bake_killed, bake_refused_in, blender, cache_files, mount_tmpfs  # noqa: E402,F401,E501
 
 harness.enable_addon()
-from tussock import bake, compat, native  # noqa: E402
-from tussock.picture import bake as picture_bake  # noqa: E402
+from tussock import bake, cache, compat, native  # noqa: E402
+from tussock.picture import baking as picture_baking  # noqa: E402
 from tussock.picture import frames  # noqa: E402
 from tussock.wind import runtime as wind_runtime  # noqa: E402
 
@@ -133,13 +133,13 @@ def render_in(blend, frame, out, addon):
 
 
 def uv_path(scene, i, frame):
-    stem = picture_bake.uv_name(scene, i)
-    return os.path.join(bake.cache_root(), stem, picture_bake.uv_file(stem, frame))
+    stem = picture_baking.uv_name(scene, i)
+    return os.path.join(cache.cache_root(), stem, picture_baking.uv_file(stem, frame))
 
 
 def uv_path_in(folder, scene, i, frame):
-    stem = picture_bake.uv_name(scene, i)
-    return os.path.join(TMP, folder, "tussock_cache", stem, picture_bake.uv_file(stem, frame))
+    stem = picture_baking.uv_name(scene, i)
+    return os.path.join(TMP, folder, "tussock_cache", stem, picture_baking.uv_file(stem, frame))
 
 
 def node_image(scene, name):
@@ -163,7 +163,7 @@ def test_baked_files_hold_the_live_passes_and_render_the_live_frames():
             assert np.array_equal(got, live_uv[f][i - 1]), (f, i)
     moved = np.abs(live_uv[FRAMES][0] - live_uv[1][0])[..., :2].max()
     assert moved * w > 0.5, moved  # more than half a pixel: the bake holds motion
-    folder = os.path.join(bake.cache_root(), picture_bake.base_name(scene))
+    folder = os.path.join(cache.cache_root(), picture_baking.base_name(scene))
     buf = np.empty((h, w, 4), np.float32)
     lib.picture_read_background(b.handle, buf)
     assert np.array_equal(read_exr(os.path.join(folder, "background.exr")), buf)
@@ -177,7 +177,7 @@ def test_baked_files_hold_the_live_passes_and_render_the_live_frames():
     assert uv != s.images[0].uv_image
     # the worker part runs off the main thread (as in an interactive bake) and writes
     # the same bytes
-    job = picture_bake.jobs_for(scene, bake.cache_root())[0]
+    job = picture_baking.jobs(scene, cache.cache_root())[0]
     old = {f: open(uv_path(scene, 1, f), "rb").read() for f in (1, 6)}
     for f in (1, 6):
         os.remove(uv_path(scene, 1, f))
@@ -258,8 +258,8 @@ def test_killed_bake_resumes_to_the_same_files():
         live = frames.layer_frames(scene, f)
         for i in (1, 2):
             got = read_exr(os.path.join(TMP, "ref", "tussock_cache",
-                                        picture_bake.uv_name(scene, i),
-                                        picture_bake.uv_file(picture_bake.uv_name(scene, i), f)))
+                                        picture_baking.uv_name(scene, i),
+                                        picture_baking.uv_file(picture_baking.uv_name(scene, i), f)))
             assert np.array_equal(got, live[i - 1][0].reshape(h, w, 4)[::-1]), (f, i)
     assert np.array_equal(read_exr(uv_path_in("ref", scene, 1, 1)),
                           read_exr(uv_path_in("ref", scene, 1, 13)))  # the loop closes
@@ -311,7 +311,7 @@ def test_version_missing_frame_and_range_change_are_reported_and_shown_live():
     with open(f3 + ".tski", "r+b") as f:
         f.seek(8)
         f.write(bytes([9, 0, 0, 0]))
-    why = picture_bake.frame_problem(scene, 3)
+    why = picture_baking.frame_problem(scene, 3)
     assert why and "another Tussock" in why and os.path.basename(f3) in why, why
     assert float(np.max(np.abs(render(scene, 3, "version") - expected[3]))) < TOL
     assert shows_live(scene)
@@ -321,17 +321,17 @@ def test_version_missing_frame_and_range_change_are_reported_and_shown_live():
     os.remove(f3 + ".tski")
     f5 = uv_path(scene, 1, 5)
     os.remove(f5)
-    why = picture_bake.frame_problem(scene, 5)
+    why = picture_baking.frame_problem(scene, 5)
     assert why and "frame 5" in why and os.path.basename(f5) in why, why
     assert float(np.max(np.abs(render(scene, 5, "missing") - expected[5]))) < TOL
     assert shows_live(scene)
     assert bpy.ops.tussock.bake() == {"FINISHED"}
     assert os.path.exists(f5) and os.path.exists(f3)
     scene.frame_set(5)
-    assert not shows_live(scene) and picture_bake.frame_problem(scene, 5) is None
+    assert not shows_live(scene) and picture_baking.frame_problem(scene, 5) is None
     # the frame range grows after baking: frames beyond it are live, never a held frame
     scene.frame_end = FRAMES + 4
-    why = picture_bake.frame_problem(scene, FRAMES + 2)
+    why = picture_baking.frame_problem(scene, FRAMES + 2)
     assert why and f"outside the baked frames 1-{FRAMES}" in why, why
     got = render(scene, FRAMES + 2, "beyond")
     assert shows_live(scene) and float(np.max(np.abs(got - expected[FRAMES + 2]))) < TOL
@@ -340,7 +340,7 @@ def test_version_missing_frame_and_range_change_are_reported_and_shown_live():
     # the first frame moves: the wind starts elsewhere, every baked frame is out of date
     scene.frame_start = 2
     scene.frame_set(3)
-    why = picture_bake.frame_problem(scene, 3)
+    why = picture_baking.frame_problem(scene, 3)
     assert shows_live(scene) and why and "out of date" in why, why
     assert panel_labels() == ["Picture: bake out of date, bake again"]
     scene.frame_start, scene.frame_end = 1, FRAMES
@@ -348,9 +348,9 @@ def test_version_missing_frame_and_range_change_are_reported_and_shown_live():
     assert not shows_live(scene)
     # a motion setting changes: out of date too
     scene.tussock_picture.layers[0].lambda_x *= 2
-    assert "out of date" in picture_bake.frame_problem(scene, 3)
+    assert "out of date" in picture_baking.frame_problem(scene, 3)
     scene.tussock_picture.layers[0].lambda_x /= 2
-    assert picture_bake.frame_problem(scene, 3) is None
+    assert picture_baking.frame_problem(scene, 3) is None
     # a keyframed wind source changes: the check at every frame does not see it (it is
     # documented), but a new bake does and writes the frames again
     before = open(uv_path(scene, 1, FRAMES), "rb").read()
@@ -365,9 +365,9 @@ def test_version_missing_frame_and_range_change_are_reported_and_shown_live():
     live = frames.layer_frames(scene, FRAMES)[0][0].reshape(120, 160, 4)[::-1]
     assert np.array_equal(read_exr(uv_path(scene, 1, FRAMES)), live)
     # Free Bake: files and baked images gone, the live images wired again
-    names = list(scene[picture_bake.RECORD]["images"])
+    names = list(scene[picture_baking.RECORD]["images"])
     assert bpy.ops.tussock.free_bake() == {"FINISHED"}
-    assert shows_live(scene) and picture_bake.RECORD not in scene
+    assert shows_live(scene) and picture_baking.RECORD not in scene
     assert not any(bpy.data.images.get(n) for n in names)
     assert cache_files(os.path.join(TMP, "errors")) == []
     assert float(np.max(np.abs(render(scene, 3, "freed") -
@@ -399,7 +399,7 @@ def test_bad_input_cancels_with_the_scene_unchanged():
     layer.mask_path = os.path.join(folder, "grass.png")
     assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
     expect_cancel(bpy.ops.tussock.bake, "save the .blend first")
-    assert picture_bake.RECORD not in bpy.context.scene
+    assert picture_baking.RECORD not in bpy.context.scene
 
 
 
@@ -412,12 +412,12 @@ def test_read_only_folder_and_full_disk_are_reported_with_the_scene_unchanged():
         bake_refused_in(ro, "Read-only file system", unmount=True)
         # the cache's folders exist but the disk became read-only: the frame writer says so
         assert mount_tmpfs(ro, "size=64k")
-        for sub in (picture_bake.base_name(scene), picture_bake.uv_name(scene, 1),
-                    picture_bake.uv_name(scene, 2)):
+        for sub in (picture_baking.base_name(scene), picture_baking.uv_name(scene, 1),
+                    picture_baking.uv_name(scene, 2)):
             os.makedirs(os.path.join(ro, "tussock_cache", sub))
         # as an earlier bake of this scene left them, with the record of its files
         bake.record_outputs(scene, os.path.join(ro, "tussock_cache"),
-                            picture_bake.PictureJob(scene, os.path.join(ro, "tussock_cache"))
+                            picture_baking.PictureJob(scene, os.path.join(ro, "tussock_cache"))
                             .outputs())
         subprocess.run(["mount", "-o", "remount,ro", ro], check=True)
         bake_refused_in(ro, "background.exr': Read-only file system", unmount=True)
@@ -435,7 +435,7 @@ def test_read_only_folder_and_full_disk_are_reported_with_the_scene_unchanged():
         os.makedirs(ro, exist_ok=True)
         os.chmod(ro, 0o555)
         bake_refused_in(ro, "Permission denied")
-    assert shows_live(scene) and picture_bake.RECORD not in scene
+    assert shows_live(scene) and picture_baking.RECORD not in scene
 
 
 harness.main()

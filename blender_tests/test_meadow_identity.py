@@ -18,6 +18,7 @@ import numpy as np  # noqa: E402
 
 harness.enable_addon()
 from tussock import bake, native  # noqa: E402
+from tussock.meadow import blade_objects as sim_objects  # noqa: E402
 from tussock.meadow import build, identity, simulate  # noqa: E402
 
 RADIUS = 0.2
@@ -144,7 +145,7 @@ def test_deleting_a_simulated_meadow_frees_its_simulation():
     bpy.context.view_layer.objects.active = other
     mine = sorted(o.name for o in blade_objects() if o.name.startswith("Meadow blades"))
     theirs = [o.name for o in blade_objects() if o.name.startswith("Other blades")]
-    assert len(mine) == len(theirs) == 2 * simulate.CHUNKS, (mine, theirs)
+    assert len(mine) == len(theirs) == 2 * sim_objects.CHUNKS, (mine, theirs)
     patch = bpy.data.collections["Other patch"]
     patch_objects = [o.name for o in patch.objects]
     assert bpy.ops.object.delete() == {"FINISHED"}
@@ -181,7 +182,7 @@ def test_a_duplicated_meadow_gets_its_own_id_simulation_and_blades():
     meadow = meadow_with_ball()
     ident = meadow[identity.ID]
     play(range(1, 5))
-    mine = simulate.blades_object(meadow)
+    mine = sim_objects.blades_object(meadow)
     for o in bpy.context.selected_objects:
         o.select_set(False)
     meadow.select_set(True)
@@ -197,8 +198,8 @@ def test_a_duplicated_meadow_gets_its_own_id_simulation_and_blades():
     assert meadow[identity.ID] == ident and dup[identity.ID] != ident  # the copy is renamed
     assert simulate.live_count() == 2
     assert simulate.playback_of(dup) is not simulate.playback_of(meadow)
-    assert simulate.blades_object(meadow) == mine and mine.name == "Meadow blades"
-    theirs = simulate.blades_object(dup)
+    assert sim_objects.blades_object(meadow) == mine and mine.name == "Meadow blades"
+    theirs = sim_objects.blades_object(dup)
     assert theirs.name == f"{dup.name} blades" and theirs.get(identity.OWNER) == dup[identity.ID]
     # its own patch once it is rebuilt; the original's stays as it is
     chunks = sorted(o.name for o in bpy.data.collections["Meadow patch"].objects)
@@ -227,7 +228,7 @@ def test_blades_duplicated_with_their_meadow_go_to_the_copy_and_alone_become_pla
     meadow = meadow_with_ball()
     play(range(1, 7))
     own = sorted(blade_objects(), key=lambda o: o.name)
-    assert len(own) == 2 * simulate.CHUNKS
+    assert len(own) == 2 * sim_objects.CHUNKS
     # Shift+D of the meadow with its blades objects (a box selection of the lot)
     select([meadow] + own)
     assert bpy.ops.object.duplicate() == {"FINISHED"}
@@ -240,7 +241,7 @@ def test_blades_duplicated_with_their_meadow_go_to_the_copy_and_alone_become_pla
     # (the render chunks are disabled in the viewport, so Shift+D leaves them, and the copy
     # makes its own when its Viewport display leaves blades out)
     copied = [o for o in own if not o.hide_viewport]
-    assert len(copied) == simulate.CHUNKS
+    assert len(copied) == sim_objects.CHUNKS
     assert len(objs) == len(own) + len(copied), sorted(o.name for o in objs)
     for m, names in ((meadow, [o.name for o in own]),
                      (dup, [o.name.replace("Meadow", dup_name, 1) for o in copied])):
@@ -248,12 +249,12 @@ def test_blades_duplicated_with_their_meadow_go_to_the_copy_and_alone_become_pla
         assert sorted(o.name for o in mine) == sorted(names), sorted(o.name for o in mine)
         assert drawn_vertices(mine) > 0
     assert dup_name.startswith("Meadow.") and simulate.live_count() == 2
-    first_dup = simulate.blades_object(dup)
+    first_dup = sim_objects.blades_object(dup)
     assert first_dup in bpy.context.selected_objects  # a copy, not a blades object made anew
     # the copy plays its own simulation: its blades move with the ball as the original's
-    assert np.array_equal(vertices_of(first_dup), vertices_of(simulate.blades_object(meadow)))
+    assert np.array_equal(vertices_of(first_dup), vertices_of(sim_objects.blades_object(meadow)))
     # Shift+D of blades alone, and Alt+D: the artist's still copies, never written again
-    first = simulate.blades_object(meadow)
+    first = sim_objects.blades_object(meadow)
     select([first])
     assert bpy.ops.object.duplicate() == {"FINISHED"}
     still = bpy.context.active_object
@@ -263,7 +264,7 @@ def test_blades_duplicated_with_their_meadow_go_to_the_copy_and_alone_become_pla
     assert shared.data == first.data
     bpy.context.view_layer.update()
     for o in (still, shared):
-        assert not any(tag in o for tag in simulate._OWN_TAGS), o.keys()
+        assert not any(tag in o for tag in sim_objects.OWN_TAGS), o.keys()
     kept = vertices_of(still)
     play(range(FRAMES, 0, -1))
     assert np.array_equal(vertices_of(still), kept)  # frozen on purpose: a copy of a moment
@@ -313,15 +314,15 @@ def test_linked_meadow_of_the_same_name_simulates_on_its_own():
     assert simulate.live_count() == 2
     pl, pk = simulate.playback_of(local), simulate.playback_of(linked)
     assert pl is not pk
-    assert pl.stats["tussock_active_blades"] > 0 and pk.stats["tussock_active_blades"] > 0
+    assert pl.output.stats["tussock_active_blades"] > 0 and pk.output.stats["tussock_active_blades"] > 0
     # the linked meadow's blades are where its ball went (x about 6), in objects of its own
     roots = pk.runner.knots().reshape(-1, pk.runner.K, 3)[:, 0]
     assert roots[:, 0].min() > 4.0, roots[:, 0].min()
-    mine, theirs = simulate.blades_object(local), simulate.blades_object(linked)
+    mine, theirs = sim_objects.blades_object(local), sim_objects.blades_object(linked)
     assert mine is not theirs and theirs.name == "Meadow [library.blend] blades", theirs.name
     assert mine.name == "Meadow blades"
-    drawn = drawn_vertices([theirs] + simulate.extra_chunks(linked))  # ribbon vertices
-    assert drawn == pk.stats["tussock_active_blades"] * 2 * pk.runner.K, drawn
+    drawn = drawn_vertices([theirs] + sim_objects.extra_chunks(linked))  # ribbon vertices
+    assert drawn == pk.output.stats["tussock_active_blades"] * 2 * pk.runner.K, drawn
 
 
 @test

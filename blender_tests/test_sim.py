@@ -16,8 +16,8 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 harness.enable_addon()
-from tussock import compat  # noqa: E402
-from tussock.meadow import simulate  # noqa: E402
+from tussock import compat, native  # noqa: E402
+from tussock.meadow import blade_objects, identity, playback, simulate, solver, writer  # noqa: E402
 
 RADIUS = 0.2
 
@@ -98,7 +98,7 @@ def test_rolling_ball_bends_blades_on_its_path():
 def rest_knots(meadow):
     """Rest knots of the active blades, in the simulation's order, from the meadow."""
     r = simulate.playback_of(meadow).runner
-    lib = simulate.native.lib
+    lib = native.lib
     tiles, _ = r.active()
     out = []
     for t in tiles:
@@ -148,7 +148,7 @@ def test_blades_recover_after_the_ball_has_passed():
 def ribbons(meadow):
     """Positions of the simulated blades' ribbons in the dynamic meshes, as bytes; the rest
     of each chunk's mesh (room for more blades) must be all zero."""
-    return simulate.active_ribbons(meadow).tobytes()
+    return writer.active_ribbons(meadow).tobytes()
 
 
 def positions(obj):
@@ -192,8 +192,8 @@ def test_jumps_resume_from_snapshots_with_the_bytes_of_a_straight_run():
     assert pb.restored_from == 1, pb.restored_from
     # a bad handle is refused by the binding with a message
     try:
-        simulate.native.lib.blade_sim_clone("not a simulation")
-    except simulate.native.Error as exc:
+        native.lib.blade_sim_clone("not a simulation")
+    except native.Error as exc:
         assert "sim" in str(exc)
     else:
         raise AssertionError("blade_sim_clone accepted a string")
@@ -201,19 +201,19 @@ def test_jumps_resume_from_snapshots_with_the_bytes_of_a_straight_run():
 
 @test
 def test_blades_shared_among_chunk_objects_give_the_same_ribbons():
-    """The simulated blades are shared evenly among simulate.CHUNKS objects (children of the
+    """The simulated blades are shared evenly among blade_objects.CHUNKS objects (children of the
     first, shown and rendered as it is): the same frames give the same ribbons as with one
     object, and chunks no longer needed show nothing. Fewer than CHUNK_MIN_BLADES per chunk
     use fewer chunks (lowered to 16 here to split a small scene). The objects are made when
     simulation is switched on, so Bullet's ball rolls the same path as with no simulation
     at all."""
     scene, meadow, ball = rolling_ball_scene()
-    assert simulate.chunk_ranges(100) == [range(0, 100)] + [range(100, 100)] * (simulate.CHUNKS - 1)
-    min_blades, simulate.CHUNK_MIN_BLADES = simulate.CHUNK_MIN_BLADES, 16
-    assert [len(r) for r in simulate.chunk_ranges(40)] == [20, 20] + [0] * (simulate.CHUNKS - 2)
+    assert writer.chunk_ranges(100) == [range(0, 100)] + [range(100, 100)] * (blade_objects.CHUNKS - 1)
+    min_blades, writer.CHUNK_MIN_BLADES = writer.CHUNK_MIN_BLADES, 16
+    assert [len(r) for r in writer.chunk_ranges(40)] == [20, 20] + [0] * (blade_objects.CHUNKS - 2)
     first = bpy.data.objects[f"{meadow.name} blades"]
-    extras = simulate.extra_chunks(meadow)
-    assert simulate.CHUNKS >= 2 and len(extras) == simulate.CHUNKS - 1
+    extras = blade_objects.extra_chunks(meadow)
+    assert blade_objects.CHUNKS >= 2 and len(extras) == blade_objects.CHUNKS - 1
     assert all(o.parent == first and o.get("tussock_simulated_blades") is None for o in extras)
     path = []
     knots, co = {}, {}
@@ -222,22 +222,22 @@ def test_blades_shared_among_chunk_objects_give_the_same_ribbons():
         knots[f], co[f] = blade_knots(meadow).tobytes(), ribbons(meadow)
         path.append(tuple(ball.matrix_world.translation))
     nb = meadow["tussock_active_blades"]
-    assert nb >= 16 * simulate.CHUNKS, nb  # every chunk in use
-    assert all(len(o.data.vertices) >= 2 * 16 * (nb // simulate.CHUNKS) for o in extras)
+    assert nb >= 16 * blade_objects.CHUNKS, nb  # every chunk in use
+    assert all(len(o.data.vertices) >= 2 * 16 * (nb // blade_objects.CHUNKS) for o in extras)
     first.hide_render = True
     scene.frame_set(23)
     assert all(o.hide_render for o in extras)
     first.hide_render = False
-    chunks = simulate.CHUNKS
-    simulate.CHUNKS = 1
+    chunks = blade_objects.CHUNKS
+    blade_objects.CHUNKS = 1
     try:
         simulate.forget()
         again_knots, again = play(scene, meadow, list(range(1, 25)))
         assert again_knots == knots and again == co
         assert all(not positions(o).any() for o in extras)  # unused: no blade shown
     finally:
-        simulate.CHUNKS = chunks
-        simulate.CHUNK_MIN_BLADES = min_blades
+        blade_objects.CHUNKS = chunks
+        writer.CHUNK_MIN_BLADES = min_blades
         simulate.forget()
     # the ball's path with no simulation at all, from a fresh scene
     scene, meadow, ball = rolling_ball_scene()
@@ -259,12 +259,12 @@ def test_viewport_shows_the_simulated_blades_of_the_instances_it_shows():
     viewport's share of the instances is the Viewport display fraction; at 1 every blade
     shows in the viewport and the render chunks are empty."""
     scene, meadow, ball = rolling_ball_scene()
-    lib = simulate.native.lib
+    lib = native.lib
     meadow.tussock_meadow.display = 0.25
     off = np.empty(len(meadow.data.vertices), bool)
     meadow.data.attributes["tsk_viewport_off"].data.foreach_get("value", off)
     assert abs((~off).mean() - 0.25) < 0.05, (~off).mean()  # 1,600 instances
-    min_blades, simulate.CHUNK_MIN_BLADES = simulate.CHUNK_MIN_BLADES, 16
+    min_blades, writer.CHUNK_MIN_BLADES = writer.CHUNK_MIN_BLADES, 16
     try:
         for f in range(1, 21):
             scene.frame_set(f)
@@ -285,7 +285,7 @@ def test_viewport_shows_the_simulated_blades_of_the_instances_it_shows():
         assert meadow["tussock_viewport_blades"] == int(shown.sum())
         per = 2 * r.K * 3
         every = np.empty(nb * per, np.float32)
-        lib.blade_sim_ribbons(r.sim, 0, pb.ribbon[0].ravel(), pb.ribbon[1].ravel(), every)
+        lib.blade_sim_ribbons(r.sim, 0, pb.output.ribbon[0].ravel(), pb.output.ribbon[1].ravel(), every)
         every = every.reshape(nb, per)
 
         def held(objs):
@@ -297,14 +297,14 @@ def test_viewport_shows_the_simulated_blades_of_the_instances_it_shows():
                 parts.append(v[used])
             return np.concatenate(parts) if parts else np.zeros((0, per), np.float32)
 
-        view = [bpy.data.objects[f"{meadow.name} blades"]] + simulate.extra_chunks(meadow)
-        render = simulate.render_chunks(meadow)
-        assert len(render) == simulate.CHUNKS
+        view = [bpy.data.objects[f"{meadow.name} blades"]] + blade_objects.extra_chunks(meadow)
+        render = blade_objects.render_chunks(meadow)
+        assert len(render) == blade_objects.CHUNKS
         assert all(not o.hide_viewport for o in view) and all(o.hide_viewport for o in render)
         assert all(o.hide_render == view[0].hide_render for o in render)
         assert np.array_equal(held(view), every[shown])
         assert np.array_equal(held(render), every[~shown])
-        assert np.array_equal(simulate.active_ribbons(meadow), every.ravel())
+        assert np.array_equal(writer.active_ribbons(meadow), every.ravel())
         # the viewport draws the instances it shows and that are not simulated
         hidden = np.empty(len(off), bool)
         meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
@@ -317,7 +317,7 @@ def test_viewport_shows_the_simulated_blades_of_the_instances_it_shows():
         assert all(not positions(o).any() for o in render)
         assert len(held(view)) == nb
     finally:
-        simulate.CHUNK_MIN_BLADES = min_blades
+        writer.CHUNK_MIN_BLADES = min_blades
 
 
 def check_evaluated_blades(meadow):
@@ -329,12 +329,12 @@ def check_evaluated_blades(meadow):
     r = pb.runner
     knots = blade_knots(meadow)
     nb, k = len(knots), r.K
-    widths = pb.ribbon[0].reshape(nb, k)
+    widths = pb.output.ribbon[0].reshape(nb, k)
     dg = bpy.context.evaluated_depsgraph_get()
     seen = np.zeros(nb, np.int32)
-    for key, part in pb.plan.items():
+    for key, part in pb.output.plan.items():
         assert not isinstance(key, tuple), key  # every blade shown: no render chunk in use
-        me = bpy.data.objects[simulate.chunk_name(meadow, key)].evaluated_get(dg).data
+        me = bpy.data.objects[identity.chunk_name(meadow, key)].evaluated_get(dg).data
         v = np.empty(len(me.vertices) * 3, np.float32)
         me.vertices.foreach_get("co", v)
         v = v.reshape(-1, k, 2, 3).astype(np.float64)
@@ -362,21 +362,21 @@ def test_blender_evaluates_the_simulations_knots_and_the_write_is_one_copy():
     Blender 5.2 writing MeshVertex.co went vertex by vertex, 160 ns a vertex (5 ms here for
     896 blades, a hundred times the ribbons themselves; compat.set_positions)."""
     scene, meadow, ball = rolling_ball_scene()
-    min_blades, simulate.CHUNK_MIN_BLADES = simulate.CHUNK_MIN_BLADES, 64
+    min_blades, writer.CHUNK_MIN_BLADES = writer.CHUNK_MIN_BLADES, 64
     try:
         counts = []
         for f in range(1, 25):
             scene.frame_set(f)
             if f in (8, 16, 24):
                 counts.append(check_evaluated_blades(meadow))
-        assert max(counts) >= 64 * simulate.CHUNKS, counts  # every chunk object in use
+        assert max(counts) >= 64 * blade_objects.CHUNKS, counts  # every chunk object in use
         pb = simulate.playback_of(meadow)
         r = pb.runner
         nb = len(blade_knots(meadow))
         out = np.empty(nb * 2 * r.K * 3, np.float32)
-        widths, sides = pb.ribbon[0].ravel(), pb.ribbon[1].ravel()
+        widths, sides = pb.output.ribbon[0].ravel(), pb.output.ribbon[1].ravel()
         ribbons_alone = harness.best_of(lambda: r.lib.blade_sim_ribbons(r.sim, 0, widths, sides, out))
-        write = harness.best_of(lambda: simulate.write(meadow, pb))
+        write = harness.best_of(lambda: writer.write(meadow, pb))
         assert write < 4.0 * ribbons_alone + 0.002, (
             f"write {write * 1e3:.2f} ms, ribbons alone {ribbons_alone * 1e3:.2f} ms, "
             f"{nb} blades")
@@ -384,7 +384,7 @@ def test_blender_evaluates_the_simulations_knots_and_the_write_is_one_copy():
             scene.frame_set(f)
             check_evaluated_blades(meadow)
     finally:
-        simulate.CHUNK_MIN_BLADES = min_blades
+        writer.CHUNK_MIN_BLADES = min_blades
 
 
 def alpha_coverage(scene, path):
@@ -425,9 +425,9 @@ def test_renders_show_the_blades_the_viewport_leaves_out():
     both = alpha_coverage(scene, os.path.join(tmp, "both.png"))
     # a render runs the frame handler, which makes every chunk follow the first one's
     # visibility; suspended, the chunks can be left out one kind at a time
-    simulate.suspended = True
+    playback.suspended = True
     try:
-        render = simulate.render_chunks(meadow)
+        render = blade_objects.render_chunks(meadow)
         for o in render:
             o.hide_render = True
         viewport_share = alpha_coverage(scene, os.path.join(tmp, "viewport_share.png"))
@@ -435,11 +435,11 @@ def test_renders_show_the_blades_the_viewport_leaves_out():
             o.hide_render = False
         first = bpy.data.objects[f"{meadow.name} blades"]
         first.hide_render = True
-        for o in simulate.extra_chunks(meadow):
+        for o in blade_objects.extra_chunks(meadow):
             o.hide_render = True
         render_share = alpha_coverage(scene, os.path.join(tmp, "render_share.png"))
     finally:
-        simulate.suspended = False
+        playback.suspended = False
     assert viewport_share > 0.005 and render_share > 0.005, (viewport_share, render_share)
     assert both > 1.2 * max(viewport_share, render_share), (both, viewport_share, render_share)
 
@@ -469,22 +469,22 @@ def test_snapshots_stay_within_their_budget_and_cover_the_timeline():
     pb = simulate.playback_of(meadow)
     assert sorted(pb.snapshots) == [11, 21, 31, 41, 51]  # the default budget holds them all
     largest = max(b for _, b in pb.snapshots.values())
-    budget = simulate.SNAPSHOT_BUDGET
-    simulate.SNAPSHOT_BUDGET = int(2.5 * largest)  # room for about two of them
+    budget = playback.SNAPSHOT_BUDGET
+    playback.SNAPSHOT_BUDGET = int(2.5 * largest)  # room for about two of them
     try:
         simulate.forget()
         again, _ = play(scene, meadow, list(range(1, 61)))
         pb = simulate.playback_of(meadow)
         assert again == knots
-        assert 0 < pb.snapshot_bytes() <= simulate.SNAPSHOT_BUDGET, pb.snapshot_bytes()
-        assert pb.every > simulate.SNAPSHOT_EVERY  # thinned out ...
+        assert 0 < pb.snapshot_bytes() <= playback.SNAPSHOT_BUDGET, pb.snapshot_bytes()
+        assert pb.every > playback.SNAPSHOT_EVERY  # thinned out ...
         assert all((f - 1) % pb.every == 0 for f in pb.snapshots), (pb.every, list(pb.snapshots))
         assert max(pb.snapshots) >= 60 - pb.every  # ... still reaching the recent frames
         for f in (58, 33, 14):
             assert knots_and_co(scene, meadow, f)[0] == knots[f], f
             assert pb.restored_from == max([1] + [g for g in pb.snapshots if g <= f])
     finally:
-        simulate.SNAPSHOT_BUDGET = budget
+        playback.SNAPSHOT_BUDGET = budget
 
 
 @test
@@ -574,26 +574,26 @@ def test_chunk_meshes_fit_their_blades_once_the_tiles_hold_still():
     Blender evaluates every frame. Once the active tiles have held FIT_AFTER_FRAMES frames,
     a chunk with more than an eighth of its room unused is rebuilt to fit, and the ribbons
     shown are the same bytes as with no fitting."""
-    cap, block = simulate.chunk_capacity, simulate.CAPACITY_BLOCK
+    cap, block = writer.chunk_capacity, writer.CAPACITY_BLOCK
     assert cap(0, 10) == block and cap(block, block) == block
     assert cap(4 * block, 4 * block + 1) == 6 * block            # grows by half
     assert cap(4 * block, block - 1) == block                    # under a quarter: shrinks
     assert cap(8 * block, 6 * block) == 8 * block                # holds while tiles come and go
     assert cap(8 * block, 6 * block, fit=True) == 6 * block      # fits once they hold still
     assert cap(8 * block, 7 * block + 1, fit=True) == 8 * block  # an eighth unused: kept
-    saved = simulate.CAPACITY_BLOCK, simulate.CHUNK_MIN_BLADES, simulate.FIT_AFTER_FRAMES
+    saved = writer.CAPACITY_BLOCK, writer.CHUNK_MIN_BLADES, writer.FIT_AFTER_FRAMES
     shown, rooms = {}, {}
     try:
-        simulate.CAPACITY_BLOCK, simulate.CHUNK_MIN_BLADES = 8, 16  # a small scene's sizes
-        for fit_after in (simulate.FIT_AFTER_FRAMES, 10 ** 9):
-            simulate.FIT_AFTER_FRAMES = fit_after
+        writer.CAPACITY_BLOCK, writer.CHUNK_MIN_BLADES = 8, 16  # a small scene's sizes
+        for fit_after in (writer.FIT_AFTER_FRAMES, 10 ** 9):
+            writer.FIT_AFTER_FRAMES = fit_after
             scene, meadow, ball = rolling_ball_scene()
             ball.rigid_body.type = "PASSIVE"  # keyframed instead: rolls in over 14 frames, stops
             ball.rigid_body.kinematic = True
             for f, x in ((1, -1.6), (14, -0.4)):
                 ball.location.x = x
                 ball.keyframe_insert("location", frame=f)
-            chunks = [bpy.data.objects[f"{meadow.name} blades"]] + simulate.extra_chunks(meadow)
+            chunks = [bpy.data.objects[f"{meadow.name} blades"]] + blade_objects.extra_chunks(meadow)
             shown[fit_after], rooms[fit_after] = [], []
             for f in range(1, 29):
                 scene.frame_set(f)
@@ -601,7 +601,7 @@ def test_chunk_meshes_fit_their_blades_once_the_tiles_hold_still():
                 shown[fit_after].append(ribbons(meadow))
                 rooms[fit_after].append([len(o.data.vertices) for o in chunks])
             k = simulate.playback_of(meadow).runner.K
-            ranges = simulate.chunk_ranges(meadow["tussock_active_blades"])
+            ranges = writer.chunk_ranges(meadow["tussock_active_blades"])
             used = [-(-len(r) // 8) * 8 * 2 * k for r in ranges]
             simulate.forget()
         fitted, grown = rooms[saved[2]][-1], rooms[10 ** 9][-1]
@@ -612,7 +612,7 @@ def test_chunk_meshes_fit_their_blades_once_the_tiles_hold_still():
                     (room, need, before)
         assert shown[saved[2]] == shown[10 ** 9]
     finally:
-        simulate.CAPACITY_BLOCK, simulate.CHUNK_MIN_BLADES, simulate.FIT_AFTER_FRAMES = saved
+        writer.CAPACITY_BLOCK, writer.CHUNK_MIN_BLADES, writer.FIT_AFTER_FRAMES = saved
         simulate.forget()
 
 
@@ -627,7 +627,7 @@ def test_dynamic_meshes_keep_the_meadows_texture_space():
     for f in range(1, 13):
         scene.frame_set(f)
         assert meadow.tussock_meadow.last_error == "", meadow.tussock_meadow.last_error
-        chunks = [bpy.data.objects[f"{meadow.name} blades"]] + simulate.extra_chunks(meadow)
+        chunks = [bpy.data.objects[f"{meadow.name} blades"]] + blade_objects.extra_chunks(meadow)
         live = [o.data for o in chunks if o.data.get("tussock_layout") == "live"]
         boxes += [(tuple(m.texspace_location), tuple(m.texspace_size), m.use_auto_texspace)
                   for m in live]
@@ -651,7 +651,7 @@ def test_dynamic_meshes_keep_the_meadows_texture_space():
 def test_slow_motion_frame_rates_take_more_steps_not_an_error():
     """Two solver steps per frame at ordinary rates, more when a step would exceed 1/20 s
     (a 5 fps time-lapse takes 4), and the blades still bend under the ball."""
-    assert [simulate.steps_per_frame(f) for f in (60.0, 24.0, 10.0, 5.0, 1.0)] == [2, 2, 2, 4, 20]
+    assert [solver.steps_per_frame(f) for f in (60.0, 24.0, 10.0, 5.0, 1.0)] == [2, 2, 2, 4, 20]
     scene, meadow, ball = rolling_ball_scene()
     scene.render.fps = 5
     for f in (1, 2, 3):

@@ -19,8 +19,7 @@ from farm import blender  # noqa: E402
 
 harness.enable_addon()
 from tussock import compat, native  # noqa: E402
-from tussock.meadow import baking as meadow_baking  # noqa: E402
-from tussock.meadow import simulate  # noqa: E402
+from tussock.meadow import baked, simulate, solver, writer  # noqa: E402
 from tussock.wind import runtime  # noqa: E402
 
 TMP = os.environ.get("TSK_TEST_TMP", "/tmp")
@@ -263,12 +262,12 @@ def test_keyframed_breeze_on_a_simulated_meadow_is_baked_per_frame():
     for f in range(1, frames + 1):  # the live simulation, frame by frame
         scene.frame_set(f)
         tiles, counts = simulate.playback_of(meadow).runner.active()
-        live[f] = (tiles.copy(), counts.copy(), simulate.active_ribbons(meadow).copy())
+        live[f] = (tiles.copy(), counts.copy(), writer.active_ribbons(meadow).copy())
     scene.frame_set(1)
     assert bpy.ops.tussock.bake(save=True) == {"FINISHED"}
     child = bpy.data.objects["Meadow blades"]
     baked_tiles = np.array(child["tussock_baked_tiles"], np.int32)
-    rest = meadow_baking.rest_layout(simulate.playback_of(meadow).runner, baked_tiles)
+    rest = baked.rest_layout(simulate.playback_of(meadow).runner, baked_tiles)
     floats = 2 * 16 * 3  # per blade ribbon (16 knots)
     offset = np.concatenate([[0], np.cumsum(rest["counts"])]) * floats
     compared = 0
@@ -289,7 +288,7 @@ def test_playing_a_keyframed_breeze_steps_the_wind_and_blades_once_per_frame():
     frames = 200
     scene, meadow = keyed_meadow_scene(frames, fluid=True)
     counts = {"step": 0, "restart": 0, "resume": 0}
-    originals = {n: getattr(simulate.Runner, n) for n in counts}
+    originals = {n: getattr(solver.Runner, n) for n in counts}
 
     def counting(name):
         def wrapper(self, *args, **kwargs):
@@ -298,7 +297,7 @@ def test_playing_a_keyframed_breeze_steps_the_wind_and_blades_once_per_frame():
         return wrapper
 
     for n in counts:
-        setattr(simulate.Runner, n, counting(n))
+        setattr(solver.Runner, n, counting(n))
     try:
         scene.frame_set(1)
         first = dict(counts)
@@ -309,7 +308,7 @@ def test_playing_a_keyframed_breeze_steps_the_wind_and_blades_once_per_frame():
             assert meadow.tussock_meadow.last_error == "", meadow.tussock_meadow.last_error
     finally:
         for n, fn in originals.items():
-            setattr(simulate.Runner, n, fn)
+            setattr(solver.Runner, n, fn)
     # one blade step and one wind frame per frame change, never again from rest
     assert counts["step"] - first["step"] == frames - 1, counts
     assert counts["restart"] == first["restart"] and counts["resume"] == first["resume"], counts

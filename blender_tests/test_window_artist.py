@@ -266,9 +266,9 @@ def scenario():
     if at is None:
         return
     click(at)
-    from tussock import bake
+    from tussock import bake, cache
     done = yield from wait_until(
-        lambda: any(o.modifiers.get(bake.MODIFIER) for o in scene.objects)
+        lambda: any(o.modifiers.get(cache.MODIFIER) for o in scene.objects)
         and progress.STATE["operator"] == "", 120, 0.2)
     baked = [o for o in scene.objects if bake.cached_range(o, scene) == (1, FRAMES)]
     expect("its click baked the meadow's simulated blades", done and baked,

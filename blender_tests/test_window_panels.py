@@ -563,10 +563,10 @@ def scenario(package):
     # an interactive bake: in slices on the main thread under a modal timer (a bake needs a
     # saved file); in 3.4 too, where a worker thread once crashed Blender
     os.makedirs(TMP, exist_ok=True)
-    from tussock import bake  # noqa: E402 - the add-on is enabled by now
+    from tussock import cache  # noqa: E402 - the add-on is enabled by now
 
     def cached():
-        return [o.name for o in scene.objects if o.modifiers.get(bake.MODIFIER)]
+        return [o.name for o in scene.objects if o.modifiers.get(cache.MODIFIER)]
     with override():
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(TMP, "panels.blend"))
         result = bpy.ops.tussock.bake("INVOKE_DEFAULT")
@@ -590,7 +590,7 @@ def scenario(package):
     with override():
         result = bpy.ops.tussock.bake()
     expect("bake finished with the tree cached",
-           result == {"FINISHED"} and tree.modifiers.get(bake.MODIFIER) is not None, str(result))
+           result == {"FINISHED"} and tree.modifiers.get(cache.MODIFIER) is not None, str(result))
     yield from states.draw("tree_baked", pages=END)
 
     # a picture in a scene of its own, as an artist animating a photo starts one

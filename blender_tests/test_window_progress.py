@@ -58,9 +58,9 @@ def make_scene():
 
 def scene_state():
     scene = bpy.context.scene
-    from tussock import bake
+    from tussock import cache
     return (scene.frame_current, sorted(o.name for o in scene.objects),
-            sorted(o.name for o in scene.objects if o.modifiers.get(bake.MODIFIER)))
+            sorted(o.name for o in scene.objects if o.modifiers.get(cache.MODIFIER)))
 
 
 def cache_files():
@@ -161,7 +161,7 @@ def start_bake():
 
 
 def scenario():
-    from tussock import bake
+    from tussock import bake, cache
     from tussock.progress import STATE
     reading = lambda: STATE["phase"] == bake.READING  # noqa: E731
     baking = lambda: STATE["phase"] == bake.BAKING  # noqa: E731
@@ -210,7 +210,7 @@ def scenario():
     expect("the renamed tree plays its cache",
            tree is not None and bake.cached_range(tree, bpy.context.scene) == (1, FRAMES),
            str(tree and tree.modifiers.keys()))
-    left = [f for f in cache_files() if f.startswith(bake.safe_name(meadow_name))]
+    left = [f for f in cache_files() if f.startswith(cache.safe_name(meadow_name))]
     expect("the deleted meadow's frames were removed", not left, str(left[:5]))
 
     # 4. Free Bake leaves no file of Tussock's behind

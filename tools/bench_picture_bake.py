@@ -61,7 +61,7 @@ def scene_in(folder):
 
 
 def main():
-    from tussock.picture import bake as picture_bake
+    from tussock.picture import baking as picture_bake
     from tussock.picture import frames
     with tempfile.TemporaryDirectory(dir=os.environ.get("TSK_TEST_TMP")) as folder:
         scene = scene_in(folder)

@@ -1,4 +1,5 @@
-"""Bakes of simulated meadows for farms (tussock.bake, see addon/bake.py and docs/farm.md).
+"""Bakes of simulated meadows for farms (a job source of tussock.bake, see addon/cache.py
+and docs/farm.md).
 
 A Point Cache 2 file needs the same points in every frame, but tiles wake up and go back to
 sleep while a simulation plays. So the baked mesh `<meadow> blades` holds the blades of
@@ -22,32 +23,11 @@ import os
 
 import numpy as np
 
-from .. import bake, compat, native
+from .. import cache, compat, native
 from ..wind import runtime as wind_runtime
-from . import build, identity, simulate
+from . import baked, blade_objects, build, identity, playback, simulate, solver
 
 MANIFEST_VERSION = 1
-
-
-def inputs_key(meadow, scene):
-    """A digest of what a meadow's baked frames depend on, checked whenever a frame is
-    shown: meadow, solver and wind settings, first frame, frame rate and collider
-    collection. How the colliders move is checked only when baking (the manifest): after
-    changing their animation, bake again."""
-    s = meadow.tussock_meadow
-    parts = [simulate.layout_key(meadow, scene), wind_runtime.settings_key(scene),
-             wind_runtime.fps_of(scene), s.colliders.name if s.colliders else None]
-    return hashlib.sha256(repr(parts).encode()).hexdigest()
-
-
-def meadow_of(child, scene):
-    """The meadow object whose simulated blades `child` holds, or None."""
-    return identity.meadow_of(child, scene)
-
-
-def blades_inputs_key(child, scene):
-    meadow = meadow_of(child, scene)
-    return inputs_key(meadow, scene) if meadow is not None else None
 
 
 def read_colliders(scene, coll, frames):
@@ -63,14 +43,14 @@ def read_colliders_steps(scene, coll, frames, rows):
     """read_colliders in steps: fills `rows`, yields after each frame. Closing the
     generator early (Esc) restores the current frame all the same."""
     current = scene.frame_current
-    simulate.suspended = True
+    playback.suspended = True
     try:
         for f in frames:  # one frame_set per frame of the range
             scene.frame_set(f)
-            rows[f] = simulate.colliders(scene, coll)
+            rows[f] = playback.colliders(scene, coll)
             yield
     finally:
-        simulate.suspended = False
+        playback.suspended = False
         scene.frame_set(current)
 
 
@@ -90,71 +70,6 @@ def touched_tiles(definition, rows_per_frame):
     return np.array(sorted(touched), np.int32)
 
 
-def rest_layout(runner, tiles):
-    """The baked mesh's blades at rest: counts per tile, ribbon positions (float32, 2K
-    vertices per blade) and per-blade colour values, tiles in the given order."""
-    lib = native.require()
-    k = runner.K
-    counts, ribbons, rands = [], [], []
-    for t in tiles:  # one native call per tile of the layout
-        knots, widths, sides, rand = runner.rest_blades(int(t))
-        ribbon = np.empty(len(rand) * 2 * k * 3, np.float32)
-        if len(rand):
-            lib.blades_expand(knots, widths, sides, k, ribbon, None, None)
-        counts.append(len(rand))
-        ribbons.append(ribbon)
-        rands.append(rand)
-    rest = np.concatenate(ribbons) if ribbons else np.zeros(0, np.float32)
-    rand = np.concatenate(rands) if rands else np.zeros(0, np.float32)
-    return dict(counts=np.array(counts, np.int32), rest=rest, rand=rand)
-
-
-def apply_layout(meadow, child, tiles, layout, k, instance_tile, digest):
-    """Puts the baked layout into Blender: the ribbons of every baked blade at rest, their
-    colour values, and the meadow's instances of those tiles hidden."""
-    mesh = child.data
-    simulate.ribbon_topology(mesh, int(layout["counts"].sum()), k)
-    compat.set_positions(mesh, layout["rest"])
-    simulate.set_blade_rand(mesh, layout["rand"], k)
-    mesh.update()
-    mesh["tussock_layout"] = "baked:" + digest
-    if "tussock_capacity" in mesh:
-        del mesh["tussock_capacity"]
-    simulate.empty_extra_chunks(meadow)  # live chunks beyond the first hold no baked blade
-    simulate.set_hidden(meadow, np.isin(instance_tile, tiles))
-
-
-def show_baked(meadow, scene, frame):
-    """True when the meadow's bake shows `frame`. Then the baked layout is put back if live
-    frames (outside the baked range, or while the cache was out of date) replaced it."""
-    child = simulate.find_blades_object(meadow)
-    if child is None or child.modifiers.get(bake.MODIFIER) is None:
-        return False
-    if not bake.baked_frame(child, scene, frame):
-        return False
-    restore_layout(child, scene, meadow)
-    return True
-
-
-def restore_layout(child, scene, meadow=None):
-    """Puts a bake's layout back into the blades object and the meadow's hidden instances
-    if live frames replaced them."""
-    meadow = meadow or meadow_of(child, scene)
-    if meadow is None:
-        return
-    digest = child.get("tussock_bake_layout")
-    tiles = np.array(child.get("tussock_baked_tiles", []), np.int32)
-    pb = simulate._playback(meadow, scene)
-    if child.data.get("tussock_layout") != "baked:" + str(digest):
-        layout = rest_layout(pb.runner, tiles)
-        apply_layout(meadow, child, tiles, layout, pb.runner.K, pb.instance_tile, digest)
-        pb.written = None  # the live frames' layout is gone
-    # the hidden instances too (checked every frame: rebuilding the meadow clears them)
-    if pb.baked_hidden is None or pb.baked_hidden[0] != digest:
-        pb.baked_hidden = (digest, np.isin(pb.instance_tile, tiles))
-    simulate.set_hidden(meadow, pb.baked_hidden[1])
-
-
 def _atomic_json(path, data):
     tmp = f"{path}.tmp{os.getpid()}"
     with open(tmp, "w") as f:
@@ -164,7 +79,7 @@ def _atomic_json(path, data):
     os.replace(tmp, path)
 
 
-class MeadowJob:
+class MeadowJob(cache.Job):
     """Everything needed to bake one simulated meadow, read from Blender on the main
     thread: settings, native patch and layout, the colliders and wind sources of every
     frame of the scene's range, and the baked layout."""
@@ -172,17 +87,17 @@ class MeadowJob:
     def __init__(self, obj, scene, root):
         lib = native.require()
         s = obj.tussock_meadow
-        simulate.check_animation(obj)
+        playback.check_animation(obj)
         self.meadow_key = identity.key(obj)  # (the meadow may be renamed while it bakes)
         self.meadow_name = obj.name
-        self.name = simulate.chunk_name(obj, 0)
-        safe = bake.safe_name(self.name)
+        self.name = identity.chunk_name(obj, 0)
+        safe = cache.safe_name(self.name)
         self.folder = os.path.join(root, safe)
         self.pc2 = os.path.join(root, safe + ".pc2")
-        self.rel_pc2 = bake.CACHE_DIR + "/" + safe + ".pc2"
+        self.rel_pc2 = cache.CACHE_DIR + "/" + safe + ".pc2"
         self.manifest = os.path.join(root, safe + ".layout.json")
         self.range = (scene.frame_start, scene.frame_end)
-        self.key = inputs_key(obj, scene)
+        self.key = baked.inputs_key(obj, scene)
         self.wind_kwargs = wind_runtime.wind_kwargs(scene)
         self.fps = wind_runtime.fps_of(scene)
         frames = range(self.range[0], self.range[1] + 1)
@@ -193,7 +108,7 @@ class MeadowJob:
         meadow = build.make_meadow(s, origin, size)
         info = lib.meadow_info(meadow)
         self.K = lib.patch_info(patch)["knot_count"]
-        definition = simulate.sim_definition(s, info, self.K, self.fps)
+        definition = solver.sim_definition(s, info, self.K, self.fps)
         blade_rand = np.empty(lib.patch_info(patch)["blade_count"], np.float32)
         lib.rand_fill(s.seed, build.BLADE_RAND_STREAM, blade_rand)
         self.instance_tile = np.empty(info["chunk_instances"], np.int32)
@@ -203,6 +118,9 @@ class MeadowJob:
         self._check_manifest()  # the range at once, before the frames are played
         self._scene, self._coll = scene, s.colliders
         self._prepared = False
+
+    def frames_to_read(self):
+        return self.range[1] - self.range[0] + 1
 
     def prepare(self):
         """Main thread, in steps (one per frame of the range, each a frame_set): reads the
@@ -215,7 +133,7 @@ class MeadowJob:
         # the state at the first frame is the rest pose: its colliders are never used
         self.tiles = touched_tiles(self.runner_args[2],
                                    [self.colliders[f] for f in frames[1:]])
-        self.layout = rest_layout(simulate.Runner(*self.runner_args), self.tiles)
+        self.layout = baked.rest_layout(solver.Runner(*self.runner_args), self.tiles)
         counts = self.layout["counts"]
         self.blades = int(counts.sum())
         self.points = self.blades * 2 * self.K
@@ -263,15 +181,6 @@ class MeadowJob:
         lo, hi = part
         return list(range(max(lo, self.range[0]), min(hi, self.range[1]) + 1))
 
-    def _frame_ok(self, lib, f):
-        try:
-            got, count = lib.bake_frame_info(bake.frame_path(self.folder, f))
-        except lib.Error as exc:
-            if "another Tussock" in str(exc):
-                raise
-            return False
-        return got == f and count == self.points
-
     def frame_positions(self, runner):
         """The baked mesh's vertex positions for the runner's current frame: the rest
         ribbons, with those of simulated tiles replaced by their current ribbons."""
@@ -291,20 +200,15 @@ class MeadowJob:
         return pos
 
     def steps(self, frames, progress):
-        """Native and file work only, in steps (see bake.TreeJob.steps). Frames whose files
-        verify are kept (resume); the simulation still runs from the first frame, since a
-        frame depends on every frame before it."""
+        """See cache.Job.steps. The simulation runs from the first frame even when earlier
+        frames are kept, since a frame depends on every frame before it."""
         lib = native.require()
         if not frames:
             return
-        os.makedirs(self.folder, exist_ok=True)
-        mine = {os.path.basename(bake.frame_path(self.folder, f)) for f in frames}
-        for name in os.listdir(self.folder):  # temporary files of a killed bake of this part
-            if ".tmp" in name and name.split(".tmp")[0] in mine:
-                os.remove(os.path.join(self.folder, name))
+        cache.clear_temporary(self.folder, frames)
         todo = set()
         for f in frames:
-            if self._frame_ok(lib, f):
+            if cache.frame_done(lib, self.folder, f, self.points):
                 progress()
             else:
                 todo.add(f)
@@ -312,7 +216,7 @@ class MeadowJob:
             return
         _atomic_json(self.manifest, dict(version=MANIFEST_VERSION, range=list(self.range),
                                          digest=self.digest, points=self.points))
-        runner = simulate.Runner(*self.runner_args)
+        runner = solver.Runner(*self.runner_args)
         runner.restart(self.range[0])
         wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
                                     lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)),
@@ -322,22 +226,11 @@ class MeadowJob:
             if f > self.range[0]:
                 runner.step(f, self.colliders[f], self.fps, wind.sample)
             if f in todo:
-                lib.bake_write_frame(bake.frame_path(self.folder, f), f, self.frame_positions(runner))
+                lib.bake_write_frame(cache.frame_path(self.folder, f), f, self.frame_positions(runner))
                 progress()
 
-    def bake_frames(self, frames, progress, cancel):
-        bake.run_steps(self.steps(frames, progress), cancel)
-
-    def assemble_if_complete(self):
-        """Assembles the .pc2 when every frame of the range exists; True if it did."""
-        if self.blades == 0:
-            return False
-        lib = native.require()
-        paths = [bake.frame_path(self.folder, f) for f in range(self.range[0], self.range[1] + 1)]
-        if not all(os.path.exists(p) for p in paths):
-            return False
-        lib.bake_assemble_pc2(self.pc2, paths, float(self.range[0]), 1.0)
-        return True
+    def assemble(self):
+        return self.blades > 0 and cache.assemble_pc2(self.folder, self.pc2, self.range)
 
     def wire(self, scene):
         """Main thread, after baking: the baked layout in the blades object and the
@@ -346,28 +239,19 @@ class MeadowJob:
             return
         meadow = identity.find(self.meadow_key, scene)
         if meadow is None:
-            raise bake.Gone(self.meadow_name)
-        child = simulate.blades_object(meadow)
-        apply_layout(meadow, child, self.tiles, self.layout, self.K, self.instance_tile,
+            raise cache.Gone(self.meadow_name)
+        child = blade_objects.blades_object(meadow)
+        baked.apply_layout(meadow, child, self.tiles, self.layout, self.K, self.instance_tile,
                      self.digest)
-        mod = child.modifiers.get(bake.MODIFIER)
-        if mod is None:
-            mod = child.modifiers.new(bake.MODIFIER, "MESH_CACHE")
-        mod.cache_format = "PC2"
-        mod.filepath = self.rel_pc2
-        mod.deform_mode = "OVERWRITE"
-        mod.time_mode = "FRAME"
-        mod.play_mode = "SCENE"
-        mod.frame_start = float(self.range[0])
-        mod.frame_scale = 1.0
+        mod = cache.wire_mesh_cache(child, self.rel_pc2, self.range, self.key)
         mod.show_render = mod.show_viewport = True  # reading the colliders may have
         # played frames that the unfinished cache did not hold yet
-        child["tussock_baked_range"] = self.range
-        child["tussock_bake_key"] = self.key
         child["tussock_bake_layout"] = self.digest
         child["tussock_baked_points"] = self.points
         child["tussock_baked_tiles"] = self.tiles.tolist()
 
+
+# ---- the job source (see addon/cache.py) -------------------------------------------------
 
 def jobs(scene, root):
     return [MeadowJob(o, scene, root) for o in scene.objects
@@ -375,11 +259,31 @@ def jobs(scene, root):
             and o.tussock_meadow.use_simulation]
 
 
-def free(scene, child, root, stem=None):
+def cache_key(obj, scene):
+    return baked.blades_inputs_key(obj, scene) if obj.get("tussock_simulated_blades") else None
+
+
+def restore(obj, scene):
+    if obj.get("tussock_simulated_blades"):
+        baked.restore_layout(obj, scene)
+
+
+def status(scene):
+    return None  # the panel lists the blades objects with the other cached objects
+
+
+def free(scene, root, freed):
     """After tussock.free_bake removed the Mesh Cache of a meadow's blades: removes the
-    manifest, forgets the baked layout and shows the live simulation again. `stem`: the
-    name its files were written under (bake.cache_stem)."""
-    path = os.path.join(root, (stem or bake.safe_name(child.name)) + ".layout.json")
+    manifest, forgets the baked layout and shows the live simulation again. `freed`:
+    [(object, the name its files were written under: cache.cache_stem)]."""
+    for child, stem in freed:
+        if child.get("tussock_simulated_blades"):
+            _free_blades(scene, child, root, stem)
+    return 0
+
+
+def _free_blades(scene, child, root, stem):
+    path = os.path.join(root, stem + ".layout.json")
     if os.path.exists(path):
         os.remove(path)
     for key in ("tussock_bake_key", "tussock_bake_layout", "tussock_baked_points",
@@ -387,6 +291,6 @@ def free(scene, child, root, stem=None):
         child.pop(key, None)
     if "tussock_layout" in child.data:
         del child.data["tussock_layout"]  # the next live frame rebuilds the dynamic mesh
-    meadow = meadow_of(child, scene)
+    meadow = baked.meadow_of(child, scene)
     if meadow is not None:
         simulate.on_frame(scene)

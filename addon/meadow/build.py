@@ -254,7 +254,7 @@ def viewport_off(settings, count):
     """Per chunk instance (count of them, in the meadow's order), whether the viewport leaves
     it out: all but a fraction `display` of them, drawn by the counter-based generator from
     the meadow's seed, so the simulated blades of a tile show in the viewport as its
-    instances do (simulate.write)."""
+    instances do (writer.write)."""
     r = np.empty(count, np.float32)
     if count:
         native.require().rand_fill(settings.seed, DISPLAY_STREAM, r)

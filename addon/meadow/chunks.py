@@ -89,6 +89,6 @@ def write_points(mesh, origins, chunk, viewport_off, hidden=None):
     if hidden is None:
         hidden = np.zeros(n, bool)
     mesh.attributes["tsk_hidden"].data.foreach_set("value", np.ascontiguousarray(hidden, bool))
-    # tells the simulation its hidden instances were reset (simulate.set_hidden)
+    # tells the simulation its hidden instances were reset (writer.set_hidden)
     mesh["tussock_points_serial"] = mesh.get("tussock_points_serial", 0) + 1
     mesh.update()

@@ -82,8 +82,7 @@ def scan(force=False):
 
 
 def _blades_named_for(obj, k):
-    from . import simulate
-    child = bpy.data.objects.get(simulate.chunk_name(obj, 0))
+    child = bpy.data.objects.get(chunk_name(obj, 0))
     return child is not None and child.get(OWNER) == k
 
 
@@ -129,3 +128,19 @@ def forget():
     gone.clear()
     _live.clear()
     _scanned = None
+
+
+def base_name(obj):
+    """What the names of a meadow's own objects start with: its name, and for a linked
+    meadow its library's too (a local meadow may have the same name)."""
+    return obj.name if obj.library is None else f"{obj.name} [{obj.library.name}]"
+
+
+def chunk_name(obj, key):
+    """Name of the meadow's chunk object `key`: i (0 the first, which a bake writes) for the
+    chunks shown in the viewport, ("render", i) for the render chunks."""
+    if isinstance(key, tuple):
+        return f"{base_name(obj)} blades render {key[1] + 1}"
+    return f"{base_name(obj)} blades" + (f" {key + 1}" if key else "")
+
+

@@ -4,13 +4,13 @@ travel with the .blend. Changing one rebuilds the meadow's instances interactive
 import bpy
 
 from .. import errors, meshes, native
+from . import blade_objects, build, simulate
 
 
 def _rebuild(self, context):
     obj = self.id_data
     if not self.is_meadow or not native.available():
         return
-    from . import build
     # the native work raises before the meadow changes: the last good meadow stays, and
     # the panel shows why; in Edit Mode, the meadow is rebuilt once out of it
     if not errors.in_update(self, build.rebuild, obj) and meshes.in_edit_mode(obj):
@@ -20,16 +20,14 @@ def _rebuild(self, context):
 def _rebuild_later(obj):
     settings = getattr(obj, "tussock_meadow", None)
     if settings is not None and settings.is_meadow:
-        from . import build
         errors.in_update(settings, build.rebuild, obj)
 
 
 def _reset_simulation(self, context):
-    from . import simulate
     simulate.forget(self.id_data)
     if self.is_meadow and self.use_simulation and native.available():
         # now, not in the middle of playback
-        errors.in_update(self, simulate.ensure_chunks, self.id_data, clear=False)
+        errors.in_update(self, blade_objects.ensure_chunks, self.id_data, clear=False)
 
 
 DENSITY_ITEMS = [

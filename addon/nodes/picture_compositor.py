@@ -62,7 +62,7 @@ def set_images(tree, background, layers, sequence=None):
     """Points the Image nodes of a tree that build() made at other images: `background`
     and per layer (layer image, UV image), back to front. With sequence = (first frame,
     frame count), the UV images are image sequences whose file numbers are scene frames
-    (a baked picture, addon/picture/bake.py); sequence=None is Tussock's live images.
+    (a baked picture, addon/picture/baking.py); sequence=None is Tussock's live images.
     Sets only what differs, so calling it every frame costs nothing; returns True when an
     image changed."""
     changed = []

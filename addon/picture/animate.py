@@ -3,7 +3,7 @@ pass of that frame is computed in C and written into its UV image. Two handlers,
 a picture's render is the compositor alone (no Render Layers node): Blender (3.4, measured)
 then evaluates no view layer and calls no frame_change handler between the frames of an
 animation render, only render_pre, with the scene already on the frame to render.
-A baked picture (picture/bake.py) is read from its files instead, frame by frame as long
+A baked picture (picture/baking.py) is read from its files instead, frame by frame as long
 as they verify."""
 
 import sys
@@ -11,7 +11,7 @@ import sys
 import bpy
 
 from .. import compat, errors, handlers, native
-from . import bake as picture_bake
+from . import baking as picture_baking
 from . import frames
 
 
@@ -20,7 +20,7 @@ def _update(scene):
     if settings is None or not settings.applied or not native.available():
         return None  # no animated picture here
     def update():
-        if not picture_bake.serves(scene, scene.frame_current):
+        if not picture_baking.serves(scene, scene.frame_current):
             frames.update(scene)
         # else the compositor reads this frame from the bake's files
 
@@ -78,7 +78,7 @@ def on_load(*_args):
 @bpy.app.handlers.persistent
 def on_save_pre(*_args):
     for scene in bpy.data.scenes:  # a saved .blend renders from its bake without Tussock
-        picture_bake.wire_for_save(scene)
+        picture_baking.wire_for_save(scene)
 
 
 @bpy.app.handlers.persistent

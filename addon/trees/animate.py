@@ -3,33 +3,31 @@ the scene's wind at that frame."""
 
 import bpy
 
-from .. import compat, errors, handlers, meshes, native
+from .. import cache, compat, errors, handlers, meshes, native
+from ..wind import runtime
+from . import baking, build
+from .props import regrow
 
 
 @bpy.app.handlers.persistent
 def on_frame_change(scene, depsgraph=None):
     if not native.available():
         return
-    from . import build
-    from .. import bake
     for obj in scene.objects:  # one pose per tree object
         s = compat.settings_of(obj, "tussock_tree")
         if s is None or not s.is_tree:
             continue
-        if bake.baked_frame(obj, scene, scene.frame_current):
+        if cache.baked_frame(obj, scene, scene.frame_current, baking.inputs_key):
             continue  # the Mesh Cache modifier shows the baked frame
         # any failure goes to the panel (once, not a write on every frame), never a
         # traceback out of the handler
         if not errors.in_update(s, build.pose, obj, scene, scene.frame_current, clear=False) \
                 and meshes.in_edit_mode(obj):
-            from .props import regrow
             meshes.redo_after_edit_mode(obj, regrow)
 
 
 @bpy.app.handlers.persistent
 def on_load(*_args):
-    from . import build
-    from ..wind import runtime
     build.forget()
     runtime.clear()
 

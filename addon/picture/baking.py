@@ -1,4 +1,4 @@
-"""Picture bakes (part of tussock.bake / tussock.free_bake, addon/bake.py).
+"""Picture bakes (a job source of tussock.bake / tussock.free_bake, see addon/cache.py).
 
 An animated picture is drawn by the compositor from images Tussock writes: the background
 plate and the layers at rest (once), and per layer a UV pass every frame. A bake writes them
@@ -23,9 +23,11 @@ import os
 import types
 from concurrent.futures import ThreadPoolExecutor
 
+import bpy
 import numpy as np
 
-from .. import native
+from .. import cache, compat, native
+from ..nodes import picture_compositor
 from ..wind import runtime as wind_runtime
 from . import frames, layers
 
@@ -35,13 +37,8 @@ _verified = {}  # path -> (stat signature, info dict or error text)
 _notes = {}     # scene name -> last reason printed
 
 
-def _farm():
-    from .. import bake as farm  # addon/bake.py imports this module: import late
-    return farm
-
-
 def base_name(scene):
-    return _farm().safe_name(scene.name) + "_picture"
+    return cache.safe_name(scene.name) + "_picture"
 
 
 def uv_name(scene, i):
@@ -79,7 +76,7 @@ def inputs_key(scene):
     return hashlib.sha256(repr(parts).encode()).hexdigest()
 
 
-class PictureJob:
+class PictureJob(cache.Job):
     """Everything needed to bake a scene's animated picture, read from Blender on the main
     thread; bake_frames runs in the worker."""
 
@@ -95,7 +92,6 @@ class PictureJob:
         if len(s.layers) < self.count:
             raise ValueError("a layer was removed since Animate Picture: run it again")
         _tree_with_nodes(scene, self.count)  # refused before anything is written
-        farm = _farm()
         self.name = scene.name
         self.scene_name = scene.name
         self.range = (scene.frame_start, scene.frame_end)
@@ -127,15 +123,11 @@ class PictureJob:
         self.frames_key = int.from_bytes(digest.digest()[:8], "little")  # in every sidecar
         base = base_name(scene)
         self.folder = os.path.join(root, base)
-        self.rel_folder = farm.CACHE_DIR + "/" + base
+        self.rel_folder = cache.CACHE_DIR + "/" + base
         self.uv_stems = [uv_name(scene, i) for i in range(1, self.count + 1)]
         self.uv_folders = [os.path.join(root, stem) for stem in self.uv_stems]
 
     # ---- worker part: native only ----------------------------------------------------
-
-    def frames(self, part):
-        lo, hi = part
-        return list(range(max(lo, self.range[0]), min(hi, self.range[1]) + 1))
 
     def outputs(self):
         return [self.folder] + self.uv_folders
@@ -160,13 +152,10 @@ class PictureJob:
                                       lambda path: self.paths.get(path, path))
         return self.built
 
-    def bake_frames(self, frame_list, progress, cancel):
-        _farm().run_steps(self.steps(frame_list, progress), cancel)
-
     def steps(self, frame_list, progress):
         """Writes the frames of frame_list whose files do not verify (resume), and the
         background plate and layers at rest if needed; yields between frames (see
-        bake.TreeJob.steps)."""
+        cache.Job.steps)."""
         lib = native.require()
         for folder in [self.folder] + self.uv_folders:
             os.makedirs(folder, exist_ok=True)
@@ -260,7 +249,7 @@ class PictureJob:
                             del fields[x]
                     k += 1
 
-    def assemble_if_complete(self):
+    def assemble(self):
         """Nothing to assemble (Blender reads the sequence); True when every frame of the
         range and the still images are there (their sidecars exist)."""
         paths = [os.path.join(self.folder, n) for n in static_files(self.count)]
@@ -273,12 +262,9 @@ class PictureJob:
     def wire(self, scene):
         """Points the compositor at the baked files (stock Image nodes; the UV passes as
         image sequences whose file numbers are scene frames) and records the bake."""
-        import bpy
-        from ..nodes import picture_compositor
-        farm = _farm()
         tree = _tree_with_nodes(scene, self.count)
         rel = [self.rel_folder + "/" + n for n in static_files(self.count)]
-        rel_uv = [farm.CACHE_DIR + "/" + stem + "/" + uv_file(stem, self.range[0])
+        rel_uv = [cache.CACHE_DIR + "/" + stem + "/" + uv_file(stem, self.range[0])
                   for stem in self.uv_stems]
         names = [f"Tussock Baked Background ({self.scene_name})"]
         names += [f"Tussock Baked Layer {i} ({self.scene_name})" for i in range(1, self.count + 1)]
@@ -341,14 +327,7 @@ class _Writers:
             self.pool.shutdown(wait=True)
 
 
-def jobs_for(scene, root):
-    """The scene's picture job, or none when no picture is animated."""
-    s = getattr(scene, "tussock_picture", None)
-    return [PictureJob(scene, root)] if s is not None and s.applied else []
-
-
 def _tree_with_nodes(scene, count):
-    from .. import compat
     tree = compat.compositor_tree(scene, create=False)
     need = ["Tussock Background"] + [f"Tussock {k} {i}" for i in range(1, count + 1)
                                      for k in ("Layer", "UV")]
@@ -403,9 +382,8 @@ def frame_problem(scene, frame):
     if not start <= frame <= end:
         return (f"frame {frame} is outside the baked frames {start}-{end}: showing the live "
                 "frame; bake again to cover the new frame range")
-    from .. import bake as farm
     try:
-        root = farm.cache_root()
+        root = cache.cache_root()
     except ValueError as exc:
         return str(exc)
     n = int(rec["layers"])
@@ -421,7 +399,6 @@ def frame_problem(scene, frame):
 
 def _images(scene, baked):
     """(background, [(layer image, UV image)]) the compositor should read."""
-    import bpy
     s = scene.tussock_picture
     if not baked:
         return s.background_image, [(x.layer_image, x.uv_image) for x in s.images]
@@ -432,8 +409,6 @@ def _images(scene, baked):
 
 
 def _rewire(scene, baked):
-    from .. import compat
-    from ..nodes import picture_compositor
     tree = compat.compositor_tree(scene, create=False)
     if tree is None:
         return
@@ -468,6 +443,22 @@ def wire_for_save(scene):
         _rewire(scene, True)
 
 
+# ---- the job source (see addon/cache.py) -------------------------------------------------
+
+def jobs(scene, root):
+    """The scene's picture job, or none when no picture is animated."""
+    s = getattr(scene, "tussock_picture", None)
+    return [PictureJob(scene, root)] if s is not None and s.applied else []
+
+
+def cache_key(obj, scene):
+    return None  # a picture is baked into image sequences, not a Mesh Cache
+
+
+def restore(obj, scene):
+    pass
+
+
 def status(scene):
     """(text, ok) for the Bake panel, or None when the scene's picture is not baked."""
     rec = scene.get(RECORD)
@@ -482,10 +473,9 @@ def status(scene):
     return f"Picture: frames {start}-{end}", True
 
 
-def free(scene, root):
+def free(scene, root, freed=()):
     """Deletes the scene's picture caches, restores the live compositor wiring and
     removes the baked images. Returns 1 if there was a bake, else 0."""
-    import bpy
     rec = scene.get(RECORD)
     base = base_name(scene)
     folders = [os.path.join(root, base)]
