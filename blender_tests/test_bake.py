@@ -61,8 +61,6 @@ def make_scene(folder, frames=FRAMES, preset="quaking_aspen"):
     return save_small_render_scene(scene, folder, (0.0, -25.0, 6.0), (1.45, 0.0, 0.0))
 
 
-
-
 @test
 def test_pc2_holds_live_poses_and_mesh_cache_plays_them():
     path = make_scene(os.path.join(TMP, "live"))
@@ -215,7 +213,6 @@ def make_meadow_scene(folder, frames=FRAMES):
     return save_small_render_scene(scene, folder, (0.0, -1.6, 0.9), (1.05, 0.0, 0.0))
 
 
-
 @test
 def test_meadow_pc2_holds_the_live_ribbons_and_rest_elsewhere():
     path = make_meadow_scene(os.path.join(TMP, "meadow_live"))
@@ -362,7 +359,6 @@ def test_meadow_range_change_is_reported_and_free_bake_restores_the_live_simulat
         assert child.data.get("tussock_layout") == "live"
         assert np.array_equal(writer.active_ribbons(meadow), live[f]), f
     assert bpy.ops.tussock.bake() == {"FINISHED"}  # and it bakes again after the free
-
 
 
 @test

@@ -121,7 +121,6 @@ def render(scene, frame, name):
     return read_exr(scene.render.filepath)
 
 
-
 def render_in(blend, frame, out, addon):
     """Frame `frame` of a .blend rendered by another background Blender, with or without
     Tussock installed; RGBA top-first."""
@@ -129,7 +128,6 @@ def render_in(blend, frame, out, addon):
                    f"bpy.context.scene.frame_set({frame})\n"
                    "bpy.ops.render.render(write_still=True)", addon=addon)
     return read_exr(out)
-
 
 
 def uv_path(scene, i, frame):
@@ -200,7 +198,6 @@ def test_baked_files_hold_the_live_passes_and_render_the_live_frames():
     assert err < TOL, err
 
 
-
 @test
 def test_split_bake_equals_single_bake_and_renders_without_tussock():
     one = make_scene(os.path.join(TMP, "one"))
@@ -259,7 +256,8 @@ def test_killed_bake_resumes_to_the_same_files():
         for i in (1, 2):
             got = read_exr(os.path.join(TMP, "ref", "tussock_cache",
                                         picture_baking.uv_name(scene, i),
-                                        picture_baking.uv_file(picture_baking.uv_name(scene, i), f)))
+                                        picture_baking.uv_file(
+                                            picture_baking.uv_name(scene, i), f)))
             assert np.array_equal(got, live[i - 1][0].reshape(h, w, 4)[::-1]), (f, i)
     assert np.array_equal(read_exr(uv_path_in("ref", scene, 1, 1)),
                           read_exr(uv_path_in("ref", scene, 1, 13)))  # the loop closes
@@ -272,7 +270,6 @@ def test_killed_bake_resumes_to_the_same_files():
     blender(killed, "bpy.ops.tussock.bake()")  # resumes
     assert count_sidecars(folder) == total
     assert_same_caches(os.path.dirname(ref), killed_dir)
-
 
 
 class _Layout:
@@ -400,7 +397,6 @@ def test_bad_input_cancels_with_the_scene_unchanged():
     assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
     expect_cancel(bpy.ops.tussock.bake, "save the .blend first")
     assert picture_baking.RECORD not in bpy.context.scene
-
 
 
 @test

@@ -87,7 +87,8 @@ def test_wrong_dtype_raises_naming_argument():
 @test
 def test_non_contiguous_raises_naming_argument():
     xyz = np.zeros((6, 3), np.float32)[::2]
-    expect_error(lambda: lib.vec3_lengths(xyz, np.zeros(3, np.float32)), "xyz: must be C-contiguous")
+    expect_error(lambda: lib.vec3_lengths(xyz, np.zeros(3, np.float32)),
+                 "xyz: must be C-contiguous")
 
 
 @test

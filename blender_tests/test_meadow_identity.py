@@ -1,9 +1,10 @@
 """Which meadow is which (issue 32): a simulated meadow renamed while a ball pushes through
 its blades keeps one set of blade objects and one simulation; a deleted meadow's simulation
 is freed with its blades objects; blades objects duplicated with their meadow go to the
-copy, and duplicated alone become plain meshes; a meadow linked from another file beside a local meadow of the same name (and the
-same id) simulates on its own and leaves the local one's blades as they are without it; and
-re-refined blade models reach both the instances and the simulation."""
+copy, and duplicated alone become plain meshes; a meadow linked from another file beside a
+local meadow of the same name (and the same id) simulates on its own and leaves the local
+one's blades as they are without it; and re-refined blade models reach both the instances
+and the simulation."""
 
 import os
 import sys
@@ -314,7 +315,8 @@ def test_linked_meadow_of_the_same_name_simulates_on_its_own():
     assert simulate.live_count() == 2
     pl, pk = simulate.playback_of(local), simulate.playback_of(linked)
     assert pl is not pk
-    assert pl.output.stats["tussock_active_blades"] > 0 and pk.output.stats["tussock_active_blades"] > 0
+    assert pl.output.stats["tussock_active_blades"] > 0
+    assert pk.output.stats["tussock_active_blades"] > 0
     # the linked meadow's blades are where its ball went (x about 6), in objects of its own
     roots = pk.runner.knots().reshape(-1, pk.runner.K, 3)[:, 0]
     assert roots[:, 0].min() > 4.0, roots[:, 0].min()

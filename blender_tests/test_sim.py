@@ -92,7 +92,8 @@ def test_rolling_ball_bends_blades_on_its_path():
     scene.frame_set(13)
     meadow.data.attributes["tsk_hidden"].data.foreach_get("value", hidden)
     pb = simulate.playback_of(meadow)
-    assert hidden.sum() > 0 and np.array_equal(hidden, np.isin(pb.instance_tile, pb.runner.active()[0]))
+    assert hidden.sum() > 0
+    assert np.array_equal(hidden, np.isin(pb.instance_tile, pb.runner.active()[0]))
 
 
 def rest_knots(meadow):
@@ -208,7 +209,8 @@ def test_blades_shared_among_chunk_objects_give_the_same_ribbons():
     simulation is switched on, so Bullet's ball rolls the same path as with no simulation
     at all."""
     scene, meadow, ball = rolling_ball_scene()
-    assert writer.chunk_ranges(100) == [range(0, 100)] + [range(100, 100)] * (blade_objects.CHUNKS - 1)
+    empty = [range(100, 100)] * (blade_objects.CHUNKS - 1)
+    assert writer.chunk_ranges(100) == [range(0, 100)] + empty
     min_blades, writer.CHUNK_MIN_BLADES = writer.CHUNK_MIN_BLADES, 16
     assert [len(r) for r in writer.chunk_ranges(40)] == [20, 20] + [0] * (blade_objects.CHUNKS - 2)
     first = bpy.data.objects[f"{meadow.name} blades"]
@@ -285,7 +287,8 @@ def test_viewport_shows_the_simulated_blades_of_the_instances_it_shows():
         assert meadow["tussock_viewport_blades"] == int(shown.sum())
         per = 2 * r.K * 3
         every = np.empty(nb * per, np.float32)
-        lib.blade_sim_ribbons(r.sim, 0, pb.output.ribbon[0].ravel(), pb.output.ribbon[1].ravel(), every)
+        lib.blade_sim_ribbons(r.sim, 0, pb.output.ribbon[0].ravel(),
+                              pb.output.ribbon[1].ravel(), every)
         every = every.reshape(nb, per)
 
         def held(objs):
@@ -375,7 +378,8 @@ def test_blender_evaluates_the_simulations_knots_and_the_write_is_one_copy():
         nb = len(blade_knots(meadow))
         out = np.empty(nb * 2 * r.K * 3, np.float32)
         widths, sides = pb.output.ribbon[0].ravel(), pb.output.ribbon[1].ravel()
-        ribbons_alone = harness.best_of(lambda: r.lib.blade_sim_ribbons(r.sim, 0, widths, sides, out))
+        ribbons_alone = harness.best_of(
+            lambda: r.lib.blade_sim_ribbons(r.sim, 0, widths, sides, out))
         write = harness.best_of(lambda: writer.write(meadow, pb))
         assert write < 4.0 * ribbons_alone + 0.002, (
             f"write {write * 1e3:.2f} ms, ribbons alone {ribbons_alone * 1e3:.2f} ms, "
@@ -593,7 +597,8 @@ def test_chunk_meshes_fit_their_blades_once_the_tiles_hold_still():
             for f, x in ((1, -1.6), (14, -0.4)):
                 ball.location.x = x
                 ball.keyframe_insert("location", frame=f)
-            chunks = [bpy.data.objects[f"{meadow.name} blades"]] + blade_objects.extra_chunks(meadow)
+            chunks = ([bpy.data.objects[f"{meadow.name} blades"]]
+                      + blade_objects.extra_chunks(meadow))
             shown[fit_after], rooms[fit_after] = [], []
             for f in range(1, 29):
                 scene.frame_set(f)

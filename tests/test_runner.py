@@ -132,7 +132,8 @@ def test_blades_the_ball_passed_differ_from_rest_and_far_ones_sleep():
     tiles, counts = runner.active()
     tx, ty = tiles % 12, tiles // 12  # 12 tiles across 3 m, 8 along 2 m
     assert 8 <= len(tiles) < 48, tiles
-    assert ty.min() * 0.25 > 1.0 - 0.3 - 0.25 - 1e-6 and (ty.max() + 1) * 0.25 < 1.0 + 0.3 + 0.25 + 1e-6, ty
+    assert (ty.min() * 0.25 > 1.0 - 0.3 - 0.25 - 1e-6
+            and (ty.max() + 1) * 0.25 < 1.0 + 0.3 + 0.25 + 1e-6), ty
     assert tx.max() * 0.25 < 0.2 + 2.6 * 11 / 23 + 0.3 + 0.25 + 1e-6, tx  # none far ahead
     rest = np.concatenate([runner.rest_blades(t)[0] for t in tiles])
     moved = np.abs(runner.knots() - rest).reshape(-1, runner.K, 3)[:, -1, :].max(axis=1)

@@ -190,7 +190,8 @@ class MeadowJob(cache.Job):
         n = int(counts.sum())
         if n:
             slot = np.searchsorted(self.tiles, tiles)
-            if np.any(slot >= len(self.tiles)) or np.any(self.tiles[np.minimum(slot, len(self.tiles) - 1)] != tiles):
+            inside = self.tiles[np.minimum(slot, len(self.tiles) - 1)]
+            if np.any(slot >= len(self.tiles)) or np.any(inside != tiles):
                 raise ValueError("internal: a tile outside the baked layout woke up")
             ribbon = np.empty(n * 2 * k * 3, np.float32)
             runner.ribbons(0, runner.per_blade(tiles, 0), runner.per_blade(tiles, 1), ribbon)
@@ -226,7 +227,8 @@ class MeadowJob(cache.Job):
             if f > self.range[0]:
                 runner.step(f, self.colliders[f], self.fps, wind.sample)
             if f in todo:
-                lib.bake_write_frame(cache.frame_path(self.folder, f), f, self.frame_positions(runner))
+                lib.bake_write_frame(cache.frame_path(self.folder, f), f,
+                                     self.frame_positions(runner))
                 progress()
 
     def assemble(self):
@@ -242,7 +244,7 @@ class MeadowJob(cache.Job):
             raise cache.Gone(self.meadow_name)
         child = blade_objects.blades_object(meadow)
         baked.apply_layout(meadow, child, self.tiles, self.layout, self.K, self.instance_tile,
-                     self.digest)
+                           self.digest)
         mod = cache.wire_mesh_cache(child, self.rel_pc2, self.range, self.key)
         mod.show_render = mod.show_viewport = True  # reading the colliders may have
         # played frames that the unfinished cache did not hold yet

@@ -134,7 +134,8 @@ def render_chunk_object(obj, i):
 def render_chunks(obj):
     """The meadow's render chunk objects that exist, in order."""
     found = []
-    while (child := bpy.data.objects.get(identity.chunk_name(obj, ("render", len(found))))) is not None:
+    while (child := bpy.data.objects.get(
+            identity.chunk_name(obj, ("render", len(found))))) is not None:
         found.append(child)
     return found
 
@@ -156,9 +157,8 @@ def extra_chunks(obj):
     return found
 
 
-
 OWN_TAGS = (identity.OWNER, "tussock_meadow_name", "tussock_simulated_blades",
-             "tussock_blades_chunk", "tussock_blades_render_chunk")
+            "tussock_blades_chunk", "tussock_blades_render_chunk")
 
 
 def tidy_owned(live):

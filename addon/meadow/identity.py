@@ -142,5 +142,3 @@ def chunk_name(obj, key):
     if isinstance(key, tuple):
         return f"{base_name(obj)} blades render {key[1] + 1}"
     return f"{base_name(obj)} blades" + (f" {key + 1}" if key else "")
-
-

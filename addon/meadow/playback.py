@@ -16,7 +16,8 @@ from . import build, identity, solver
 
 SNAPSHOT_EVERY = 10  # frames between snapshots of the solver state (counted from frame_start)
 SNAPSHOT_BUDGET = 256 << 20  # bytes of snapshots kept per meadow
-_playbacks = {}  # meadow key (identity.key: survives renames, tells linked meadows apart) -> Playback
+# meadow key (identity.key: survives renames, tells linked meadows apart) -> Playback
+_playbacks = {}
 suspended = False  # True while the bake plays frames only to read collider positions
 
 # Meadow settings that may be keyframed on a simulated meadow: they do not change motion.

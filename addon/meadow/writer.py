@@ -19,11 +19,11 @@ from . import blade_objects, build, identity, material, playback
 CAPACITY_BLOCK = 256  # a dynamic mesh has room for a whole number of blocks of blades;
                       # it grows by half at least and shrinks below a quarter full, so that
                       # its topology changes seldom while tiles come and go (rebuilding a
-                      # chunk of ~6,000 blades costs about 24 ms)
+                      # chunk costs far more than writing it)
 FIT_AFTER_FRAMES = 4  # but every vertex of the room costs Blender each frame, used or not:
                       # once the active tiles have held this many frames, a chunk with more
                       # than an eighth of its room unused is rebuilt to fit (blade_playback:
-                      # growth had left 45 % unused, ~5 ms per chunk and frame)
+                      # growth alone can leave much of the room unused, at a cost every frame)
 CHUNK_MIN_BLADES = 1024  # fewer blades than this per chunk: fewer chunks are used
 
 
@@ -122,8 +122,6 @@ def set_hidden(obj, hidden):
     _hidden_written[which] = (serial, hidden)
 
 
-
-
 _COLLAPSED = "collapsed"  # Output.held[i] of a chunk whose blades are all collapsed
 
 
@@ -184,7 +182,8 @@ def active_ribbons(obj):
             compat.get_positions(child.data, v)
         n = len(part.index) * per
         if len(v) < n or v[n:].any():
-            raise AssertionError(f"{key}: the chunk does not hold exactly its {len(part.index)} blades")
+            raise AssertionError(
+                f"{key}: the chunk does not hold exactly its {len(part.index)} blades")
         out[part.index] = v[:n].reshape(-1, per)
         got[part.index] += 1
     if not np.all(got == 1):
@@ -271,7 +270,7 @@ def _write_chunk(child, pb, out, i, part, k, layout_changed, fit=False):
     # The chunks share one buffer: it is still in the cache when the next chunk is written,
     # where a buffer per chunk comes back from memory every frame, since Blender's evaluation
     # of the meshes in between goes through far more memory than the cache holds
-    # (docs/performance.md, session 8: about 1 ms of the write step at 20,480 blades).
+    # (docs/performance.md, "Blade playback in Blender").
     n, used = capacity * 2 * k * 3, nb * 2 * k * 3
     if out.buf is None or len(out.buf) < n:
         out.buf = np.empty(n, np.float32)

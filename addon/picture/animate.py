@@ -19,6 +19,7 @@ def _update(scene):
     settings = getattr(scene, "tussock_picture", None)
     if settings is None or not settings.applied or not native.available():
         return None  # no animated picture here
+
     def update():
         if not picture_baking.serves(scene, scene.frame_current):
             frames.update(scene)
