@@ -73,6 +73,15 @@ def git_commit():
 
 
 # ---- records -----------------------------------------------------------------------------------
+def version(blender):
+    """A Blender version string's numbers ("5.2.2 LTS" -> "5.2.2"), so that one release is one
+    row whatever its build calls itself."""
+    if not blender:
+        return None
+    m = re.match(r"\d+(\.\d+)*", str(blender).strip())
+    return m.group(0) if m else str(blender)
+
+
 def record(lines, out_dir=PERF, info=None, commit=None, today=None, load=None):
     """Appends every benchmark line among `lines` to this host's file; returns (path, count).
     Lines that are not a benchmark's JSON object are skipped (Blender prints other things)."""
@@ -102,7 +111,7 @@ def record(lines, out_dir=PERF, info=None, commit=None, today=None, load=None):
         if r.get("peer"):
             out["peer"] = r["peer"]
         out.update(host=host_words(info), commit=commit, date=today, load=load,
-                   blender=params.get("blender"), source="./build.sh bench --record")
+                   blender=version(params.get("blender")), source="./build.sh bench --record")
         rows.append(out)
     os.makedirs(out_dir, exist_ok=True)
     path = os.path.join(out_dir, host_slug(info) + ".jsonl")
@@ -201,6 +210,7 @@ def table(records, targets):
     line; the peers measured in that same run beside it."""
     own, peers = {}, {}
     for r in records:
+        r["blender"] = version(r["blender"])
         key = (r["name"], r["blender"])
         if r.get("peer"):
             # a peer run in Blender may stand beside a native line of the same run
