@@ -38,7 +38,8 @@ def test_host_from_cpuinfo():
 def test_record_keeps_bench_lines_only_with_provenance():
     lines = io.StringIO(
         "Blender 3.4.1 (hash)\n"
-        '{"name": "blade_playback", "value": 30.5, "unit": "fps", "params": {"blender": "5.2.2 LTS"}}\n'
+        '{"name": "blade_playback", "value": 30.5, "unit": "fps", '
+        '"params": {"blender": "5.2.2 LTS"}}\n'
         "{not json\n"
         '{"name": "blade_playback_strand_frame", "value": 239, "unit": "us", "params": '
         '{"blender": "3.4.1", "ratio": 60.4}, "peer": "blender_particle_hair"}\n'
