@@ -93,17 +93,66 @@ WK_INL wk_v3 wk_norm(wk_v3 a, wk_i* bad) {
     *bad |= ~(l > wk_splat(1e-20f));
     return wk_scale(a, wk_splat(1.0f) / l);
 }
+/* A vector of the LN values E(0) .. E(LN - 1), written as one constructor: GCC builds it in
+ * registers (inserts), where filling lanes one by one goes through masked broadcasts or the
+ * stack. */
+#define WK_E4(E, o) E((o) + 0), E((o) + 1), E((o) + 2), E((o) + 3)
+#if WK_LN == 4
+#define WK_MAKE(E) ((wk_f){WK_E4(E, 0)})
+#elif WK_LN == 8
+#define WK_MAKE(E) ((wk_f){WK_E4(E, 0), WK_E4(E, 4)})
+#else
+#define WK_MAKE(E) ((wk_f){WK_E4(E, 0), WK_E4(E, 4), WK_E4(E, 8), WK_E4(E, 12)})
+#endif
 /* component k of LN records of `stride` floats: records idx[l], or i + l */
 WK_INL wk_f wk_gather(const float* base, const size_t* idx, size_t stride, size_t k) {
-    wk_f v = {0};
-    for (int l = 0; l < WK_LN; ++l) v[l] = base[idx[l] * stride + k];
-    return v;
+#define WK_G(l) base[idx[l] * stride + k]
+    return WK_MAKE(WK_G);
+#undef WK_G
 }
 WK_INL wk_f wk_strided(const float* base, size_t i, size_t stride, size_t k) {
-    wk_f v = {0};
-    for (int l = 0; l < WK_LN; ++l) v[l] = base[(i + (size_t)l) * stride + k];
-    return v;
+    const float* p = base + i * stride + k;
+#define WK_S(l) p[(l)*stride]
+    return WK_MAKE(WK_S);
+#undef WK_S
 }
+
+/* Rows of 12 floats for the LN lanes of 12 component vectors: dst[12 * l + k] = out[k][l].
+ * On x86 a 4x4 transpose inside every 128-bit lane per group of 4 components, then one
+ * 16-byte store per lane group and row (the lane-by-lane stores it replaces cost a spill and
+ * a scalar store each). */
+#if defined(TSK_SIMD_KERNEL_AVX512)
+#define WK_X(p) _mm512_##p
+typedef __m512 wk_m;
+#elif defined(TSK_SIMD_KERNEL_AVX2)
+#define WK_X(p) _mm256_##p
+typedef __m256 wk_m;
+#elif TSK_SIMD_SSE2
+#define WK_X(p) _mm_##p
+typedef __m128 wk_m;
+#endif
+WK_INL void wk_store_rows12(float* dst, const wk_f out[12]) {
+#ifdef WK_X
+    for (int g = 0; g < 3; ++g) {
+        const wk_m r0 = (wk_m)out[4 * g], r1 = (wk_m)out[4 * g + 1];
+        const wk_m r2 = (wk_m)out[4 * g + 2], r3 = (wk_m)out[4 * g + 3];
+        const wk_m t0 = WK_X(unpacklo_ps)(r0, r1), t1 = WK_X(unpackhi_ps)(r0, r1);
+        const wk_m t2 = WK_X(unpacklo_ps)(r2, r3), t3 = WK_X(unpackhi_ps)(r2, r3);
+        wk_f c[4];
+        c[0] = (wk_f)WK_X(shuffle_ps)(t0, t2, 0x44); /* lanes 0, 1 of t0 then of t2 */
+        c[1] = (wk_f)WK_X(shuffle_ps)(t0, t2, 0xEE); /* lanes 2, 3 */
+        c[2] = (wk_f)WK_X(shuffle_ps)(t1, t3, 0x44);
+        c[3] = (wk_f)WK_X(shuffle_ps)(t1, t3, 0xEE);
+        /* c[j]'s 128-bit lane h: components 4g .. 4g+3 of branch 4h + j */
+        for (int h = 0; h < WK_LN / 4; ++h)
+            for (int j = 0; j < 4; ++j) memcpy(dst + 12 * (4 * h + j) + 4 * g, (const float*)&c[j] + 4 * h, 16);
+    }
+#else
+    for (int l = 0; l < WK_LN; ++l)
+        for (int k = 0; k < 12; ++k) dst[12 * l + k] = out[k][l];
+#endif
+}
+#undef WK_X
 
 /* bend_pow of tree_internal.h, lane for lane the same operations in the same order */
 WK_INL wk_f wk_bend_pow(wk_f m, float e) {
@@ -234,18 +283,13 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
                        wk_sel(nonzero, q3v.z, Q[3].z)};
     }
     /* 12 components x LN lanes -> LN rows of 12 floats (the branches are contiguous) */
-    float out[12][WK_LN];
+    wk_f out[12];
     for (int k = 0; k < 4; ++k) {
-        const wk_f px = origin.x + axis.x * Q[k].x + side.x * Q[k].y + W.x * Q[k].z;
-        const wk_f py = origin.y + axis.y * Q[k].x + side.y * Q[k].y + W.y * Q[k].z;
-        const wk_f pz = origin.z + axis.z * Q[k].x + side.z * Q[k].y + W.z * Q[k].z;
-        memcpy(out[3 * k], &px, sizeof px);
-        memcpy(out[3 * k + 1], &py, sizeof py);
-        memcpy(out[3 * k + 2], &pz, sizeof pz);
+        out[3 * k] = origin.x + axis.x * Q[k].x + side.x * Q[k].y + W.x * Q[k].z;
+        out[3 * k + 1] = origin.y + axis.y * Q[k].x + side.y * Q[k].y + W.y * Q[k].z;
+        out[3 * k + 2] = origin.z + axis.z * Q[k].x + side.z * Q[k].y + W.z * Q[k].z;
     }
-    float* dst = t->cur + 12 * i;
-    for (int l = 0; l < WK_LN; ++l)
-        for (int k = 0; k < 12; ++k) dst[12 * l + k] = out[k][l];
+    wk_store_rows12(t->cur + 12 * i, out);
     /* O of seed 001, eq. 8 */
     float O[3][WK_LN];
     const wk_f ox = side.x * -1.0f, oy = side.y * -1.0f, oz = side.z * -1.0f;
