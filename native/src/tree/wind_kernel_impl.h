@@ -99,10 +99,13 @@ WK_INL wk_v3 wk_norm(wk_v3 a, wk_i* bad) {
 #define WK_E4(E, o) E((o) + 0), E((o) + 1), E((o) + 2), E((o) + 3)
 #if WK_LN == 4
 #define WK_MAKE(E) ((wk_f){WK_E4(E, 0)})
+#define WK_MAKEI(E) ((wk_i){WK_E4(E, 0)})
 #elif WK_LN == 8
 #define WK_MAKE(E) ((wk_f){WK_E4(E, 0), WK_E4(E, 4)})
+#define WK_MAKEI(E) ((wk_i){WK_E4(E, 0), WK_E4(E, 4)})
 #else
 #define WK_MAKE(E) ((wk_f){WK_E4(E, 0), WK_E4(E, 4), WK_E4(E, 8), WK_E4(E, 12)})
+#define WK_MAKEI(E) ((wk_i){WK_E4(E, 0), WK_E4(E, 4), WK_E4(E, 8), WK_E4(E, 12)})
 #endif
 /* component k of LN records of `stride` floats: records idx[l], or i + l */
 WK_INL wk_f wk_gather(const float* base, const size_t* idx, size_t stride, size_t k) {
@@ -117,10 +120,14 @@ WK_INL wk_f wk_strided(const float* base, size_t i, size_t stride, size_t k) {
 #undef WK_S
 }
 
-/* Rows of 12 floats for the LN lanes of 12 component vectors: dst[12 * l + k] = out[k][l].
- * On x86 a 4x4 transpose inside every 128-bit lane per group of 4 components, then one
- * 16-byte store per lane group and row (the lane-by-lane stores it replaces cost a spill and
- * a scalar store each). */
+/* a[k] in the lanes where m is clear, b[k] where it is set */
+WK_INL wk_f wk_pick2(wk_i m, const float* a, const float* b, int k) {
+    return wk_sel(m, wk_splat(b[k]), wk_splat(a[k]));
+}
+
+/* x86: 4x4 transposes inside every 128-bit lane of the vectors, for the records the kernel
+ * reads and writes whole (the lane-by-lane loads and stores they replace cost an insert, or a
+ * spill and a scalar store, per float) */
 #if defined(TSK_SIMD_KERNEL_AVX512)
 #define WK_X(p) _mm512_##p
 typedef __m512 wk_m;
@@ -131,28 +138,57 @@ typedef __m256 wk_m;
 #define WK_X(p) _mm_##p
 typedef __m128 wk_m;
 #endif
-WK_INL void wk_store_rows12(float* dst, const wk_f out[12]) {
 #ifdef WK_X
+/* c[j]'s 128-bit lane h holds element j of r[0..3]'s lane h */
+WK_INL void wk_transpose4(const wk_f r[4], wk_f c[4]) {
+    const wk_m t0 = WK_X(unpacklo_ps)((wk_m)r[0], (wk_m)r[1]);
+    const wk_m t1 = WK_X(unpackhi_ps)((wk_m)r[0], (wk_m)r[1]);
+    const wk_m t2 = WK_X(unpacklo_ps)((wk_m)r[2], (wk_m)r[3]);
+    const wk_m t3 = WK_X(unpackhi_ps)((wk_m)r[2], (wk_m)r[3]);
+    c[0] = (wk_f)WK_X(shuffle_ps)(t0, t2, 0x44); /* elements 0, 1 of t0, then of t2 */
+    c[1] = (wk_f)WK_X(shuffle_ps)(t0, t2, 0xEE); /* elements 2, 3 */
+    c[2] = (wk_f)WK_X(shuffle_ps)(t1, t3, 0x44);
+    c[3] = (wk_f)WK_X(shuffle_ps)(t1, t3, 0xEE);
+}
+#endif
+#undef WK_X
+
+/* Rows of 12 floats for the LN lanes of 12 component vectors: dst[12 * l + k] = out[k][l]:
+ * per group of 4 components one transpose, then one 16-byte store per 128-bit lane and row. */
+WK_INL void wk_store_rows12(float* dst, const wk_f out[12]) {
+#if defined(TSK_SIMD_KERNEL_AVX512) || defined(TSK_SIMD_KERNEL_AVX2) || TSK_SIMD_SSE2
     for (int g = 0; g < 3; ++g) {
-        const wk_m r0 = (wk_m)out[4 * g], r1 = (wk_m)out[4 * g + 1];
-        const wk_m r2 = (wk_m)out[4 * g + 2], r3 = (wk_m)out[4 * g + 3];
-        const wk_m t0 = WK_X(unpacklo_ps)(r0, r1), t1 = WK_X(unpackhi_ps)(r0, r1);
-        const wk_m t2 = WK_X(unpacklo_ps)(r2, r3), t3 = WK_X(unpackhi_ps)(r2, r3);
         wk_f c[4];
-        c[0] = (wk_f)WK_X(shuffle_ps)(t0, t2, 0x44); /* lanes 0, 1 of t0 then of t2 */
-        c[1] = (wk_f)WK_X(shuffle_ps)(t0, t2, 0xEE); /* lanes 2, 3 */
-        c[2] = (wk_f)WK_X(shuffle_ps)(t1, t3, 0x44);
-        c[3] = (wk_f)WK_X(shuffle_ps)(t1, t3, 0xEE);
+        wk_transpose4(out + 4 * g, c);
         /* c[j]'s 128-bit lane h: components 4g .. 4g+3 of branch 4h + j */
         for (int h = 0; h < WK_LN / 4; ++h)
-            for (int j = 0; j < 4; ++j) memcpy(dst + 12 * (4 * h + j) + 4 * g, (const float*)&c[j] + 4 * h, 16);
+            for (int j = 0; j < 4; ++j)
+                memcpy(dst + 12 * (4 * h + j) + 4 * g, (const float*)&c[j] + 4 * h, 16);
     }
 #else
     for (int l = 0; l < WK_LN; ++l)
         for (int k = 0; k < 12; ++k) dst[12 * l + k] = out[k][l];
 #endif
 }
-#undef WK_X
+
+/* The 4 components of LN contiguous records of 4 floats: c[k][l] = p[4 * l + k]. */
+WK_INL void wk_load_rows4(const float* p, wk_f c[4]) {
+#if defined(TSK_SIMD_KERNEL_AVX512) || defined(TSK_SIMD_KERNEL_AVX2) || TSK_SIMD_SSE2
+    wk_f r[4];
+    for (int m = 0; m < 4; ++m) r[m] = wk_ld(p + m * WK_LN);
+    wk_transpose4(r, c);
+#if WK_LN > 4
+    /* lane 4h + j now holds record j * LN/4 + h: put record l in lane l (GCC only: the wide
+     * kernel units are GCC's) */
+#define WK_P(l) 4 * ((l) % (WK_LN / 4)) + (l) / (WK_LN / 4)
+    const wk_i perm = WK_MAKEI(WK_P);
+#undef WK_P
+    for (int k = 0; k < 4; ++k) c[k] = __builtin_shuffle(c[k], perm);
+#endif
+#else
+    for (int k = 0; k < 4; ++k) c[k] = wk_strided(p, 0, 4, (size_t)k);
+#endif
+}
 
 /* bend_pow of tree_internal.h, lane for lane the same operations in the same order */
 WK_INL wk_f wk_bend_pow(wk_f m, float e) {
@@ -195,15 +231,27 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     /* the parents' curves and Sloan frames (18 floats: S[3], T[3]) */
     wk_v3 P[4], S[3], T[3];
     const float* fr = (const float*)c->parent_frames;
-    if (pi[0] == pi[WK_LN - 1]) { /* parents never decrease: the block shares one */
-        const float* pp = c->parent_pts + 12 * pi[0];
-        const float* pf = fr + 18 * pi[0];
+    /* parents never decrease: a block mostly shares one, or spans two (siblings of one
+     * parent, then of the next), whose records are broadcast and chosen per lane */
+    int two = 1;
+    for (int l = 0; l < WK_LN; ++l) two &= (pi[l] == pi[0]) | (pi[l] == pi[WK_LN - 1]);
+    if (two) {
+        wk_i second;
+        memcpy(&second, t->parent + i, sizeof second);
+        second = second == (int32_t)pi[WK_LN - 1];
+        const float* pa = c->parent_pts + 12 * pi[0];
+        const float* pb = c->parent_pts + 12 * pi[WK_LN - 1];
         for (int k = 0; k < 4; ++k)
-            P[k] = (wk_v3){wk_splat(pp[3 * k]), wk_splat(pp[3 * k + 1]), wk_splat(pp[3 * k + 2])};
+            P[k] = (wk_v3){wk_pick2(second, pa, pb, 3 * k), wk_pick2(second, pa, pb, 3 * k + 1),
+                           wk_pick2(second, pa, pb, 3 * k + 2)};
+        const float* fa = fr + 18 * pi[0];
+        const float* fb = fr + 18 * pi[WK_LN - 1];
         for (int k = 0; k < 3; ++k) {
-            S[k] = (wk_v3){wk_splat(pf[3 * k]), wk_splat(pf[3 * k + 1]), wk_splat(pf[3 * k + 2])};
-            T[k] = (wk_v3){wk_splat(pf[9 + 3 * k]), wk_splat(pf[9 + 3 * k + 1]),
-                           wk_splat(pf[9 + 3 * k + 2])};
+            S[k] = (wk_v3){wk_pick2(second, fa, fb, 3 * k), wk_pick2(second, fa, fb, 3 * k + 1),
+                           wk_pick2(second, fa, fb, 3 * k + 2)};
+            T[k] = (wk_v3){wk_pick2(second, fa, fb, 9 + 3 * k),
+                           wk_pick2(second, fa, fb, 9 + 3 * k + 1),
+                           wk_pick2(second, fa, fb, 9 + 3 * k + 2)};
         }
     } else {
         for (int k = 0; k < 4; ++k)
@@ -220,8 +268,9 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
         }
     }
     const wk_f u = wk_ld(t->attach_v + i);
-    const wk_f ct = wk_strided(t->trig, i, 4, 0), st = wk_strided(t->trig, i, 4, 1);
-    const wk_f ca = wk_strided(t->trig, i, 4, 2), sa = wk_strided(t->trig, i, 4, 3);
+    wk_f trig[4];
+    wk_load_rows4(t->trig + 4 * i, trig);
+    const wk_f ct = trig[0], st = trig[1], ca = trig[2], sa = trig[3];
     /* tree_attach_frame: origin = bez_point */
     const wk_f s = one - u;
     const wk_f b0 = s * s * s, b1 = 3.0f * s * s * u, b2 = 3.0f * s * u * u, b3 = u * u * u;
