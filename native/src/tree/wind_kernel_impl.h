@@ -171,6 +171,51 @@ WK_INL void wk_store_rows12(float* dst, const wk_f out[12]) {
 #endif
 }
 
+/* Rows of 3 floats for the LN lanes of out[0..2] (out[3] is scratch): dst[3 * l + k] =
+ * out[k][l]. Each row is stored as 16 bytes, the next row overwriting the extra float, and
+ * the last as 12, so nothing outside the rows is written. */
+WK_INL void wk_store_rows3(float* dst, const wk_f out[4]) {
+#if defined(TSK_SIMD_KERNEL_AVX512) || defined(TSK_SIMD_KERNEL_AVX2) || TSK_SIMD_SSE2
+    wk_f c[4];
+    wk_transpose4(out, c);
+    /* c[j]'s 128-bit lane h: branch 4h + j */
+    for (int h = 0; h < WK_LN / 4; ++h)
+        for (int j = 0; j < 4; ++j)
+            memcpy(dst + 3 * (4 * h + j), (const float*)&c[j] + 4 * h, 4 * h + j < WK_LN - 1 ? 16 : 12);
+#else
+    for (int l = 0; l < WK_LN; ++l)
+        for (int k = 0; k < 3; ++k) dst[3 * l + k] = out[k][l];
+#endif
+}
+
+/* 4 floats from each of p, p + step, ... in the LN/4 128-bit lanes of a vector */
+WK_INL wk_f wk_ld_lanes4(const float* p, size_t step) {
+#if defined(TSK_SIMD_KERNEL_AVX512)
+    __m512 v = _mm512_castps128_ps512(_mm_loadu_ps(p));
+    v = _mm512_insertf32x4(v, _mm_loadu_ps(p + step), 1);
+    v = _mm512_insertf32x4(v, _mm_loadu_ps(p + 2 * step), 2);
+    return (wk_f)_mm512_insertf32x4(v, _mm_loadu_ps(p + 3 * step), 3);
+#elif defined(TSK_SIMD_KERNEL_AVX2)
+    return (wk_f)_mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(p)), _mm_loadu_ps(p + step), 1);
+#else
+    (void)step;
+    return wk_ld(p);
+#endif
+}
+
+/* Components k0 .. k0+3 of LN contiguous records of `stride` (>= k0 + 4) floats:
+ * c[q][l] = p[stride * l + k0 + q]. */
+WK_INL void wk_load_cols4(const float* p, size_t stride, size_t k0, wk_f c[4]) {
+#if defined(TSK_SIMD_KERNEL_AVX512) || defined(TSK_SIMD_KERNEL_AVX2) || TSK_SIMD_SSE2
+    /* r[j]'s lane h: record 4h + j, so that the transpose leaves record l in lane l */
+    wk_f r[4];
+    for (int j = 0; j < 4; ++j) r[j] = wk_ld_lanes4(p + stride * (size_t)j + k0, 4 * stride);
+    wk_transpose4(r, c);
+#else
+    for (int q = 0; q < 4; ++q) c[q] = wk_strided(p, 0, stride, k0 + (size_t)q);
+#endif
+}
+
 /* The 4 components of LN contiguous records of 4 floats: c[k][l] = p[4 * l + k]. */
 WK_INL void wk_load_rows4(const float* p, wk_f c[4]) {
 #if defined(TSK_SIMD_KERNEL_AVX512) || defined(TSK_SIMD_KERNEL_AVX2) || TSK_SIMD_SSE2
@@ -221,11 +266,10 @@ WK_INL wk_f wk_bend_pow(wk_f m, float e) {
 
 int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     tsk_tree* t = c->t;
-    size_t pi[WK_LN];
-    for (int l = 0; l < WK_LN; ++l) {
-        if (t->parent[i + (size_t)l] < 0) return 0;
-        pi[l] = (size_t)t->parent[i + (size_t)l];
-    }
+    wk_i par;
+    memcpy(&par, t->parent + i, sizeof par);
+    if (wk_any(par < 0)) return 0; /* a trunk */
+    const int32_t p0 = t->parent[i], pl = t->parent[i + WK_LN - 1];
     wk_i bad = {0};
     const wk_f one = wk_splat(1.0f);
     /* the parents' curves and Sloan frames (18 floats: S[3], T[3]) */
@@ -233,19 +277,15 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     const float* fr = (const float*)c->parent_frames;
     /* parents never decrease: a block mostly shares one, or spans two (siblings of one
      * parent, then of the next), whose records are broadcast and chosen per lane */
-    int two = 1;
-    for (int l = 0; l < WK_LN; ++l) two &= (pi[l] == pi[0]) | (pi[l] == pi[WK_LN - 1]);
-    if (two) {
-        wk_i second;
-        memcpy(&second, t->parent + i, sizeof second);
-        second = second == (int32_t)pi[WK_LN - 1];
-        const float* pa = c->parent_pts + 12 * pi[0];
-        const float* pb = c->parent_pts + 12 * pi[WK_LN - 1];
+    if (!wk_any((par != p0) & (par != pl))) {
+        const wk_i second = par == pl;
+        const float* pa = c->parent_pts + 12 * (size_t)p0;
+        const float* pb = c->parent_pts + 12 * (size_t)pl;
         for (int k = 0; k < 4; ++k)
             P[k] = (wk_v3){wk_pick2(second, pa, pb, 3 * k), wk_pick2(second, pa, pb, 3 * k + 1),
                            wk_pick2(second, pa, pb, 3 * k + 2)};
-        const float* fa = fr + 18 * pi[0];
-        const float* fb = fr + 18 * pi[WK_LN - 1];
+        const float* fa = fr + 18 * (size_t)p0;
+        const float* fb = fr + 18 * (size_t)pl;
         for (int k = 0; k < 3; ++k) {
             S[k] = (wk_v3){wk_pick2(second, fa, fb, 3 * k), wk_pick2(second, fa, fb, 3 * k + 1),
                            wk_pick2(second, fa, fb, 3 * k + 2)};
@@ -254,6 +294,8 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
                            wk_pick2(second, fa, fb, 9 + 3 * k + 2)};
         }
     } else {
+        size_t pi[WK_LN];
+        for (int l = 0; l < WK_LN; ++l) pi[l] = (size_t)t->parent[i + (size_t)l];
         for (int k = 0; k < 4; ++k)
             P[k] = (wk_v3){wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k)),
                            wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k + 1)),
@@ -299,10 +341,11 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     const wk_v3 W = {U.y * V.z - U.z * V.y, U.z * V.x - U.x * V.z, U.x * V.y - U.y * V.x};
     wk_v3 Q[4];
     Q[0].x = Q[0].y = Q[0].z = wk_splat(0.0f);
-    for (int k = 0; k < 3; ++k)
-        Q[k + 1] = (wk_v3){wk_strided(t->local, i, 9, (size_t)(3 * k)),
-                           wk_strided(t->local, i, 9, (size_t)(3 * k + 1)),
-                           wk_strided(t->local, i, 9, (size_t)(3 * k + 2))};
+    wk_f loc[9];
+    wk_load_cols4(t->local + 9 * i, 9, 0, loc);
+    wk_load_cols4(t->local + 9 * i, 9, 4, loc + 4);
+    loc[8] = wk_strided(t->local, i, 9, 8);
+    for (int k = 0; k < 3; ++k) Q[k + 1] = (wk_v3){loc[3 * k], loc[3 * k + 1], loc[3 * k + 2]};
     wk_v3 F = {wk_strided(c->force, i, 3, 0), wk_strided(c->force, i, 3, 1),
                wk_strided(c->force, i, 3, 2)};
     if (c->strength != 1.0f) F = wk_scale(F, wk_splat(c->strength));
@@ -340,18 +383,13 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     }
     wk_store_rows12(t->cur + 12 * i, out);
     /* O of seed 001, eq. 8 */
-    float O[3][WK_LN];
-    const wk_f ox = side.x * -1.0f, oy = side.y * -1.0f, oz = side.z * -1.0f;
-    memcpy(O[0], &ox, sizeof ox);
-    memcpy(O[1], &oy, sizeof oy);
-    memcpy(O[2], &oz, sizeof oz);
+    const wk_f m1 = wk_splat(-1.0f);
+    wk_store_rows3(t->cur_O + 3 * i, (wk_f[4]){side.x * m1, side.y * m1, side.z * m1, m1});
     for (int l = 0; l < WK_LN; ++l) {
-        float* od = t->cur_O + 3 * (i + (size_t)l);
-        od[0] = O[0][l], od[1] = O[1][l], od[2] = O[2][l];
         if (t->has_kids[i + (size_t)l]) {
             v3 Pl[4];
             tree_load_points(t->cur, i + (size_t)l, Pl);
-            sloan_build(Pl, v3_make(O[0][l], O[1][l], O[2][l]), &t->frames[i + (size_t)l]);
+            sloan_build(Pl, tree_load3(t->cur_O, i + (size_t)l), &t->frames[i + (size_t)l]);
         }
     }
     return 1;
