@@ -45,9 +45,29 @@ WK_INL wk_f wk_ld(const float* p) {
 }
 /* a where m (all ones or all zeros per lane), else b */
 WK_INL wk_f wk_sel(wk_i m, wk_f a, wk_f b) { return (wk_f)((m & (wk_i)a) | (~m & (wk_i)b)); }
-/* exactly maxps(a, b) and minps(a, b) */
-WK_INL wk_f wk_max(wk_f a, wk_f b) { return wk_sel(a > b, a, b); }
-WK_INL wk_f wk_min(wk_f a, wk_f b) { return wk_sel(a < b, a, b); }
+/* exactly maxps(a, b) and minps(a, b), which x86 has (GCC does not see them in the select) */
+WK_INL wk_f wk_max(wk_f a, wk_f b) {
+#if defined(TSK_SIMD_KERNEL_AVX512)
+    return (wk_f)_mm512_max_ps((__m512)a, (__m512)b);
+#elif defined(TSK_SIMD_KERNEL_AVX2)
+    return (wk_f)_mm256_max_ps((__m256)a, (__m256)b);
+#elif TSK_SIMD_SSE2
+    return (wk_f)_mm_max_ps((__m128)a, (__m128)b);
+#else
+    return wk_sel(a > b, a, b);
+#endif
+}
+WK_INL wk_f wk_min(wk_f a, wk_f b) {
+#if defined(TSK_SIMD_KERNEL_AVX512)
+    return (wk_f)_mm512_min_ps((__m512)a, (__m512)b);
+#elif defined(TSK_SIMD_KERNEL_AVX2)
+    return (wk_f)_mm256_min_ps((__m256)a, (__m256)b);
+#elif TSK_SIMD_SSE2
+    return (wk_f)_mm_min_ps((__m128)a, (__m128)b);
+#else
+    return wk_sel(a < b, a, b);
+#endif
+}
 /* correctly rounded, as sqrtf */
 WK_INL wk_f wk_sqrt(wk_f a) {
 #if defined(TSK_SIMD_KERNEL_AVX512)
@@ -120,9 +140,27 @@ WK_INL wk_f wk_strided(const float* base, size_t i, size_t stride, size_t k) {
 #undef WK_S
 }
 
-/* a[k] in the lanes where m is clear, b[k] where it is set */
-WK_INL wk_f wk_pick2(wk_i m, const float* a, const float* b, int k) {
-    return wk_sel(m, wk_splat(b[k]), wk_splat(a[k]));
+/* a[k] in the lanes where m is clear, b[k] where it is set; a[k] everywhere when `same` */
+WK_INL wk_f wk_pick2(wk_i m, int same, const float* a, const float* b, int k) {
+    return same ? wk_splat(a[k]) : wk_sel(m, wk_splat(b[k]), wk_splat(a[k]));
+}
+/* The curves and Sloan frames (S[3], T[3]: 18 floats) of parents pa (lanes where m is clear)
+ * and pb (where it is set); `same` (a constant where called) when pa == pb. */
+WK_INL void wk_load_parents(const tree_wind_ctx* c, int32_t pa, int32_t pb, wk_i m, int same,
+                            wk_v3 P[4], wk_v3 S[3], wk_v3 T[3]) {
+    const float* a = c->parent_pts + 12 * (size_t)pa;
+    const float* b = c->parent_pts + 12 * (size_t)pb;
+    for (int k = 0; k < 4; ++k)
+        P[k] = (wk_v3){wk_pick2(m, same, a, b, 3 * k), wk_pick2(m, same, a, b, 3 * k + 1),
+                       wk_pick2(m, same, a, b, 3 * k + 2)};
+    a = (const float*)&c->parent_frames[pa];
+    b = (const float*)&c->parent_frames[pb];
+    for (int k = 0; k < 3; ++k) {
+        S[k] = (wk_v3){wk_pick2(m, same, a, b, 3 * k), wk_pick2(m, same, a, b, 3 * k + 1),
+                       wk_pick2(m, same, a, b, 3 * k + 2)};
+        T[k] = (wk_v3){wk_pick2(m, same, a, b, 9 + 3 * k), wk_pick2(m, same, a, b, 9 + 3 * k + 1),
+                       wk_pick2(m, same, a, b, 9 + 3 * k + 2)};
+    }
 }
 
 /* x86: 4x4 transposes inside every 128-bit lane of the vectors, for the records the kernel
@@ -203,6 +241,30 @@ WK_INL wk_f wk_ld_lanes4(const float* p, size_t step) {
 #endif
 }
 
+/* The 3 components of LN contiguous records of 3 floats: c[k][l] = p[3 * l + k]. The wide
+ * (GCC-only) units permute 3 whole vectors; the portable one builds them from scalars. */
+WK_INL void wk_load_rows3(const float* p, wk_f c[3]) {
+#if WK_LN > 4
+    const wk_f a = wk_ld(p), b = wk_ld(p + WK_LN), d = wk_ld(p + 2 * WK_LN);
+    /* first the lanes found in a or b, then those in d */
+#define WK_M1(l) (3 * (l) + K < 2 * WK_LN ? 3 * (l) + K : 0)
+#define WK_M2(l) (3 * (l) + K < 2 * WK_LN ? (l) : 3 * (l) + K - WK_LN)
+#define K 0
+    c[0] = __builtin_shuffle(__builtin_shuffle(a, b, WK_MAKEI(WK_M1)), d, WK_MAKEI(WK_M2));
+#undef K
+#define K 1
+    c[1] = __builtin_shuffle(__builtin_shuffle(a, b, WK_MAKEI(WK_M1)), d, WK_MAKEI(WK_M2));
+#undef K
+#define K 2
+    c[2] = __builtin_shuffle(__builtin_shuffle(a, b, WK_MAKEI(WK_M1)), d, WK_MAKEI(WK_M2));
+#undef K
+#undef WK_M1
+#undef WK_M2
+#else
+    for (int k = 0; k < 3; ++k) c[k] = wk_strided(p, 0, 3, (size_t)k);
+#endif
+}
+
 /* Components k0 .. k0+3 of LN contiguous records of `stride` (>= k0 + 4) floats:
  * c[q][l] = p[stride * l + k0 + q]. */
 WK_INL void wk_load_cols4(const float* p, size_t stride, size_t k0, wk_f c[4]) {
@@ -275,24 +337,12 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     /* the parents' curves and Sloan frames (18 floats: S[3], T[3]) */
     wk_v3 P[4], S[3], T[3];
     const float* fr = (const float*)c->parent_frames;
-    /* parents never decrease: a block mostly shares one, or spans two (siblings of one
-     * parent, then of the next), whose records are broadcast and chosen per lane */
-    if (!wk_any((par != p0) & (par != pl))) {
-        const wk_i second = par == pl;
-        const float* pa = c->parent_pts + 12 * (size_t)p0;
-        const float* pb = c->parent_pts + 12 * (size_t)pl;
-        for (int k = 0; k < 4; ++k)
-            P[k] = (wk_v3){wk_pick2(second, pa, pb, 3 * k), wk_pick2(second, pa, pb, 3 * k + 1),
-                           wk_pick2(second, pa, pb, 3 * k + 2)};
-        const float* fa = fr + 18 * (size_t)p0;
-        const float* fb = fr + 18 * (size_t)pl;
-        for (int k = 0; k < 3; ++k) {
-            S[k] = (wk_v3){wk_pick2(second, fa, fb, 3 * k), wk_pick2(second, fa, fb, 3 * k + 1),
-                           wk_pick2(second, fa, fb, 3 * k + 2)};
-            T[k] = (wk_v3){wk_pick2(second, fa, fb, 9 + 3 * k),
-                           wk_pick2(second, fa, fb, 9 + 3 * k + 1),
-                           wk_pick2(second, fa, fb, 9 + 3 * k + 2)};
-        }
+    /* siblings are contiguous: a block mostly shares one parent, or spans two, whose records
+     * are broadcast (and chosen per lane) */
+    if (!wk_any(par != p0)) {
+        wk_load_parents(c, p0, p0, par == pl, 1, P, S, T);
+    } else if (!wk_any((par != p0) & (par != pl))) {
+        wk_load_parents(c, p0, pl, par == pl, 0, P, S, T);
     } else {
         size_t pi[WK_LN];
         for (int l = 0; l < WK_LN; ++l) pi[l] = (size_t)t->parent[i + (size_t)l];
@@ -346,8 +396,9 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     wk_load_cols4(t->local + 9 * i, 9, 4, loc + 4);
     loc[8] = wk_strided(t->local, i, 9, 8);
     for (int k = 0; k < 3; ++k) Q[k + 1] = (wk_v3){loc[3 * k], loc[3 * k + 1], loc[3 * k + 2]};
-    wk_v3 F = {wk_strided(c->force, i, 3, 0), wk_strided(c->force, i, 3, 1),
-               wk_strided(c->force, i, 3, 2)};
+    wk_f fc[3];
+    wk_load_rows3(c->force + 3 * i, fc);
+    wk_v3 F = {fc[0], fc[1], fc[2]};
     if (c->strength != 1.0f) F = wk_scale(F, wk_splat(c->strength));
     const wk_f zero = wk_splat(0.0f);
     const wk_i nonzero = (F.x != zero) | (F.y != zero) | (F.z != zero);
