@@ -140,27 +140,54 @@ WK_INL wk_f wk_strided(const float* base, size_t i, size_t stride, size_t k) {
 #undef WK_S
 }
 
-/* a[k] in the lanes where m is clear, b[k] where it is set; a[k] everywhere when `same` */
-WK_INL wk_f wk_pick2(wk_i m, int same, const float* a, const float* b, int k) {
-    return same ? wk_splat(a[k]) : wk_sel(m, wk_splat(b[k]), wk_splat(a[k]));
+/* Where a block's parents are read: all lanes one parent (WK_ONE: its record a, broadcast),
+ * two (WK_TWO: a where m is clear, b where it is set), or any (WK_ANY: records pi[l] of the
+ * array base of `stride` floats). */
+enum { WK_ONE, WK_TWO, WK_ANY };
+typedef struct wk_src {
+    const float *a, *b, *base;
+    const size_t* pi;
+    size_t stride;
+    wk_i m;
+} wk_src;
+WK_INL wk_f wk_fetch(int mode, const wk_src* r, int k) {
+    if (mode == WK_ONE) return wk_splat(r->a[k]);
+    if (mode == WK_TWO) return wk_sel(r->m, wk_splat(r->b[k]), wk_splat(r->a[k]));
+    return wk_gather(r->base, r->pi, r->stride, (size_t)k);
 }
-/* The curves and Sloan frames (S[3], T[3]: 18 floats) of parents pa (lanes where m is clear)
- * and pb (where it is set); `same` (a constant where called) when pa == pb. */
-WK_INL void wk_load_parents(const tree_wind_ctx* c, int32_t pa, int32_t pb, wk_i m, int same,
-                            wk_v3 P[4], wk_v3 S[3], wk_v3 T[3]) {
-    const float* a = c->parent_pts + 12 * (size_t)pa;
-    const float* b = c->parent_pts + 12 * (size_t)pb;
-    for (int k = 0; k < 4; ++k)
-        P[k] = (wk_v3){wk_pick2(m, same, a, b, 3 * k), wk_pick2(m, same, a, b, 3 * k + 1),
-                       wk_pick2(m, same, a, b, 3 * k + 2)};
-    a = (const float*)&c->parent_frames[pa];
-    b = (const float*)&c->parent_frames[pb];
-    for (int k = 0; k < 3; ++k) {
-        S[k] = (wk_v3){wk_pick2(m, same, a, b, 3 * k), wk_pick2(m, same, a, b, 3 * k + 1),
-                       wk_pick2(m, same, a, b, 3 * k + 2)};
-        T[k] = (wk_v3){wk_pick2(m, same, a, b, 9 + 3 * k), wk_pick2(m, same, a, b, 9 + 3 * k + 1),
-                       wk_pick2(m, same, a, b, 9 + 3 * k + 2)};
-    }
+WK_INL wk_v3 wk_fetch3(int mode, const wk_src* r, int k) {
+    return (wk_v3){wk_fetch(mode, r, k), wk_fetch(mode, r, k + 1), wk_fetch(mode, r, k + 2)};
+}
+
+/* What the kernel needs of the parents at u (bez_point, bez_deriv and sloan_at's blends of
+ * S and T), computed where they are read so that their 30 vectors are not all live at once;
+ * `mode` is a constant where called. */
+typedef struct wk_terms {
+    wk_v3 origin, der, Sv, Tv;
+} wk_terms;
+WK_INL wk_terms wk_parent_terms(int mode, wk_src pts, wk_src frames, wk_f u) {
+    wk_terms o;
+    wk_v3 P[4];
+    for (int k = 0; k < 4; ++k) P[k] = wk_fetch3(mode, &pts, 3 * k);
+    /* tree_attach_frame: origin = bez_point */
+    const wk_f s = wk_splat(1.0f) - u;
+    const wk_f b0 = s * s * s, b1 = 3.0f * s * s * u, b2 = 3.0f * s * u * u, b3 = u * u * u;
+    o.origin.x = P[0].x * b0 + P[1].x * b1 + P[2].x * b2 + P[3].x * b3;
+    o.origin.y = P[0].y * b0 + P[1].y * b1 + P[2].y * b2 + P[3].y * b3;
+    o.origin.z = P[0].z * b0 + P[1].z * b1 + P[2].z * b2 + P[3].z * b3;
+    const wk_f d0 = 3.0f * s * s, d1 = 6.0f * s * u, d2 = 3.0f * u * u;
+    const wk_v3 ea = wk_sub(P[1], P[0]), eb = wk_sub(P[2], P[1]), ec = wk_sub(P[3], P[2]);
+    o.der = (wk_v3){ea.x * d0 + eb.x * d1 + ec.x * d2, ea.y * d0 + eb.y * d1 + ec.y * d2,
+                    ea.z * d0 + eb.z * d1 + ec.z * d2};
+    /* sloan_at: quadratic Bernstein blend of the handles (bern2); frames are S[3], T[3] */
+    const wk_f q0 = s * s, q1 = 2.0f * s * u, q2 = u * u;
+    o.Sv = wk_add(wk_add(wk_scale(wk_fetch3(mode, &frames, 0), q0),
+                         wk_scale(wk_fetch3(mode, &frames, 3), q1)),
+                  wk_scale(wk_fetch3(mode, &frames, 6), q2));
+    o.Tv = wk_add(wk_add(wk_scale(wk_fetch3(mode, &frames, 9), q0),
+                         wk_scale(wk_fetch3(mode, &frames, 12), q1)),
+                  wk_scale(wk_fetch3(mode, &frames, 15), q2));
+    return o;
 }
 
 /* x86: 4x4 transposes inside every 128-bit lane of the vectors, for the records the kernel
@@ -333,54 +360,30 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     if (wk_any(par < 0)) return 0; /* a trunk */
     const int32_t p0 = t->parent[i], pl = t->parent[i + WK_LN - 1];
     wk_i bad = {0};
-    const wk_f one = wk_splat(1.0f);
-    /* the parents' curves and Sloan frames (18 floats: S[3], T[3]) */
-    wk_v3 P[4], S[3], T[3];
+    const wk_f u = wk_ld(t->attach_v + i);
     const float* fr = (const float*)c->parent_frames;
-    /* siblings are contiguous: a block mostly shares one parent, or spans two, whose records
-     * are broadcast (and chosen per lane) */
+    wk_src pts = {c->parent_pts + 12 * (size_t)p0, c->parent_pts + 12 * (size_t)pl,
+                  c->parent_pts, NULL, 12, par == pl};
+    wk_src frames = {fr + 18 * (size_t)p0, fr + 18 * (size_t)pl, fr, NULL, 18, par == pl};
+    /* siblings are contiguous: a block mostly shares one parent, or spans two */
+    wk_terms pt;
     if (!wk_any(par != p0)) {
-        wk_load_parents(c, p0, p0, par == pl, 1, P, S, T);
+        pt = wk_parent_terms(WK_ONE, pts, frames, u);
     } else if (!wk_any((par != p0) & (par != pl))) {
-        wk_load_parents(c, p0, pl, par == pl, 0, P, S, T);
+        pt = wk_parent_terms(WK_TWO, pts, frames, u);
     } else {
         size_t pi[WK_LN];
         for (int l = 0; l < WK_LN; ++l) pi[l] = (size_t)t->parent[i + (size_t)l];
-        for (int k = 0; k < 4; ++k)
-            P[k] = (wk_v3){wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k)),
-                           wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k + 1)),
-                           wk_gather(c->parent_pts, pi, 12, (size_t)(3 * k + 2))};
-        for (int k = 0; k < 3; ++k) {
-            S[k] = (wk_v3){wk_gather(fr, pi, 18, (size_t)(3 * k)),
-                           wk_gather(fr, pi, 18, (size_t)(3 * k + 1)),
-                           wk_gather(fr, pi, 18, (size_t)(3 * k + 2))};
-            T[k] = (wk_v3){wk_gather(fr, pi, 18, (size_t)(9 + 3 * k)),
-                           wk_gather(fr, pi, 18, (size_t)(9 + 3 * k + 1)),
-                           wk_gather(fr, pi, 18, (size_t)(9 + 3 * k + 2))};
-        }
+        pts.pi = frames.pi = pi;
+        pt = wk_parent_terms(WK_ANY, pts, frames, u);
     }
-    const wk_f u = wk_ld(t->attach_v + i);
+    const wk_v3 origin = pt.origin, der = pt.der, Sv = pt.Sv, Tv = pt.Tv;
     wk_f trig[4];
     wk_load_rows4(t->trig + 4 * i, trig);
     const wk_f ct = trig[0], st = trig[1], ca = trig[2], sa = trig[3];
-    /* tree_attach_frame: origin = bez_point */
-    const wk_f s = one - u;
-    const wk_f b0 = s * s * s, b1 = 3.0f * s * s * u, b2 = 3.0f * s * u * u, b3 = u * u * u;
-    wk_v3 origin;
-    origin.x = P[0].x * b0 + P[1].x * b1 + P[2].x * b2 + P[3].x * b3;
-    origin.y = P[0].y * b0 + P[1].y * b1 + P[2].y * b2 + P[3].y * b3;
-    origin.z = P[0].z * b0 + P[1].z * b1 + P[2].z * b2 + P[3].z * b3;
     /* U = normalize(bez_deriv); where it is degenerate (the chord fallback) the block goes
      * one branch at a time */
-    const wk_f d0 = 3.0f * s * s, d1 = 6.0f * s * u, d2 = 3.0f * u * u;
-    const wk_v3 ea = wk_sub(P[1], P[0]), eb = wk_sub(P[2], P[1]), ec = wk_sub(P[3], P[2]);
-    const wk_v3 der = {ea.x * d0 + eb.x * d1 + ec.x * d2, ea.y * d0 + eb.y * d1 + ec.y * d2,
-                       ea.z * d0 + eb.z * d1 + ec.z * d2};
     const wk_v3 U = wk_norm(der, &bad);
-    /* sloan_at: quadratic Bernstein blend of the handles (bern2) */
-    const wk_f q0 = s * s, q1 = 2.0f * s * u, q2 = u * u;
-    const wk_v3 Sv = wk_add(wk_add(wk_scale(S[0], q0), wk_scale(S[1], q1)), wk_scale(S[2], q2));
-    const wk_v3 Tv = wk_add(wk_add(wk_scale(T[0], q0), wk_scale(T[1], q1)), wk_scale(T[2], q2));
     wk_v3 D = wk_comb(Sv, st, Tv, ct);
     D = wk_sub(D, wk_scale(U, wk_dot(D, U)));
     const wk_v3 V = wk_norm(D, &bad);
