@@ -5,7 +5,9 @@
  * are used, and no fused multiply-add (the one-branch path has none, and -ffp-contract=off
  * keeps the compiler from making any), so a branch gets the same bytes whichever kernel poses
  * it (test_wind_simd_path_equals_scalar_path). Values are GCC/Clang vector extensions of one
- * register; square roots and "any lane" tests use the instruction set's own instructions.
+ * register; square roots, min/max, "any lane" tests and the transposes that move whole records
+ * in and out use the instruction set's own instructions (the permutes of the wide units are
+ * GCC's __builtin_shuffle: only GCC compiles those units).
  *
  * The includer defines TREE_KFN(name), the name with its instruction set's suffix. */
 #include <string.h>
@@ -246,7 +248,8 @@ WK_INL void wk_store_rows3(float* dst, const wk_f out[4]) {
     /* c[j]'s 128-bit lane h: branch 4h + j */
     for (int h = 0; h < WK_LN / 4; ++h)
         for (int j = 0; j < 4; ++j)
-            memcpy(dst + 3 * (4 * h + j), (const float*)&c[j] + 4 * h, 4 * h + j < WK_LN - 1 ? 16 : 12);
+            memcpy(dst + 3 * (4 * h + j), (const float*)&c[j] + 4 * h,
+                   4 * h + j < WK_LN - 1 ? 16 : 12);
 #else
     for (int l = 0; l < WK_LN; ++l)
         for (int k = 0; k < 3; ++k) dst[3 * l + k] = out[k][l];
@@ -261,7 +264,8 @@ WK_INL wk_f wk_ld_lanes4(const float* p, size_t step) {
     v = _mm512_insertf32x4(v, _mm_loadu_ps(p + 2 * step), 2);
     return (wk_f)_mm512_insertf32x4(v, _mm_loadu_ps(p + 3 * step), 3);
 #elif defined(TSK_SIMD_KERNEL_AVX2)
-    return (wk_f)_mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(p)), _mm_loadu_ps(p + step), 1);
+    return (wk_f)_mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(p)),
+                                      _mm_loadu_ps(p + step), 1);
 #else
     (void)step;
     return wk_ld(p);
@@ -340,7 +344,7 @@ WK_INL wk_f wk_bend_pow(wk_f m, float e) {
     y = wk_max(y, wk_splat(-126.0f));
     y = wk_min(y, wk_splat(126.0f));
     wk_f n = __builtin_convertvector(__builtin_convertvector(y, wk_i), wk_f); /* truncation */
-    n = n - (wk_f)((n > y) & (wk_i)one);                                       /* then floor */
+    n = n - (wk_f)((n > y) & (wk_i)one); /* then floor */
     const wk_f f = (y - n) * 0.693147181f;
     wk_f p = 0.00138888889f + f * 0.000198412698f;
     p = 0.00833333333f + f * p;
@@ -362,8 +366,12 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     wk_i bad = {0};
     const wk_f u = wk_ld(t->attach_v + i);
     const float* fr = (const float*)c->parent_frames;
-    wk_src pts = {c->parent_pts + 12 * (size_t)p0, c->parent_pts + 12 * (size_t)pl,
-                  c->parent_pts, NULL, 12, par == pl};
+    wk_src pts = {c->parent_pts + 12 * (size_t)p0,
+                  c->parent_pts + 12 * (size_t)pl,
+                  c->parent_pts,
+                  NULL,
+                  12,
+                  par == pl};
     wk_src frames = {fr + 18 * (size_t)p0, fr + 18 * (size_t)pl, fr, NULL, 18, par == pl};
     /* siblings are contiguous: a block mostly shares one parent, or spans two */
     wk_terms pt;
