@@ -447,7 +447,14 @@ int TREE_KFN(tree_wind_block)(const tree_wind_ctx* c, size_t i) {
     /* O of seed 001, eq. 8 */
     const wk_f m1 = wk_splat(-1.0f);
     wk_store_rows3(t->cur_O + 3 * i, (wk_f[4]){side.x * m1, side.y * m1, side.z * m1, m1});
-    for (int l = 0; l < WK_LN; ++l) {
+    /* most blocks are twigs without children: one test of their LN flags */
+    uint32_t kids = 0;
+    for (int w = 0; w < WK_LN; w += 4) {
+        uint32_t x;
+        memcpy(&x, t->has_kids + i + (size_t)w, sizeof x);
+        kids |= x;
+    }
+    for (int l = 0; kids && l < WK_LN; ++l) {
         if (t->has_kids[i + (size_t)l]) {
             v3 Pl[4];
             tree_load_points(t->cur, i + (size_t)l, Pl);
