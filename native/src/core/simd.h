@@ -52,9 +52,12 @@
 
 /* The instruction sets of the kernel units (x86-64-v3 and x86-64-v4, which tsk_simd_isa checks
  * for): function attributes for everything that follows in the unit. */
+/* _Pragma takes one string literal, which clang-format must not split */
+/* clang-format off */
 #define TSK_SIMD_TARGET_AVX2 _Pragma("GCC target(\"avx2,fma,f16c,bmi,bmi2,lzcnt,popcnt\")")
 #define TSK_SIMD_TARGET_AVX512 \
     _Pragma("GCC target(\"fma,avx512f,avx512vl,avx512bw,avx512dq,avx512cd,avx2,f16c,bmi,bmi2,lzcnt,popcnt\")")
+/* clang-format on */
 
 enum { TSK_ISA_PORTABLE = 0, TSK_ISA_AVX2 = 1, TSK_ISA_AVX512 = 2 };
 

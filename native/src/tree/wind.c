@@ -77,16 +77,17 @@ static void step_range(size_t b, size_t e, size_t chunk, void* vctx) {
     size_t k = b;
     switch (tsk_simd_isa()) {
 #if TSK_SIMD_X86_PATHS
-    case TSK_ISA_AVX512:
-        for (; k + 16 <= e; k += 16)
-            if (!tree_wind_block_avx512(c, c->base + k)) step_portable(c, k, k + 16);
-        break;
-    case TSK_ISA_AVX2:
-        for (; k + 8 <= e; k += 8)
-            if (!tree_wind_block_avx2(c, c->base + k)) step_portable(c, k, k + 8);
-        break;
+        case TSK_ISA_AVX512:
+            for (; k + 16 <= e; k += 16)
+                if (!tree_wind_block_avx512(c, c->base + k)) step_portable(c, k, k + 16);
+            break;
+        case TSK_ISA_AVX2:
+            for (; k + 8 <= e; k += 8)
+                if (!tree_wind_block_avx2(c, c->base + k)) step_portable(c, k, k + 8);
+            break;
 #endif
-    default: break;
+        default:
+            break;
     }
     step_portable(c, k, e);
 }
@@ -96,8 +97,8 @@ tsk_status tsk_tree_wind_step(tsk_tree* t, const float* force, const tsk_tree_wi
     if (force == NULL && t->n > 0) return tsk_error_arg(TSK_ERR_ARGUMENT, "force", "is NULL");
     tsk_tree_wind_def w = wind ? *wind : tsk_default_tree_wind_def();
     if (w.mode != TSK_TREE_WIND_LAGGED && w.mode != TSK_TREE_WIND_EXACT)
-        return tsk_error_arg(TSK_ERR_ARGUMENT, "wind.mode", "must be 0 (lagged) or 1 (exact), got %d",
-                             w.mode);
+        return tsk_error_arg(TSK_ERR_ARGUMENT, "wind.mode",
+                             "must be 0 (lagged) or 1 (exact), got %d", w.mode);
     if (!isfinite(w.strength) || w.strength < 0.0f || w.strength > 1e6f)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "wind.strength", "must be in [0, 1e6], got %g",
                              (double)w.strength);
@@ -119,8 +120,8 @@ tsk_status tsk_tree_wind_step(tsk_tree* t, const float* force, const tsk_tree_wi
     }
     if (w.length_power != t->inv_l_power) tree_set_length_power(t, w.length_power);
     t->at_rest = 0;
-    tree_wind_ctx c = {t, force, NULL, NULL, w.strength, w.bend_power,
-                  powf(1.0f / 3.0f, w.bend_power), 0};
+    tree_wind_ctx c = {
+        t, force, NULL, NULL, w.strength, w.bend_power, powf(1.0f / 3.0f, w.bend_power), 0};
     if (w.mode == TSK_TREE_WIND_LAGGED) {
         /* seed §4: parents from the last step; swap so that prev holds the last pose */
         float* tmp = t->prev;
