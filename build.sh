@@ -209,7 +209,7 @@ run_python_tests() {
 # the C and C++ of native/ (.clang-format); a file either would change is a failure.
 run_lint() {
   local out files
-  if out="$(cd "$ROOT" && flake8 addon tools tests blender_tests 2>&1)"; then
+  if out="$(cd "$ROOT" && flake8 addon tools tests blender_tests native/tests 2>&1)"; then
     PASSED=$((PASSED + 1)); printf "%-8s %-28s passed\n" lint flake8
   else
     printf '%s\n' "$out"; FAILED=$((FAILED + 1)); printf "%-8s %-28s FAILED\n" lint flake8

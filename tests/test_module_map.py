@@ -6,16 +6,9 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
 import module_map  # noqa: E402
-
-TESTS = []
-
-
-def test(fn):
-    TESTS.append(fn)
-    return fn
+import harness  # noqa: E402
 
 
-@test
 def test_every_module_says_what_it_is():
     groups = module_map.modules()
     names = {f"{d}/{n}" for d, items in groups for n, _ in items}
@@ -26,7 +19,6 @@ def test_every_module_says_what_it_is():
     assert module_map.undocumented(groups) == [], module_map.undocumented(groups)
 
 
-@test
 def test_summaries_come_from_the_files():
     files = ["addon/compat.py", "native/src/bake/pc2.c", "addon/farm/__pycache__/x.py",
              "native/fuzz/corpus/sim/a.c"]
@@ -36,7 +28,6 @@ def test_summaries_come_from_the_files():
     assert groups["native/src/bake"][0][1].startswith("Point Cache 2 (.pc2) files"), groups
 
 
-@test
 def test_doc_map_is_what_the_code_gives():
     with open(module_map.DOC, encoding="utf-8") as f:
         text = f.read()
@@ -45,18 +36,5 @@ def test_doc_map_is_what_the_code_gives():
                          "python3 tools/module_map.py write")
 
 
-def main():
-    passed = failed = 0
-    for fn in TESTS:
-        try:
-            fn()
-            passed += 1
-        except Exception as e:  # every failure is reported; the count is the verdict
-            failed += 1
-            print(f"FAIL {fn.__name__}: {type(e).__name__}: {e}")
-    print(f"{passed} passed, {failed} failed")
-    return 1 if failed else 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(harness.run(globals()))

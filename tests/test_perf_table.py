@@ -8,6 +8,7 @@ import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
 import perf_table  # noqa: E402
+import harness  # noqa: E402
 
 CPUINFO = """processor\t: 0
 model name\t: AMD EPYC 9R14 96-Core Processor
@@ -16,15 +17,8 @@ processor\t: 1
 model name\t: AMD EPYC 9R14 96-Core Processor
 flags\t\t: fpu sse2 avx2 avx512f
 """
-TESTS = []
 
 
-def test(fn):
-    TESTS.append(fn)
-    return fn
-
-
-@test
 def test_host_from_cpuinfo():
     info = perf_table.cpu_info(CPUINFO)
     assert info == ("AMD EPYC 9R14 96-Core Processor", "AVX-512", 2), info
@@ -34,7 +28,6 @@ def test_host_from_cpuinfo():
     assert perf_table.host_slug(avx2) == "xeon-avx2-2cpu", perf_table.host_slug(avx2)
 
 
-@test
 def test_record_keeps_bench_lines_only_with_provenance():
     lines = io.StringIO(
         "Blender 3.4.1 (hash)\n"
@@ -57,7 +50,6 @@ def test_record_keeps_bench_lines_only_with_provenance():
                    and r["commit"] == "abc1234" and r["load"] == 0.5 for r in rows)
 
 
-@test
 def test_table_latest_line_targets_and_peer_ratio():
     base = {"params": {}, "host": "H", "commit": "c1", "load": None, "source": "t"}
     recs = [dict(base, name="blade_sim_1M", value=60.0, unit="ns per blade-step", date="2026-12-01",
@@ -84,7 +76,6 @@ def test_table_latest_line_targets_and_peer_ratio():
     assert "blender_particle_hair: 55,000 ns per blade-step (1,392×)" in rows[2], rows[2]
 
 
-@test
 def test_doc_table_is_what_the_records_give():
     with open(perf_table.DOC, encoding="utf-8") as f:
         text = f.read()
@@ -96,18 +87,5 @@ def test_doc_table_is_what_the_records_give():
         assert f"| `{name}` |" in text, name
 
 
-def main():
-    passed = failed = 0
-    for fn in TESTS:
-        try:
-            fn()
-            passed += 1
-        except Exception as e:  # every failure is reported; the count is the verdict
-            failed += 1
-            print(f"FAIL {fn.__name__}: {type(e).__name__}: {e}")
-    print(f"{passed} passed, {failed} failed")
-    return 1 if failed else 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(harness.run(globals()))

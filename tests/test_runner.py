@@ -17,6 +17,7 @@ sys.modules.setdefault("tussock", _pkg)
 
 from tussock import native  # noqa: E402
 from tussock.meadow import solver  # noqa: E402
+import harness  # noqa: E402
 
 FPS = 24.0
 FRAMES = 24
@@ -172,22 +173,5 @@ def test_steps_per_frame_follow_the_frame_rate():
             raise AssertionError(bad)
 
 
-def main():
-    names = [n for n in sorted(globals()) if n.startswith("test_")]
-    chosen = [n for n in names if not sys.argv[1:] or any(a in n for a in sys.argv[1:])]
-    failed = 0
-    for name in chosen:
-        try:
-            globals()[name]()
-            print(f"ok   {name}")
-        except Exception:  # noqa: BLE001 - every test runs; the failure is printed
-            import traceback
-            traceback.print_exc()
-            print(f"FAIL {name}")
-            failed += 1
-    print(f"{len(chosen) - failed} passed, {failed} failed")
-    return 1 if failed else 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(harness.run(globals()))

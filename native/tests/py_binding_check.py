@@ -4,23 +4,13 @@ rolling ball, stepped by two Python threads through one simulation handle: the o
 without the GIL makes the handle busy, the other gets tussock.Error instead of a race, and the
 steps that ran give the bytes of the same number of steps on one thread.
 Prints 'N passed, N failed' last."""
-import sys
 import threading
 
 import numpy as np
 
 import _tussock as t
 
-passed = failed = 0
-
-
-def check(cond, what):
-    global passed, failed
-    if cond:
-        passed += 1
-    else:
-        failed += 1
-        print("FAIL", what)
+from pycheck import check, finish  # noqa: E402
 
 
 def error_of(fn):
@@ -222,5 +212,4 @@ t.refine_simulate(knots.ravel(), widths, 3, given, air_density=0.0)
 check(base.tobytes() != given.tobytes(), "air density matters")
 check(t.allocated_bytes() >= 0, "alive")
 
-print("%d passed, %d failed" % (passed, failed))
-sys.exit(1 if failed else 0)
+finish()

@@ -4,23 +4,13 @@ round-trips it through a PNG, captures it, and checks counts, shapes, errors and
 Prints 'N passed, N failed' last."""
 import math
 import os
-import sys
 import tempfile
 
 import numpy as np
 
 import _tussock as t
 
-passed = failed = 0
-
-
-def check(cond, what):
-    global passed, failed
-    if cond:
-        passed += 1
-    else:
-        failed += 1
-        print("FAIL", what)
+from pycheck import check, finish  # noqa: E402
 
 
 W, H = 640, 480
@@ -115,5 +105,4 @@ for _ in range(400):
 check(got == 1 and abs(dbuf[0] - 2.0) < 1e-6, "dummy device frame")
 t.depth_stop(dev)
 del dev
-print("%d passed, %d failed" % (passed, failed))
-sys.exit(1 if failed else 0)
+finish()

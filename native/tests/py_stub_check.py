@@ -12,16 +12,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "tools"))
 import gen_pyi  # noqa: E402
 
-passed = failed = 0
-
-
-def check(cond, what):
-    global passed, failed
-    if cond:
-        passed += 1
-    else:
-        failed += 1
-        print("FAIL", what)
+from pycheck import check, finish  # noqa: E402
 
 
 text = gen_pyi.generate(_tussock)
@@ -36,5 +27,4 @@ check(defs == exported, "stub and module name the same functions: %s" % sorted(d
 check(len(defs) >= 90, "%d functions" % len(defs))
 classes = {n.name for n in tree.body if isinstance(n, ast.ClassDef)}
 check({"Error", "Handle"} <= classes, "classes %s" % classes)
-print("%d passed, %d failed" % (passed, failed))
-sys.exit(1 if failed else 0)
+finish()
