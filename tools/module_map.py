@@ -16,6 +16,8 @@ import re
 import subprocess
 import sys
 
+import generated_block
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DOC = os.path.join(ROOT, "docs", "architecture.md")
 BEGIN, END = "<!-- module-map -->", "<!-- /module-map -->"
@@ -110,11 +112,7 @@ def render(groups):
 
 
 def render_doc(text, body):
-    if BEGIN not in text or END not in text:
-        raise ValueError(f"{DOC} has no '{BEGIN}' … '{END}' lines")
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    return f"{head}{BEGIN}\n{body}\n{END}{tail}"
+    return generated_block.splice(text, BEGIN, END, body, DOC)
 
 
 def undocumented(groups):
@@ -127,20 +125,10 @@ def main(argv):
     if cmd not in ("write", "check"):
         print(__doc__, file=sys.stderr)
         return 2
-    with open(DOC, encoding="utf-8") as f:
-        text = f.read()
-    groups = modules()
-    new = render_doc(text, render(groups))
-    if cmd == "write":
-        if new != text:
-            with open(DOC, "w", encoding="utf-8") as f:
-                f.write(new)
-        return 0
-    bad = new != text
-    if bad:
-        print("docs/architecture.md: the module map is not what the code gives; run "
-              "`python3 tools/module_map.py write`", file=sys.stderr)
-    return 1 if bad else 0
+    return generated_block.write_or_check(
+        cmd, DOC, lambda text: render_doc(text, render(modules())),
+        "docs/architecture.md: the module map is not what the code gives; run "
+        "`python3 tools/module_map.py write`")
 
 
 if __name__ == "__main__":

@@ -22,6 +22,8 @@ import re
 import subprocess
 import sys
 
+import generated_block
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PERF = os.path.join(ROOT, "docs", "perf")
 DOC = os.path.join(ROOT, "docs", "performance.md")
@@ -253,11 +255,7 @@ def table(records, targets):
 
 
 def render_doc(text, tbl):
-    if BEGIN not in text or END not in text:
-        raise ValueError(f"{DOC} has no '{BEGIN}' … '{END}' lines")
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    return f"{head}{BEGIN}\n{tbl}\n{END}{tail}"
+    return generated_block.splice(text, BEGIN, END, tbl, DOC)
 
 
 def main(argv):
@@ -270,19 +268,10 @@ def main(argv):
     if cmd not in ("write", "check"):
         print(__doc__, file=sys.stderr)
         return 2
-    with open(DOC, encoding="utf-8") as f:
-        text = f.read()
-    new = render_doc(text, table(load_records(), load_targets()))
-    if cmd == "write":
-        if new != text:
-            with open(DOC, "w", encoding="utf-8") as f:
-                f.write(new)
-        return 0
-    if new != text:
-        print("docs/performance.md: the table is not what docs/perf/*.jsonl gives; run "
-              "`python3 tools/perf_table.py write`", file=sys.stderr)
-        return 1
-    return 0
+    return generated_block.write_or_check(
+        cmd, DOC, lambda text: render_doc(text, table(load_records(), load_targets())),
+        "docs/performance.md: the table is not what docs/perf/*.jsonl gives; run "
+        "`python3 tools/perf_table.py write`")
 
 
 if __name__ == "__main__":
