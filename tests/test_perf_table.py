@@ -51,7 +51,8 @@ def test_record_keeps_bench_lines_only_with_provenance():
 
 
 def test_table_latest_line_targets_and_peer_ratio():
-    base = {"params": {}, "host": "H", "commit": "c1", "load": None, "source": "t"}
+    base = {"params": {}, "host": "H, AVX-512, 2 vCPUs", "commit": "c1", "load": None,
+            "source": "t"}
     recs = [dict(base, name="blade_sim_1M", value=60.0, unit="ns per blade-step", date="2026-12-01",
                  blender=None),
             dict(base, name="blade_sim_1M", value=39.5, unit="ns per blade-step", date="2026-12-03",
@@ -59,6 +60,8 @@ def test_table_latest_line_targets_and_peer_ratio():
             dict(base, name="blade_sim_1M", value=55000.0, unit="ns per blade-step",
                  date="2026-12-03",
                  blender=None, commit="c2", peer="blender_particle_hair"),
+            dict(base, name="blade_sim_1M", value=151.0, unit="ns per blade-step",
+                 date="2026-12-04", blender=None, commit="c3", host="E, AVX2 only, 2 vCPUs"),
             dict(base, name="blade_playback", value=26.0, unit="fps", date="2026-12-03",
                  blender="3.4.1"),
             dict(base, name="blade_playback", value=26.0, unit="fps", date="2026-12-03",
@@ -69,11 +72,15 @@ def test_table_latest_line_targets_and_peer_ratio():
                                   "by_blender": {"4": ">= 30", "5": ">= 30"}},
                "blade_sim_1M": {"target": "<= 40", "better": "lower"}}
     rows = perf_table.table(recs, targets).splitlines()[2:]
-    assert len(rows) == 3, rows  # one line per name and Blender; the older 60 ns run is gone
+    # one line per name, Blender and vector width; the older 60 ns run is gone, and the
+    # later AVX2-only host's line stands after the AVX-512 one instead of over it
+    assert len(rows) == 4, rows
     assert rows[0].startswith("| `blade_playback` | 3.4.1 | ≥ 24 | **26 fps** |"), rows[0]
     assert "**26 fps** (misses)" in rows[1] and "| 5.2.2 | ≥ 30 |" in rows[1], rows[1]
     assert "**39.5 ns per blade-step** |" in rows[2] and "| c2 |" in rows[2], rows[2]
     assert "blender_particle_hair: 55,000 ns per blade-step (1,392×)" in rows[2], rows[2]
+    assert "**151 ns per blade-step** (misses)" in rows[3] and "| E, AVX2 only" in rows[3], \
+        rows[3]
 
 
 def test_doc_table_is_what_the_records_give():

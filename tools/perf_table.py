@@ -207,13 +207,21 @@ def pretty_target(t):
     return (t or "—").replace("<=", "≤").replace(">=", "≥")
 
 
+def vector_width(host):
+    """The widest vector instructions a host's words name ("AVX-512", "AVX2"), or "" when
+    they name none (hosts recorded before that was written down)."""
+    return next((w for w in ("AVX-512", "AVX2") if w in (host or "")), "")
+
+
 def table(records, targets):
-    """The markdown table: per benchmark name and Blender (or native), the latest Tussock
-    line; the peers measured in that same run beside it."""
+    """The markdown table: per benchmark name, Blender (or native) and the host's widest
+    vector instructions, the latest Tussock line; the peers measured in that same run beside
+    it. (The processor behind this VM changes between sessions: an AVX2-only host's figure
+    stands beside the AVX-512 host's, not over it.)"""
     own, peers = {}, {}
     for r in records:
         r["blender"] = version(r["blender"])
-        key = (r["name"], r["blender"])
+        key = (r["name"], r["blender"], vector_width(r["host"]))
         if r.get("peer"):
             # a peer run in Blender may stand beside a native line of the same run
             peers.setdefault((r["name"], r["host"], r["commit"], r["date"]), []).append(r)
@@ -222,7 +230,7 @@ def table(records, targets):
     order = list(targets)
     rows = sorted(own.values(), key=lambda r: (
         order.index(r["name"]) if r["name"] in order else len(order), r["name"],
-        r["blender"] or ""))
+        r["blender"] or "", vector_width(r["host"]) != "AVX-512", vector_width(r["host"])))
     out = ["| benchmark | Blender | target | value | peer (Tussock's lead) | host | commit | date"
            " | load |",
            "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
