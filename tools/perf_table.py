@@ -66,12 +66,15 @@ def git_commit():
     try:
         out = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short=7", "HEAD"], text=True,
                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL).stdout.strip()
-        dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no"],
+        # (docs/ is left out: a run that records appends to docs/perf/ as it goes, and the
+        # documents change nothing that is measured)
+        dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no",
+                                "--", ".", ":(exclude)docs"],
                                text=True, stdout=subprocess.PIPE,
                                stderr=subprocess.DEVNULL).stdout.strip()
     except OSError:
         return None
-    return (out + "+" if dirty else out) or None  # "+": the tree differed from the commit
+    return (out + "+" if dirty else out) or None  # "+": the code differed from the commit
 
 
 # ---- records -----------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Before and after in one run: the Blender benchmarks of two checkouts, taken in turns.
 
-usage: bench_compare.py --old DIR [--rounds N] [--env-old K=V]... SCRIPT [NAME...]
+usage: compare_checkouts.py --old DIR [--rounds N] [--env-old K=V]... SCRIPT [NAME...]
 
 SCRIPT is a tools/bench_*.py file name (bench_sim.py, bench_trees.py); each round runs it
 once in the checkout DIR (its own add-on and native build) and once in this one, alternately,
