@@ -12,8 +12,8 @@ from .. import cache, compat, native
 from ..wind import runtime as wind_runtime
 from . import blade_objects, identity, playback, writer
 
-_hidden = {}  # meadow key -> (weakref to its Playback, bake layout digest, per instance: is
-             # its tile baked)
+# meadow key -> (weakref to its Playback, bake layout digest, per instance: is its tile baked)
+_hidden = identity.PerMeadow()
 
 
 def inputs_key(meadow, scene):
@@ -104,8 +104,4 @@ def restore_layout(child, scene, meadow=None):
     writer.set_hidden(meadow, known[2])
 
 
-def forget(obj=None):
-    if obj is None:
-        _hidden.clear()
-    else:
-        _hidden.pop(identity.key(obj), None)
+forget = _hidden.forget  # (obj=None)

@@ -121,6 +121,23 @@ def adopt(obj, thing, old_name):
     return False
 
 
+class PerMeadow(dict):
+    """Tussock's state of each meadow, by key (see key()): what a module keeps per meadow
+    and lets go of when the meadow is forgotten or gone."""
+
+    def forget(self, obj=None):
+        """Lets go of meadow object `obj`'s entry, or of every entry."""
+        if obj is None:
+            self.clear()
+        else:
+            self.pop(key(obj), None)
+
+    def keep_only(self, live):
+        """Lets go of the entries of meadows whose keys are not in `live`."""
+        for which in [k for k in self if k not in live]:
+            del self[which]
+
+
 def forget():
     global _scanned
     _holder.clear()

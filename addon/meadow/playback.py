@@ -17,7 +17,7 @@ from . import build, identity, solver
 SNAPSHOT_EVERY = 10  # frames between snapshots of the solver state (counted from frame_start)
 SNAPSHOT_BUDGET = 256 << 20  # bytes of snapshots kept per meadow
 # meadow key (identity.key: survives renames, tells linked meadows apart) -> Playback
-_playbacks = {}
+_playbacks = identity.PerMeadow()  # the native solver, patch and snapshots go with an entry
 suspended = False  # True while the bake plays frames only to read collider positions
 
 # Meadow settings that may be keyframed on a simulated meadow: they do not change motion.
@@ -196,18 +196,8 @@ def live_count():
     return len(_playbacks)
 
 
-def forget(obj=None):
-    """Frees the live simulation of meadow object `obj`, or of every meadow."""
-    if obj is None:
-        _playbacks.clear()
-    else:
-        _playbacks.pop(identity.key(obj), None)
-
-
-def keep_only(live):
-    """Frees the simulations of meadows whose keys are not in `live`."""
-    for which in [k for k in _playbacks if k not in live]:
-        del _playbacks[which]  # the native solver, patch and snapshots go with it
+forget = _playbacks.forget  # (obj=None): frees the live simulation of `obj`, or of every meadow
+keep_only = _playbacks.keep_only  # (live): frees those of meadows whose keys are not in `live`
 
 
 def simulate_to(obj, scene, frame, depsgraph=None):

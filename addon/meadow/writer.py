@@ -96,7 +96,7 @@ def set_blade_rand(mesh, rand, k):
     mesh.attributes["tsk_blade_rand"].data.foreach_set("value", vrand)
 
 
-_hidden_written = {}  # meadow key -> (points serial, the hidden array written)
+_hidden_written = identity.PerMeadow()  # meadow key -> (points serial, the hidden array written)
 
 
 def set_hidden(obj, hidden):
@@ -339,14 +339,5 @@ def write(obj, pb):
             obj[name] = value
 
 
-def forget(obj=None):
-    """Forgets what was written into the tsk_hidden of meadow `obj`, or of every meadow."""
-    if obj is None:
-        _hidden_written.clear()
-    else:
-        _hidden_written.pop(identity.key(obj), None)
-
-
-def keep_only(live):
-    for which in [k for k in _hidden_written if k not in live]:
-        del _hidden_written[which]
+forget = _hidden_written.forget  # (obj=None): what was written into tsk_hidden, of obj or all
+keep_only = _hidden_written.keep_only
