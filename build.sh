@@ -350,7 +350,7 @@ cmd_demo() {
   cmd_build
   root_build "${MAJORS[0]}"
   mkdir -p "$ROOT/out"
-  with_blender "${MAJORS[0]}" "$ROOT/tools/blender_run.py" "$ROOT/tools/demo.py" -- "$ROOT/out"
+  with_blender "${MAJORS[0]}" "$ROOT/tools/demo_run.py" -- "$ROOT/out"
 }
 
 # ./build.sh bench [--blender N[,N]] [--record] [NAME...]: the native benchmarks and the Blender ones in

@@ -4,7 +4,8 @@ million blades from them, rolls a rigid-body ball through it (every touched blad
 simulated), grows a Weber-Penn tree beside it that sways in the same wind, bakes, saves
 the .blend and renders a short Cycles animation (frames and an MP4) into out/; then it
 brings the sample picture to life through the compositor into a second clip. Each step
-prints what it made and how long it took."""
+prints what it made and how long it took, as "[demo k/STEPS] ...", and the frames it
+renders or encodes next as "[demo] rendering N frames ..." (for tools/demo_run.py)."""
 
 import math
 import os
@@ -24,15 +25,24 @@ import addon_utils  # noqa: E402
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import picture_sample_scene  # noqa: E402
 
+STEPS = 13  # the step() calls of a run (tests/test_demo_run.py counts them)
 _t0 = time.time()
 _start = _t0
+_done = 0
 
 
 def step(msg):
-    global _t0
+    global _t0, _done
     now = time.time()
-    print(f"[demo] {msg} ({now - _t0:.1f} s)", flush=True)
+    _done += 1
+    print(f"[demo {_done}/{STEPS}] {msg} ({now - _t0:.1f} s)", flush=True)
     _t0 = now
+
+
+def frames_next(what, frames):
+    """Says that the step under way now renders or encodes `frames` frames (`what`:
+    "rendering" or "encoding"), so tools/demo_run.py shows how far it is."""
+    print(f"[demo] {what} {frames} frames ...", flush=True)
 
 
 def reset_scene():
@@ -156,6 +166,7 @@ def main():
     def count(scene, depsgraph=None):
         simulated.append(meadow.get("tussock_active_blades", 0))
     bpy.app.handlers.frame_change_post.append(count)
+    frames_next("rendering", FRAMES)
     bpy.ops.render.render(animation=True)
     bpy.app.handlers.frame_change_post.remove(count)
     step(f"rendered {FRAMES} frames into {os.path.join(OUT, 'frames')} "
@@ -180,6 +191,7 @@ def picture_clip():
     scene.frame_start, scene.frame_end = 1, frames
     scene.render.image_settings.file_format = "PNG"
     scene.render.filepath = os.path.join(OUT, "picture_frames", "picture_")
+    frames_next("rendering", frames)
     bpy.ops.render.render(animation=True)
     step(f"rendered {frames} frames of the picture into {os.path.join(OUT, 'picture_frames')}")
     mp4 = os.path.join(OUT, "picture.mp4")
@@ -208,6 +220,7 @@ def encode_video(folder, prefix, frames, path, fps, size):
     vscene.render.use_file_extension = False
     windows = bpy.context.window_manager.windows
     windows[0].scene = vscene if windows else None
+    frames_next("encoding", frames)
     bpy.ops.render.render(animation=True, scene=vscene.name)
 
 
