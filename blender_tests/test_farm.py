@@ -8,6 +8,12 @@ frames, redoing only the missing ones; a task whose output
 cannot be written is tried twice and reported with its log; and the same plan run by the
 `local` back end, started from Blender's Submit to Farm, gives the same bytes.
 
+Issue 41: the farm's Blenders do not depend on the Python environment of the shell that
+starts the farm command (a venv's bin first on the PATH, PYTHONHOME and PYTHONPATH set):
+a local run from such a shell bakes and renders; and a bake task that cannot enable
+Tussock names the cause (the import error and where Blender's Python runs from; Tussock
+not installed; its native library not loaded), not a guess.
+
 The farm runs need the host's Blender 3.4 (its Debian has slurm-wlm and munge, as root):
 they run there only, once per ./build.sh test."""
 
@@ -147,6 +153,109 @@ def test_submit_to_farm_refuses_an_unsaved_file_and_bad_frames():
     assert not os.path.exists(os.path.join(folder, "scene_farm", "job.sh"))
 
 
+def fake_venv(root):
+    """A Python environment laid out as `python3 -m venv` makes it (root/pyvenv.cfg,
+    root/bin/python3 ...) whose pythons are not the system's: each fails loudly when run.
+    A Blender that uses the system's Python and finds root/bin first on the PATH takes root
+    as its sys.prefix, where there is no numpy. Returns root/bin."""
+    bin_dir = os.path.join(root, "bin")
+    os.makedirs(bin_dir, exist_ok=True)
+    v = sys.version_info
+    with open(os.path.join(root, "pyvenv.cfg"), "w") as f:
+        f.write(f"home = {os.path.join(sys.base_prefix, 'bin')}\n"
+                f"include-system-site-packages = false\nversion = {v[0]}.{v[1]}.{v[2]}\n")
+    for name in ("python", "python3", f"python{v[0]}.{v[1]}"):
+        path = os.path.join(bin_dir, name)
+        with open(path, "w") as f:
+            f.write('#!/bin/sh\necho "$0: the python of a venv ran" >&2\nexit 97\n')
+        os.chmod(path, 0o755)
+    return bin_dir
+
+
+@test
+def test_python_neutral_environment_drops_only_python_environments():
+    """The job script's lines that clear the Python environment (plan.PYTHON_NEUTRAL), run
+    under `set -u` with a PATH of every kind of Python environment's bin and plain folders."""
+    root = os.path.join(TMP, "python_envs")
+    shutil.rmtree(root, ignore_errors=True)
+    dirs = {}
+    for key, rel in (("venv", "venv/bin"), ("conda", "conda/bin"), ("condabin", "conda/condabin"),
+                     ("shims", "pyenv/shims"), ("pyenv", "pyenv/versions/3.11.7/bin"),
+                     ("active", "active/bin"), ("prefix", "prefix/bin"),
+                     ("tools", "tools/bin"), ("other_shims", "other/shims"),
+                     ("versions", "else/versions/2/bin")):
+        dirs[key] = os.path.join(root, rel)
+        os.makedirs(dirs[key])
+    open(os.path.join(root, "venv", "pyvenv.cfg"), "w").close()
+    os.makedirs(os.path.join(root, "conda", "conda-meta"))
+    system = [d for d in ("/usr/bin", "/bin") if os.path.isdir(d)]
+    path = [dirs["venv"], dirs["conda"] + "/", dirs["condabin"], "", dirs["shims"],
+            dirs["pyenv"], dirs["active"], dirs["tools"], dirs["prefix"], dirs["other_shims"],
+            dirs["versions"], *system]
+    env = {"PATH": os.pathsep.join(path), "HOME": root, "KEEP_ME": "yes",
+           "PYTHONHOME": "/junk", "PYTHONPATH": "/junk", "PYTHONSTARTUP": "/junk",
+           "PYTHONUSERBASE": "/junk", "VIRTUAL_ENV": os.path.dirname(dirs["active"]),
+           "CONDA_PREFIX": os.path.dirname(dirs["prefix"]), "CONDA_PREFIX_1": "/junk",
+           "CONDA_DEFAULT_ENV": "base", "CONDA_SHLVL": "2", "PYENV_VERSION": "3.11.7"}
+    script = ("set -u\n" + farm_plan.PYTHON_NEUTRAL +
+              f"\nexec {PY} -c 'import json, os; print(json.dumps(dict(os.environ)))'\n")
+    proc = subprocess.run([shutil.which("bash") or "/bin/bash", "-c", script], env=env,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.returncode == 0 and not proc.stderr, proc.stderr
+    after = json.loads(proc.stdout)
+    # kept: plain folders, a "shims" or "versions" folder that is not pyenv's
+    assert after["PATH"].split(os.pathsep) == [dirs["tools"], dirs["other_shims"],
+                                               dirs["versions"], *system], after["PATH"]
+    assert after["KEEP_ME"] == "yes" and after["HOME"] == root
+    for name in env:
+        if name.startswith(("PYTHON", "CONDA", "VIRTUAL_ENV", "PYENV")):
+            assert name not in after, name
+
+
+def run_bake_task(blend, env):
+    """bake_task.py run by a background Blender on `blend` as the job script runs it, but
+    in `env` as it is (no job script: nothing clears it). Returns (exit code, output)."""
+    proc = subprocess.run([bpy.app.binary_path, "-b", blend, "--python-exit-code", "1",
+                           "--python", os.path.join(FARM, "bake_task.py"), "--", "1", "1"],
+                          cwd=os.path.dirname(blend), env=env, stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, text=True, errors="replace", timeout=120)
+    return proc.returncode, proc.stdout
+
+
+@test
+def test_bake_task_names_why_tussock_cannot_bake():
+    folder = os.path.join(TMP, "task_causes")
+    os.makedirs(folder, exist_ok=True)
+    harness.empty_scene(2)
+    blend = os.path.join(folder, "scene.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    # Blender's Python cannot import numpy: a venv first on the PATH (what the job script
+    # clears) gives Blender that venv's prefix. The import error is named, with where
+    # Blender's Python runs from; not "not installed"
+    venv = os.path.join(folder, "venv")
+    env = dict(os.environ, PATH=fake_venv(venv) + os.pathsep + os.environ["PATH"])
+    code, out = run_bake_task(blend, env)
+    assert code != 0 and "Tussock is installed (" in out, out[-3000:]
+    assert "could not be enabled: ModuleNotFoundError: No module named 'numpy'" in out, \
+        out[-3000:]
+    assert f"sys.prefix {venv} " in out and "not installed" not in out, out[-3000:]
+    # Tussock not installed at all: said so
+    empty = os.path.join(folder, "no_addons")
+    os.makedirs(os.path.join(empty, "addons"), exist_ok=True)
+    code, out = run_bake_task(blend, dict(os.environ, BLENDER_USER_SCRIPTS=empty))
+    assert code != 0 and "Tussock is not installed in this Blender" in out, out[-3000:]
+    # installed and enabled, but its native library is missing: native.py's message
+    scripts = os.path.join(folder, "no_native")
+    shutil.rmtree(scripts, ignore_errors=True)
+    addon = os.path.dirname(os.path.realpath(sys.modules["tussock"].__file__))
+    shutil.copytree(addon, os.path.join(scripts, "addons", "tussock"),
+                    ignore=shutil.ignore_patterns("_tussock*.so", "_tussock*.pyd",
+                                                  "__pycache__"))
+    code, out = run_bake_task(blend, dict(os.environ, BLENDER_USER_SCRIPTS=scripts))
+    assert code != 0 and "Tussock's native library is not available" in out, out[-3000:]
+    assert "not installed" not in out and "could not be enabled" not in out, out[-3000:]
+
+
 # ---- the farm runs ------------------------------------------------------------------------
 
 def make_shot(folder):
@@ -225,6 +334,60 @@ def wait_for(done, timeout, what):
             return
         time.sleep(0.05)
     raise AssertionError(f"timed out waiting for {what}")
+
+
+@test
+def test_farm_local_run_from_a_python_environment_shell():
+    """Issue 41: the farm command started from a shell with a venv active (its bin first on
+    the PATH, whose python3 is not the system's) and PYTHONHOME and PYTHONPATH set to junk:
+    each would keep the tasks' Blender from loading Tussock (or from starting), and the
+    venv's python3 fails the frame check. The job script clears them: every task ends well.
+    The Blender is named without a folder (TUSSOCK_BLENDER) and found in the venv's bin:
+    it is looked up before the PATH is cleared."""
+    if not HOST_BLENDER:
+        print("test_farm: the farm runs need the host's Blender 3.4: skipped here")
+        return
+    folder = os.path.join(TMP, "venv_shot")
+    shutil.rmtree(folder, ignore_errors=True)
+    os.makedirs(folder)
+    scene = harness.empty_scene(3)
+    blend = os.path.join(folder, "scene.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    assert bpy.ops.tussock.add_tree(preset="quaking_aspen", seed=2, leaves=False) == {"FINISHED"}
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = (0.0, -12.0, 4.0), (1.35, 0.0, 0.0)
+    scene.camera = cam
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    scene.render.resolution_percentage = 100
+    bpy.ops.wm.save_mainfile()
+    venv = os.path.join(TMP, "venv_shell")
+    shutil.rmtree(venv, ignore_errors=True)
+    venv_bin = fake_venv(venv)
+    os.symlink(bpy.app.binary_path, os.path.join(venv_bin, "blender-farm"))
+    junk = os.path.join(TMP, "venv_shell_pythonpath")
+    os.makedirs(os.path.join(junk, "numpy"), exist_ok=True)
+    with open(os.path.join(junk, "numpy", "__init__.py"), "w") as f:
+        f.write("raise ImportError('the numpy of the PYTHONPATH of the shell')\n")
+    env = dict(os.environ, PATH=venv_bin + os.pathsep + os.environ["PATH"], VIRTUAL_ENV=venv,
+               PYTHONHOME=os.path.join(TMP, "no_such_python_home"), PYTHONPATH=junk,
+               TUSSOCK_BLENDER="blender-farm")
+    # the farm command's own Python ignores PYTHON* (-E), as that environment's python would
+    # work with them; the Blenders it starts get them all
+    proc = subprocess.run([PY, "-E", FARM, "run", blend, "--tasks", "2",
+                           "--blender", bpy.app.binary_path], env=env, cwd=folder,
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                          errors="replace", timeout=300)
+    out = proc.stdout
+    assert proc.returncode == 0 and "tussock farm: done" in out, out[-4000:]
+    for f in range(1, 4):
+        assert verify.check_png(os.path.join(folder, "render", f"scene_{f:04d}.png"),
+                                64, 48) is None, f
+    assert os.path.isfile(os.path.join(folder, "tussock_cache", "Quaking_Aspen.pc2")), \
+        sorted(os.listdir(os.path.join(folder, "tussock_cache")))
+    log = open(os.path.join(folder, "scene_farm", "logs", "bake_local_0.out")).read()
+    assert f"{venv_bin}/blender-farm -b scene.blend" in log, log[-2000:]
 
 
 @test

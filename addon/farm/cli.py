@@ -28,8 +28,11 @@ def say(text):
 
 
 def probe(blender, blend):
-    """The scene's frame range and rendered size, read by a background Blender."""
-    proc = subprocess.run([blender, "-b", "--factory-startup", blend, "--python-expr", PROBE],
+    """The scene's frame range and rendered size, read by a background Blender (in the
+    Python-neutral environment the job script gives its Blenders)."""
+    neutral = farm_plan.PYTHON_NEUTRAL + '\nexec "$@"'
+    proc = subprocess.run(["bash", "-c", neutral, "tussock-probe",
+                           blender, "-b", "--factory-startup", blend, "--python-expr", PROBE],
                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                           errors="replace")
     m = re.search(r"^TUSSOCK_FARM_SCENE (.*)$", proc.stdout, re.M)

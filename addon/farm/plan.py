@@ -33,6 +33,36 @@ BAKE, ASSEMBLE, RENDER = "bake", "assemble", "render"
 STEPS = (BAKE, ASSEMBLE, RENDER)
 HERE = os.path.dirname(os.path.abspath(__file__))
 
+# Bash lines that give the Blenders started after them a Python-neutral environment: the job
+# script runs them before its task, the farm command before it reads the scene (cli.probe).
+PYTHON_NEUTRAL = r"""
+# Blender gets a Python-neutral environment. A Blender that uses the system's Python
+# (Debian's, other distributions') takes its Python prefix from the first python3.X on the
+# PATH and reads PYTHONHOME and PYTHONPATH: started from a shell with a venv, conda or pyenv
+# Python active (Slurm passes the submitting shell's environment on), it looks for numpy in
+# that environment, and Tussock cannot load. So those variables go, and so does every
+# directory of the PATH that belongs to a Python environment.
+python_env_dir() {  # is directory $1 the bin of a venv, conda or pyenv Python?
+  local dir="${1%/}" up
+  up="${dir%/*}"
+  [ -e "$up/pyvenv.cfg" ] || [ -d "$up/conda-meta" ] && return 0        # venv, conda
+  [ "${dir##*/}" = shims ] && [ -d "$up/versions" ] && return 0          # pyenv shims
+  case "$up" in */versions/*) [ -d "${up%/versions/*}/shims" ] && return 0 ;; esac  # pyenv
+  [ -n "${VIRTUAL_ENV:-}" ] && [ "$dir" = "${VIRTUAL_ENV%/}/bin" ] && return 0
+  [ -n "${CONDA_PREFIX:-}" ] && [ "$dir" = "${CONDA_PREFIX%/}/bin" ] && return 0
+  return 1
+}
+kept=""
+IFS=: read -r -a path_dirs <<<"${PATH:-}"
+for dir in "${path_dirs[@]}"; do
+  if [ -n "$dir" ] && ! python_env_dir "$dir"; then kept="${kept:+$kept:}$dir"; fi
+done
+export PATH="$kept"
+unset PYTHONHOME PYTHONPATH PYTHONSTARTUP PYTHONUSERBASE PYTHONEXECUTABLE PYTHONPLATLIBDIR \
+  VIRTUAL_ENV VIRTUAL_ENV_PROMPT PYENV_VERSION PYENV_VIRTUAL_ENV \
+  CONDA_PREFIX CONDA_DEFAULT_ENV CONDA_SHLVL CONDA_PYTHON_EXE "${!CONDA_PREFIX_@}"
+""".strip("\n")
+
 
 def split(first, last, parts):
     """`parts` consecutive ranges (a, b) covering first..last, their lengths differing by at
@@ -207,6 +237,17 @@ class Plan:
             'cd "${TUSSOCK_SHOT_DIR:-$SHOT_DIR}" || exit 2',
             f"DEFAULT_BLENDER={q(self.blender)}",
             'BLENDER="${TUSSOCK_BLENDER:-$DEFAULT_BLENDER}"',
+            "# A Blender named without a folder is looked up on the PATH as it is now, before the",
+            "# PATH loses the directories of Python environments (below).",
+            'case "$BLENDER" in',
+            "  */*) ;;",
+            '  *) BLENDER="$(command -v -- "$BLENDER" || echo "$BLENDER")" ;;',
+            "esac",
+            'CHECK_PYTHON="$(command -v python3 || echo python3)"',
+            *PYTHON_NEUTRAL.split("\n"),
+            "# The frame check (verify.py) needs only Python's standard library: the first python3",
+            "# left on the PATH runs it, else the one found before.",
+            'CHECK_PYTHON="$(command -v python3 || echo "$CHECK_PYTHON")"',
             f"FARM={q(self.farm)}",
             'step="${1:?usage: job.sh bake|assemble|render [TASK]}"',
             'task="${2:-${SLURM_ARRAY_TASK_ID:?no task: give it after the step}}"',
@@ -235,7 +276,8 @@ class Plan:
             '  echo "== tussock farm: $step task $task, attempt $attempt, on $(hostname):'
             ' ${run[*]}"',
             '  if "${run[@]}" && { [ ${#check[@]} -eq 0 ] || '
-            f'python3 "$FARM/verify.py" {self.size[0]} {self.size[1]} "${{check[@]}}"; }}; then',
+            f'"$CHECK_PYTHON" "$FARM/verify.py" {self.size[0]} {self.size[1]} '
+            '"${check[@]}"; }; then',
             '    echo ok >"$FARM/state/$step.$task"',
             "    exit 0",
             "  fi",
