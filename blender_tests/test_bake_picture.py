@@ -231,6 +231,35 @@ def test_split_bake_equals_single_bake_and_renders_without_tussock():
     assert float(np.max(np.abs(first - still))) < TOL
 
 
+@test
+def test_a_worker_removes_only_its_own_or_stale_temporary_files():
+    # A split bake's workers share the folders: one must not remove the temporary file
+    # another is writing (found by the farm run on an artist's machine: a worker's
+    # UV frame vanished before its rename). Its own frames' leftovers, and a plate's that
+    # no one has touched for long, are a killed bake's and go.
+    make_scene(os.path.join(TMP, "workers"))
+    scene = bpy.context.scene
+    job = picture_baking.jobs(scene, cache.cache_root())[0]
+    for folder in [job.folder] + job.uv_folders:
+        os.makedirs(folder, exist_ok=True)
+    stem = job.uv_stems[0]
+    other = os.path.join(job.uv_folders[0], picture_baking.uv_file(stem, 6) + ".tmp99999.exr")
+    own = os.path.join(job.uv_folders[0], picture_baking.uv_file(stem, 2) + ".tmp99999.exr")
+    plate = os.path.join(job.folder, "background.exr.tmp99998.exr")
+    stale = os.path.join(job.folder, "layer_1.exr.tmp99997.exr")
+    for path in (other, own, plate, stale):
+        with open(path, "wb") as f:
+            f.write(b"being written")
+    old = time.time() - 2 * picture_baking.STALE_TEMPORARY_S
+    os.utime(stale, (old, old))
+    for _ in job.steps([1, 2, 3, 4], lambda: None):
+        pass
+    assert os.path.isfile(other) and os.path.isfile(plate), "another worker's file was removed"
+    assert not os.path.exists(own) and not os.path.exists(stale)
+    assert all(os.path.isfile(uv_path(scene, 1, f)) for f in (1, 2, 3, 4))
+    assert not os.path.exists(uv_path(scene, 1, 6))
+
+
 def count_sidecars(folder):
     return sum(f.endswith(".tski") for _, _, fs in os.walk(folder) for f in fs)
 

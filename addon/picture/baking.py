@@ -20,6 +20,7 @@ import collections
 import hashlib
 import json
 import os
+import time
 import types
 from concurrent.futures import ThreadPoolExecutor
 
@@ -33,6 +34,9 @@ from . import frames, layers
 
 WRITERS = max(1, min(4, os.cpu_count() or 1))  # threads writing EXR files in a bake
 RECORD = "tussock_picture_bake"  # scene custom property: what was baked, for checking
+# a temporary file of the plate or a layer untouched this long is a killed bake's (seconds;
+# writing one takes well under a second)
+STALE_TEMPORARY_S = 600
 _verified = {}  # path -> (stat signature, info dict or error text)
 _notes = {}     # scene name -> last reason printed
 
@@ -157,11 +161,23 @@ class PictureJob(cache.Job):
         background plate and layers at rest if needed; yields between frames (see
         cache.Job.steps)."""
         lib = native.require()
+        # Temporary files of a killed bake: those of this bake's own frames, and those of the
+        # plate and layers once they are old. Another worker of a split bake may be writing
+        # its frames, or the same plate and layers (every worker that finds them missing
+        # writes them; the last rename wins, with the same bytes), right now.
+        mine = {uv_file(stem, f) for stem in self.uv_stems for f in frame_list}
         for folder in [self.folder] + self.uv_folders:
             os.makedirs(folder, exist_ok=True)
-            for name in os.listdir(folder):  # temporary files of a killed bake
-                if ".tmp" in name:
-                    os.remove(os.path.join(folder, name))
+            for name in os.listdir(folder):
+                if ".tmp" not in name:
+                    continue
+                path = os.path.join(folder, name)
+                try:
+                    if name.split(".tmp")[0] in mine or \
+                            time.time() - os.stat(path).st_mtime > STALE_TEMPORARY_S:
+                        os.remove(path)
+                except FileNotFoundError:  # its writer renamed or removed it meanwhile
+                    pass
         statics = [os.path.join(self.folder, n) for n in static_files(self.count)]
         todo = []
         for f in frame_list:
