@@ -91,7 +91,8 @@ def test_plan_splits_ranges_evenly_and_refuses_bad_ranges():
     assert [t.frames for t in p.steps["render"]] == [(3, 3), (4, 4), (5, 5)]
     assert p.steps["assemble"][0].command[-3:] == ["1", "8", "save"]
     assert "save" not in p.steps["bake"][0].command  # parallel saves of one .blend race
-    assert p.steps["render"][0].command[-7:] == ["-x", "1", "-s", "3", "-e", "3", "-a"]
+    # -f, which leaves the scene's frame range (part of a bake's key) as it is
+    assert p.steps["render"][0].command[-4:] == ["-x", "1", "-f", "3..3"]
     for frames, needle in (((0, 4), "outside the scene's frame range 1-8"),
                            ((6, 9), "outside"), ((5, 3), "ends before it starts")):
         try:
@@ -126,7 +127,7 @@ def test_plan_splits_ranges_evenly_and_refuses_bad_ranges():
     todo = p.todo()
     assert [t.index for t in todo["bake"]] == [0, 1, 2, 3, 4] and len(todo["assemble"]) == 1
     assert [t.outputs for t in todo["render"]] == [[p.frame_file(4)], [p.frame_file(5)]]
-    assert todo["render"][0].command[-5:] == ["-s", "4", "-e", "4", "-a"]
+    assert todo["render"][0].command[-2:] == ["-f", "4..4"]
     assert os.path.exists(good) and not os.path.exists(os.path.join(folder, p.frame_file(4)))
     os.makedirs(os.path.join(folder, p.farm, "state"), exist_ok=True)
     with open(p.state_path("assemble", 0), "w") as f:

@@ -8,7 +8,7 @@ A saved .blend is done in three steps, each a list of tasks that may run at once
             there and verifies, so it only assembles the caches, wires the Mesh Cache
             modifiers and image sequences, and saves the .blend;
   render    the frames asked for split into N parts; each task is a plain
-            `blender -b scene.blend -o //render/<name>_#### -F PNG -x 1 -s a -e b -a`.
+            `blender -b scene.blend -o //render/<name>_#### -F PNG -x 1 -f a..b`.
 Every path is relative to the .blend's folder: the farm's own files go to
 `<name>_farm/` beside it (job.sh, the task scripts, logs/, state/), the frames to
 `render/<name>_NNNN.png`.
@@ -146,9 +146,13 @@ class Plan:
     def render_command(self, a, b, only=None):
         cmd = ["$BLENDER", "-b", os.path.basename(self.blend), "-o", "//" + self.render_pattern,
                "-F", "PNG", "-x", "1"]
+        # -f, not -s a -e b -a: those set the scene's frame range, which is part of what
+        # Tussock checks a bake against, so a node with Tussock installed would find the
+        # bake out of date and render the live animation instead (frames of a task that
+        # starts mid-range then differ from a single render)
         if only is not None and only != list(range(a, b + 1)):
             return cmd + ["-f", ",".join(str(f) for f in only)]  # a resumed task's frames
-        return cmd + ["-s", str(a), "-e", str(b), "-a"]
+        return cmd + ["-f", f"{a}..{b}"]
 
     def frame_file(self, frame):
         return f"render/{self.name}_{frame:04d}.png"
