@@ -1,21 +1,32 @@
 /* tussock_oni_reader: reads one OpenNI2 recording for Tussock, in a process of its own, so
  * that a damaged file that crashes OpenNI2's player (libOniFile) cannot crash Blender.
  * Usage: tussock_oni_reader RECORDING.oni, with a socket to Tussock on descriptor
- * TSK_ONI_READER_FD. It opens the recording with the ordinary in-process code
- * (tsk_depth_open_oni_local), sends tsk_oni_hello, then answers requests until QUIT or
- * until Tussock closes the socket (src/capture/oni_reader_protocol.h). */
+ * TSK_ONI_READER_FD (Windows: RECORDING.oni REQUESTS ANSWERS, two pipe handles). It opens the
+ * recording with the ordinary in-process code (tsk_depth_open_oni_local), sends
+ * tsk_oni_hello, then answers requests until QUIT or until Tussock closes the channel
+ * (src/capture/oni_reader_protocol.h). */
 #include <errno.h>
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef _WIN32
+#define WIN32_LEAN_AND_MEAN
+#include <windows.h>
+#include <shellapi.h>
+#else
+#include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
+#endif
 
 #include "capture/depth_internal.h"
 #include "capture/oni_reader_protocol.h"
 
-static int send_all(int fd, const void* buf, size_t n) {
+#ifndef _WIN32
+
+typedef int channel; /* the socket on TSK_ONI_READER_FD */
+
+static int send_all(channel fd, const void* buf, size_t n) {
     const unsigned char* b = buf;
     while (n > 0) {
         const ssize_t r = send(fd, b, n, MSG_NOSIGNAL);
@@ -27,7 +38,7 @@ static int send_all(int fd, const void* buf, size_t n) {
     return 0;
 }
 
-static int recv_all(int fd, void* buf, size_t n) {
+static int recv_all(channel fd, void* buf, size_t n) {
     unsigned char* b = buf;
     while (n > 0) {
         const ssize_t r = recv(fd, b, n, 0);
@@ -39,15 +50,79 @@ static int recv_all(int fd, void* buf, size_t n) {
     return 0;
 }
 
+/* The recording's path from the command line, and the channel; NULL if the command line is
+ * not Tussock's. */
+static const char* open_channel(int argc, char** argv, channel* ch) {
+    signal(SIGPIPE, SIG_IGN);
+    *ch = TSK_ONI_READER_FD;
+    return argc == 2 ? argv[1] : NULL;
+}
+
+static void free_path(const char* path) { (void)path; }
+
+#else /* Windows */
+
+typedef struct channel {
+    HANDLE requests, answers;
+} channel;
+
+static int send_all(channel ch, const void* buf, size_t n) {
+    const unsigned char* b = buf;
+    while (n > 0) {
+        const DWORD want = n < ((size_t)1 << 30) ? (DWORD)n : (DWORD)1 << 30;
+        DWORD w = 0;
+        if (!WriteFile(ch.answers, b, want, &w, NULL) || w == 0) return -1;
+        b += w;
+        n -= w;
+    }
+    return 0;
+}
+
+static int recv_all(channel ch, void* buf, size_t n) {
+    unsigned char* b = buf;
+    while (n > 0) {
+        const DWORD want = n < ((size_t)1 << 30) ? (DWORD)n : (DWORD)1 << 30;
+        DWORD r = 0;
+        if (!ReadFile(ch.requests, b, want, &r, NULL) || r == 0) return -1;
+        b += r;
+        n -= r;
+    }
+    return 0;
+}
+
+/* The recording's path (UTF-8, malloc'd) from the wide command line, and the channel's
+ * handles after it; NULL if the command line is not Tussock's. */
+static const char* open_channel(int argc, char** argv, channel* ch) {
+    (void)argc, (void)argv; /* the C runtime's argv is in the ANSI code page */
+    /* a crash ends the process at once: no error dialog waits for a click */
+    SetErrorMode(SEM_FAILCRITICALERRORS | SEM_NOGPFAULTERRORBOX | SEM_NOOPENFILEERRORBOX);
+    int n = 0;
+    wchar_t** wargv = CommandLineToArgvW(GetCommandLineW(), &n);
+    char* path = NULL;
+    if (wargv != NULL && n == 2 + TSK_ONI_READER_HANDLES) {
+        ch->requests = (HANDLE)(uintptr_t)_wcstoui64(wargv[2], NULL, 10);
+        ch->answers = (HANDLE)(uintptr_t)_wcstoui64(wargv[3], NULL, 10);
+        const int bytes = WideCharToMultiByte(CP_UTF8, 0, wargv[1], -1, NULL, 0, NULL, NULL);
+        path = bytes > 0 ? malloc((size_t)bytes) : NULL;
+        if (path != NULL) WideCharToMultiByte(CP_UTF8, 0, wargv[1], -1, path, bytes, NULL, NULL);
+    }
+    LocalFree(wargv);
+    return path;
+}
+
+static void free_path(const char* path) { free((void*)path); }
+
+#endif
+
 static void set_message(char* dst, tsk_status s) {
     const char* m = tsk_last_error();
     snprintf(dst, TSK_ONI_MESSAGE, "%s", (s != TSK_OK && m && m[0]) ? m : "");
 }
 
 int main(int argc, char** argv) {
-    const int fd = TSK_ONI_READER_FD;
-    signal(SIGPIPE, SIG_IGN);
-    if (argc != 2) {
+    channel fd;
+    const char* path = open_channel(argc, argv, &fd);
+    if (path == NULL) {
         fprintf(stderr, "usage: %s RECORDING.oni (started by Tussock)\n", argv[0]);
         return 2;
     }
@@ -55,7 +130,7 @@ int main(int argc, char** argv) {
     memset(&h, 0, sizeof h);
     memcpy(h.magic, TSK_ONI_MAGIC, sizeof h.magic);
     tsk_depth_source* src = NULL;
-    tsk_status s = tsk_depth_open_oni_local(argv[1], &src);
+    tsk_status s = tsk_depth_open_oni_local(path, &src);
     tsk_depth_info info;
     memset(&info, 0, sizeof info);
     if (s == TSK_OK) s = tsk_depth_get_info(src, &info);
@@ -73,6 +148,7 @@ int main(int argc, char** argv) {
     }
     if (send_all(fd, &h, sizeof h) != 0 || s != TSK_OK) {
         tsk_depth_close(src);
+        free_path(path);
         return s == TSK_OK ? 1 : 0;
     }
     const size_t n = (size_t)info.width * (size_t)info.height;
@@ -106,5 +182,6 @@ int main(int argc, char** argv) {
     }
     free(depth);
     tsk_depth_close(src);
+    free_path(path);
     return rc;
 }

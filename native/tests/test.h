@@ -12,13 +12,39 @@
 typedef struct tsk_test_case {
     const char* name;
     void (*fn)(void);
+    const char* skip_why; /* not NULL: this build cannot run the test (TEST_NEEDS, TEST_POSIX) */
 } tsk_test_case;
 
 static int tsk_test_failed_checks;
 
 #define TEST(name) static void name(void)
 #define TEST_ENTRY(name) \
-    { #name, name }
+    { #name, name, NULL }
+
+/* The entry of a test that needs a third-party library ("OpenCV", "OpenSubdiv", "OpenNI2"). A
+ * build without them (CMake option TSK_THIRD_PARTY=OFF, which defines
+ * TSK_TEST_WITHOUT_THIRD_PARTY) skips it with the line "skip NAME (built without LIBRARY)";
+ * every other build runs it as a TEST_ENTRY. */
+#ifdef TSK_TEST_WITHOUT_THIRD_PARTY
+#define TEST_NEEDS(name, library) \
+    { #name, name, "built without " library }
+#else
+#define TEST_NEEDS(name, library) \
+    { #name, name, NULL }
+#endif
+
+/* The entry of a test of what only POSIX systems have (file-size limits, FIFOs, sockets as
+ * files): Windows builds skip it with "skip NAME (POSIX only)", and compile its function
+ * only on POSIX (#ifndef _WIN32 around it). TEST_POSIX_NEEDS: the same for a test that also
+ * needs a library. */
+#ifdef _WIN32
+#define TEST_POSIX(name) \
+    { #name, NULL, "POSIX only" }
+#define TEST_POSIX_NEEDS(name, library) TEST_POSIX(name)
+#else
+#define TEST_POSIX(name) TEST_ENTRY(name)
+#define TEST_POSIX_NEEDS(name, library) TEST_NEEDS(name, library)
+#endif
 
 #define CHECK(cond)                                                                    \
     do {                                                                               \
@@ -98,7 +124,8 @@ static int tsk_test_listed(const char* name, const char* list) {
 }
 
 /* argv[1]: run only tests whose name contains it. Environment TSK_TEST_SKIP: comma-separated
- * name parts to leave out (the valgrind run skips long numeric tests this way). */
+ * name parts to leave out (the valgrind run skips long numeric tests this way). A test that
+ * this build cannot run (TEST_NEEDS, TEST_POSIX) prints a "skip" line and counts neither way. */
 static int tsk_test_run(int argc, char** argv, const tsk_test_case* cases, size_t count) {
     const char* filter = argc > 1 ? argv[1] : NULL;
     const char* skip = getenv("TSK_TEST_SKIP");
@@ -106,6 +133,11 @@ static int tsk_test_run(int argc, char** argv, const tsk_test_case* cases, size_
     for (size_t i = 0; i < count; ++i) {
         if (filter && strstr(cases[i].name, filter) == NULL) continue;
         if (skip && tsk_test_listed(cases[i].name, skip)) continue;
+        if (cases[i].skip_why != NULL) {
+            printf("skip %s (%s)\n", cases[i].name, cases[i].skip_why);
+            fflush(stdout);
+            continue;
+        }
         int before = tsk_test_failed_checks;
         cases[i].fn();
         if (tsk_test_failed_checks == before) {

@@ -6,8 +6,14 @@
 #include <errno.h>
 #include <signal.h>
 #include <stdint.h>
+#ifdef _WIN32
+#define WIN32_LEAN_AND_MEAN
+#include <windows.h>
+#include <tlhelp32.h>
+#else
 #include <sys/socket.h>
 #include <sys/wait.h>
+#endif
 #include <dirent.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -873,15 +879,78 @@ static double oni_now(void) {
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* The reader's crash as reported: a signal, or in sanitizer builds (whose handler catches
- * the signal and exits) an exit code. */
+/* The reader's crash as reported: a signal (Windows: an access violation), or in sanitizer
+ * builds (whose handler catches the signal and exits) an exit code. */
 static int reader_crashed(const char* msg) {
     return strstr(msg, "crashed (signal 11") != NULL ||
+           strstr(msg, "crashed (exception 0xC0000005") != NULL ||
            strstr(msg, "stopped with exit code") != NULL;
 }
 
-/* no reader process is left behind (all were reaped) */
+/* The reader's process and its channel as the tests drive them: children_left() says if a
+ * reader process is left behind (not reaped, or on Windows still running), crash_reader()
+ * makes one crash as OpenNI2 would, not_a_reader() is a program that ends at once without a
+ * word to Tussock, and a fake channel's reader side is written by the test itself. */
+#ifndef _WIN32
 static int children_left(void) { return waitpid(-1, NULL, WNOHANG) != -1 || errno != ECHILD; }
+static void crash_reader(int pid) { kill(pid, SIGSEGV); }
+static const char* not_a_reader(void) { return "/bin/true"; }
+
+typedef int fake_end; /* a socket pair's other end */
+static int fake_channel(tsk_oni_channel* ours, fake_end* theirs) {
+    int sv[2];
+    if (socketpair(AF_UNIX, SOCK_STREAM, 0, sv) != 0) return -1;
+    *ours = sv[0];
+    *theirs = sv[1];
+    return 0;
+}
+static int fake_send(fake_end* e, const void* bytes, size_t n) {
+    return write(*e, bytes, n) == (ssize_t)n ? 0 : -1;
+}
+/* the reader's answers end here; its end still takes requests */
+static void fake_end_answers(fake_end* e) { shutdown(*e, SHUT_WR); }
+static void fake_close(fake_end* e) { close(*e); }
+#else
+static int children_left(void) {
+    HANDLE snap = CreateToolhelp32Snapshot(TH32CS_SNAPPROCESS, 0);
+    if (snap == INVALID_HANDLE_VALUE) return 0;
+    PROCESSENTRY32 e;
+    e.dwSize = sizeof e;
+    int left = 0;
+    for (BOOL more = Process32First(snap, &e); more; more = Process32Next(snap, &e))
+        left += e.th32ParentProcessID == GetCurrentProcessId();
+    CloseHandle(snap);
+    return left > 0;
+}
+static void crash_reader(int pid) {
+    HANDLE h = OpenProcess(PROCESS_TERMINATE, FALSE, (DWORD)pid);
+    if (h != NULL) TerminateProcess(h, (UINT)EXCEPTION_ACCESS_VIOLATION);
+    if (h != NULL) CloseHandle(h);
+}
+static const char* not_a_reader(void) {
+    static char path[MAX_PATH + 32];
+    const UINT n = GetSystemDirectoryA(path, MAX_PATH);
+    snprintf(path + (n < MAX_PATH ? n : 0), 32, "\\hostname.exe");
+    return path;
+}
+
+typedef tsk_oni_channel fake_end; /* the reader's sides of the two pipes */
+static int fake_channel(tsk_oni_channel* ours, fake_end* theirs) {
+    return tsk_oni_channel_pair(ours, theirs, 0);
+}
+static int fake_send(fake_end* e, const void* bytes, size_t n) {
+    DWORD w = 0;
+    return WriteFile(e->answers, bytes, (DWORD)n, &w, NULL) && w == n ? 0 : -1;
+}
+static void fake_end_answers(fake_end* e) {
+    CloseHandle(e->answers);
+    e->answers = NULL;
+}
+static void fake_close(fake_end* e) {
+    if (e->answers != NULL) CloseHandle(e->answers);
+    CloseHandle(e->requests);
+}
+#endif
 
 TEST(test_oni_damaged_recordings_cannot_crash_the_caller) {
     /* a recording that crashes OpenNI2's player (found by fuzz_oni): the reader process
@@ -986,7 +1055,7 @@ TEST(test_oni_reader_that_dies_mid_read_or_is_missing_gives_clear_errors) {
     CHECK_NEAR(d[100], 1.000, 1e-6);
     const int pid = tsk_oni_proxy_pid(src);
     CHECK(pid > 0);
-    kill(pid, SIGSEGV); /* as if OpenNI2 crashed on the next frame */
+    crash_reader(pid); /* as if OpenNI2 crashed on the next frame */
     CHECK_STATUS(tsk_depth_read(src, d, 64 * 48, &fr), TSK_ERR_FORMAT, "while reading");
     CHECK(reader_crashed(tsk_last_error()));
     /* the source stays broken, with the same message */
@@ -999,7 +1068,7 @@ TEST(test_oni_reader_that_dies_mid_read_or_is_missing_gives_clear_errors) {
     unsetenv("TSK_ONI_READER");
     CHECK(src == NULL);
     /* a reader that is not one: /bin/true ends at once without a word */
-    setenv("TSK_ONI_READER", "/bin/true", 1);
+    setenv("TSK_ONI_READER", not_a_reader(), 1);
     CHECK_STATUS(tsk_depth_open_oni(path, &src), TSK_ERR_FORMAT, "while opening");
     unsetenv("TSK_ONI_READER");
     CHECK(!children_left());
@@ -1008,14 +1077,16 @@ TEST(test_oni_reader_that_dies_mid_read_or_is_missing_gives_clear_errors) {
 /* A reader's side of the conversation written by the test: its answers, then the end of
  * its stream; its end stays open to take requests until the next call. */
 static int fake_reader(const void* bytes, size_t n, tsk_depth_source** out) {
-    static int peer = -1;
-    if (peer >= 0) close(peer);
-    int sv[2];
-    if (socketpair(AF_UNIX, SOCK_STREAM, 0, sv) != 0) return -1;
-    if (write(sv[1], bytes, n) != (ssize_t)n) return -1;
-    shutdown(sv[1], SHUT_WR);
-    peer = sv[1];
-    return (int)tsk_depth_attach_oni_reader(sv[0], "fake.oni", out);
+    static fake_end peer;
+    static int has_peer = 0;
+    if (has_peer) fake_close(&peer);
+    has_peer = 0;
+    tsk_oni_channel ours;
+    if (fake_channel(&ours, &peer) != 0) return -1;
+    has_peer = 1;
+    if (fake_send(&peer, bytes, n) != 0) return -1;
+    fake_end_answers(&peer);
+    return (int)tsk_depth_attach_oni_reader(ours, "fake.oni", out);
 }
 
 typedef struct fake_talk {
@@ -1039,16 +1110,19 @@ TEST(test_oni_reader_answers_are_checked) {
     m.px[3] = 2.0f;
     tsk_depth_source* src = NULL;
     /* a well-formed conversation plays */
-    int sv[2];
-    CHECK(socketpair(AF_UNIX, SOCK_STREAM, 0, sv) == 0);
-    CHECK(write(sv[1], &m, sizeof m) == (ssize_t)sizeof m);
-    CHECK_STATUS(tsk_depth_attach_oni_reader(sv[0], "fake.oni", &src), TSK_OK, "");
+    tsk_oni_channel ours;
+    fake_end theirs;
+    memset(&ours, 0xff, sizeof ours); /* -1: no descriptor, no handle */
+    memset(&theirs, 0xff, sizeof theirs);
+    CHECK(fake_channel(&ours, &theirs) == 0);
+    CHECK(fake_send(&theirs, &m, sizeof m) == 0);
+    CHECK_STATUS(tsk_depth_attach_oni_reader(ours, "fake.oni", &src), TSK_OK, "");
     float d[4];
     tsk_depth_frame fr;
     CHECK_STATUS(tsk_depth_read(src, d, 4, &fr), TSK_OK, "");
     CHECK(fr.is_new == 1 && fr.end == 1 && d[0] == 0.5f && d[3] == 2.0f);
     tsk_depth_close(src);
-    close(sv[1]);
+    fake_close(&theirs);
     /* each damaged answer is refused with a message */
     fake_talk b = m;
     memcpy(b.h.magic, "NOTONI!!", 8);
@@ -1254,31 +1328,32 @@ TEST(test_capture_tiny_smoothing_sigma_is_identity_not_nan) {
     free(out[1]);
 }
 
-TEST_MAIN(TEST_ENTRY(test_capture_tiny_smoothing_sigma_is_identity_not_nan),
-          TEST_ENTRY(test_capture_tiny_focal_length_or_far_band_is_refused),
-          TEST_ENTRY(test_capture_band_ignores_huge_finite_depths),
-          TEST_ENTRY(test_capture_no_blades_getters_copy_nothing),
-          TEST_ENTRY(test_capture_frame_over_memory_budget_is_refused),
-          TEST_ENTRY(test_capture_clean_fan_gives_exact_blades_and_profiles),
-          TEST_ENTRY(test_capture_noisy_fan_keeps_count_and_tolerances),
-          TEST_ENTRY(test_capture_crossing_blades_run_from_the_base_through_the_shared_part),
-          TEST_ENTRY(test_capture_single_blade_is_one_blade_root_to_tip),
-          TEST_ENTRY(test_capture_centroid_mode_splits_a_lone_blade_but_root_mode_does_not),
-          TEST_ENTRY(test_capture_blade_cut_by_border_is_flagged),
-          TEST_ENTRY(test_capture_is_deterministic_across_threads_and_runs),
-          TEST_ENTRY(test_capture_debug_images_show_mask_labels_and_skeletons),
-          TEST_ENTRY(test_depth_png16_round_trip_and_capture),
-          TEST_ENTRY(test_depth_exr_round_trip_is_exact_and_nan_inf_read_as_no_data),
-          TEST_ENTRY(test_depth_numbered_sequence_counts_seeks_and_ends),
-          TEST_ENTRY(test_depth_bad_files_give_clear_errors),
-          TEST_ENTRY(test_depth_huge_images_are_refused_from_the_header),
-          TEST_ENTRY(test_capture_bad_frames_and_parameters_give_clear_errors),
-          TEST_ENTRY(test_band_proposal_finds_the_nearest_mode),
-          TEST_ENTRY(test_intrinsics_defaults_scale_and_fov),
-          TEST_ENTRY(test_device_dummy_reads_latest_frame_without_blocking),
-          TEST_ENTRY(test_device_missing_gives_device_error),
-          TEST_ENTRY(test_oni_recording_made_by_the_test_plays_frame_by_frame),
-          TEST_ENTRY(test_oni_damaged_recordings_cannot_crash_the_caller),
-          TEST_ENTRY(test_oni_reader_that_dies_mid_read_or_is_missing_gives_clear_errors),
-          TEST_ENTRY(test_oni_reader_answers_are_checked),
-          TEST_ENTRY(test_capture_random_depth_is_handled_without_harm))
+TEST_MAIN(
+    TEST_NEEDS(test_capture_tiny_smoothing_sigma_is_identity_not_nan, "OpenCV"),
+    TEST_NEEDS(test_capture_tiny_focal_length_or_far_band_is_refused, "OpenCV"),
+    TEST_ENTRY(test_capture_band_ignores_huge_finite_depths),
+    TEST_NEEDS(test_capture_no_blades_getters_copy_nothing, "OpenCV"),
+    TEST_NEEDS(test_capture_frame_over_memory_budget_is_refused, "OpenCV"),
+    TEST_NEEDS(test_capture_clean_fan_gives_exact_blades_and_profiles, "OpenCV"),
+    TEST_NEEDS(test_capture_noisy_fan_keeps_count_and_tolerances, "OpenCV"),
+    TEST_NEEDS(test_capture_crossing_blades_run_from_the_base_through_the_shared_part, "OpenCV"),
+    TEST_NEEDS(test_capture_single_blade_is_one_blade_root_to_tip, "OpenCV"),
+    TEST_NEEDS(test_capture_centroid_mode_splits_a_lone_blade_but_root_mode_does_not, "OpenCV"),
+    TEST_NEEDS(test_capture_blade_cut_by_border_is_flagged, "OpenCV"),
+    TEST_NEEDS(test_capture_is_deterministic_across_threads_and_runs, "OpenCV"),
+    TEST_NEEDS(test_capture_debug_images_show_mask_labels_and_skeletons, "OpenCV"),
+    TEST_NEEDS(test_depth_png16_round_trip_and_capture, "OpenCV"),
+    TEST_NEEDS(test_depth_exr_round_trip_is_exact_and_nan_inf_read_as_no_data, "OpenCV"),
+    TEST_NEEDS(test_depth_numbered_sequence_counts_seeks_and_ends, "OpenCV"),
+    TEST_NEEDS(test_depth_bad_files_give_clear_errors, "OpenCV"),
+    TEST_ENTRY(test_depth_huge_images_are_refused_from_the_header),
+    TEST_NEEDS(test_capture_bad_frames_and_parameters_give_clear_errors, "OpenCV"),
+    TEST_ENTRY(test_band_proposal_finds_the_nearest_mode),
+    TEST_ENTRY(test_intrinsics_defaults_scale_and_fov),
+    TEST_NEEDS(test_device_dummy_reads_latest_frame_without_blocking, "OpenNI2"),
+    TEST_NEEDS(test_device_missing_gives_device_error, "OpenNI2"),
+    TEST_NEEDS(test_oni_recording_made_by_the_test_plays_frame_by_frame, "OpenNI2"),
+    TEST_NEEDS(test_oni_damaged_recordings_cannot_crash_the_caller, "OpenNI2"),
+    TEST_NEEDS(test_oni_reader_that_dies_mid_read_or_is_missing_gives_clear_errors, "OpenNI2"),
+    TEST_ENTRY(test_oni_reader_answers_are_checked),
+    TEST_NEEDS(test_capture_random_depth_is_handled_without_harm, "OpenCV"))

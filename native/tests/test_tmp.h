@@ -1,6 +1,7 @@
 /* A per-process temporary folder for test programs that write files: tmp_path("name") is
- * /tmp/tsk_test_<TSK_TEST_TMP_NAME>_<pid>/name. The folder is made on first use and removed
- * at exit with everything in it, read-only folders a test made included. */
+ * /tmp/tsk_test_<TSK_TEST_TMP_NAME>_<pid>/name (on Windows in its folder for temporary files).
+ * The folder is made on first use and removed at exit with everything in it, read-only folders
+ * a test made included. */
 #ifndef TSK_TEST_TMP_H
 #define TSK_TEST_TMP_H
 
@@ -10,6 +11,8 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+#include "test_os.h"
 
 #ifndef TSK_TEST_TMP_NAME
 #error "define TSK_TEST_TMP_NAME (the suite's name, a string) before including test_tmp.h"
@@ -48,8 +51,9 @@ static const char* tmp_path(const char* name) {
     static int k;
     k = (k + 1) % 4;
     if (g_dir[0] == '\0') {
-        snprintf(g_dir, sizeof g_dir, "/tmp/tsk_test_%s_%d", TSK_TEST_TMP_NAME, (int)getpid());
-        mkdir(g_dir, 0700);
+        snprintf(g_dir, sizeof g_dir, "%s/tsk_test_%s_%d", test_tmp_root(), TSK_TEST_TMP_NAME,
+                 (int)getpid());
+        test_mkdir(g_dir, 0700);
         atexit(tmp_remove_dir);
     }
     snprintf(buf[k], sizeof buf[k], "%s/%s", g_dir, name);

@@ -37,14 +37,18 @@ void tsk_clear_error(void);
 /// Sets the calling thread's last error (printf-style) and returns `status`,
 /// so that a function can `return tsk_error(TSK_ERR_IO, "...");`.
 tsk_status tsk_error(tsk_status status, const char* fmt, ...)
-#if defined(__GNUC__)
+#if defined(__MINGW32__) /* the library formats with MinGW's C99 printf, not msvcrt.dll's */
+    __attribute__((format(gnu_printf, 2, 3)))
+#elif defined(__GNUC__)
     __attribute__((format(printf, 2, 3)))
 #endif
     ;
 
 /// Like tsk_error, with the failing argument named first: "argname: message".
 tsk_status tsk_error_arg(tsk_status status, const char* arg, const char* fmt, ...)
-#if defined(__GNUC__)
+#if defined(__MINGW32__)
+    __attribute__((format(gnu_printf, 3, 4)))
+#elif defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;

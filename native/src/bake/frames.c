@@ -12,10 +12,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include "bake_internal.h"
+#include "core/file.h"
 
 static const char MAGIC[8] = {'T', 'S', 'K', 'F', 'R', 'A', 'M', 'E'};
 enum { HEADER_SIZE = 8 + 4 + 4 + 4 + 4 + 8 };
@@ -36,8 +36,8 @@ tsk_status tsk_bake_write_parts(const char* path, const void* const* parts, cons
     size_t n = strlen(path);
     char* tmp = malloc(n + 32);
     if (tmp == NULL) return tsk_error(TSK_ERR_MEMORY, "out of memory");
-    snprintf(tmp, n + 32, "%s.tmp%ld", path, (long)getpid());
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    snprintf(tmp, n + 32, "%s.tmp%ld", path, tsk_process_id());
+    int fd = tsk_open(tmp, O_WRONLY | O_CREAT | O_TRUNC);
     if (fd < 0) {
         tsk_status s =
             tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path, strerror(errno));
@@ -48,12 +48,13 @@ tsk_status tsk_bake_write_parts(const char* path, const void* const* parts, cons
         const unsigned char* p = parts[k];
         size_t left = sizes[k];
         while (left > 0) {
-            ssize_t w = write(fd, p, left);
+            /* at most 1 GiB a call: Windows' write takes an unsigned int */
+            ssize_t w = write(fd, p, left < ((size_t)1 << 30) ? left : ((size_t)1 << 30));
             if (w < 0 && errno == EINTR) continue;
             if (w <= 0) {
                 int err = w < 0 ? errno : ENOSPC;
                 close(fd);
-                unlink(tmp);
+                tsk_unlink(tmp);
                 free(tmp);
                 return tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path,
                                      strerror(err));
@@ -62,15 +63,15 @@ tsk_status tsk_bake_write_parts(const char* path, const void* const* parts, cons
             left -= (size_t)w;
         }
     }
-    if (fsync(fd) != 0 || close(fd) != 0) {
+    if (tsk_fsync(fd) != 0 || close(fd) != 0) {
         int err = errno;
-        unlink(tmp);
+        tsk_unlink(tmp);
         free(tmp);
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path, strerror(err));
     }
-    if (rename(tmp, path) != 0) {
+    if (tsk_rename_over(tmp, path) != 0) {
         int err = errno;
-        unlink(tmp);
+        tsk_unlink(tmp);
         free(tmp);
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path, strerror(err));
     }
@@ -104,7 +105,7 @@ tsk_status tsk_bake_write_frame(const char* path, int32_t frame, const float* xy
 static tsk_status read_header(const char* path, FILE** out, int32_t* frame, uint32_t* count,
                               uint64_t* checksum) {
     if (path == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is NULL");
-    FILE* f = fopen(path, "rb");
+    FILE* f = tsk_fopen(path, "rb");
     if (f == NULL)
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s': %s", path, strerror(errno));
     unsigned char h[HEADER_SIZE];
@@ -127,9 +128,8 @@ static tsk_status read_header(const char* path, FILE** out, int32_t* frame, uint
         fclose(f);
         return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' claims %u points", path, *count);
     }
-    struct stat st;
-    if (fstat(fileno(f), &st) != 0 ||
-        (uint64_t)st.st_size != HEADER_SIZE + (uint64_t)*count * 12u) {
+    uint64_t size = 0;
+    if (tsk_file_size(f, &size) != 0 || size != HEADER_SIZE + (uint64_t)*count * 12u) {
         fclose(f);
         return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is truncated or too long", path);
     }

@@ -9,12 +9,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include "bake_internal.h"
 #include "bridge/opencv_picture_bridge.h"
+#include "core/file.h"
 #include "tussock/bake.h"
 #include "tussock/picture.h"
 
@@ -44,7 +43,7 @@ static int ends_with_exr(const char* path) {
 
 /* Size and checksum of a whole file, read in blocks. */
 static tsk_status file_checksum(const char* path, uint64_t* size, uint64_t* sum) {
-    int fd = open(path, O_RDONLY);
+    int fd = tsk_open(path, O_RDONLY);
     if (fd < 0)
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s': %s", path, strerror(errno));
     unsigned char buf[65536];
@@ -73,7 +72,7 @@ static tsk_status file_checksum(const char* path, uint64_t* size, uint64_t* sum)
  * from the free space left. */
 static tsk_status write_exr_synced(const char* path, const char* tmp, const float* rgba, int width,
                                    int height, uint64_t* size, uint64_t* sum) {
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    int fd = tsk_open(tmp, O_WRONLY | O_CREAT | O_TRUNC);
     if (fd < 0)
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path, strerror(errno));
     close(fd);
@@ -81,7 +80,7 @@ static tsk_status write_exr_synced(const char* path, const char* tmp, const floa
     if (s != TSK_OK) {
         /* the folder, not the file: OpenCV removes a file it failed to write */
         char dir[4096] = ".";
-        const char* slash = strrchr(tmp, '/');
+        const char* slash = tsk_last_separator(tmp);
         if (slash == tmp) {
             dir[0] = '/';
         } else if (slash != NULL) {
@@ -90,9 +89,9 @@ static tsk_status write_exr_synced(const char* path, const char* tmp, const floa
             memcpy(dir, tmp, len);
             dir[len] = '\0';
         }
-        struct statvfs vfs;
+        uint64_t free_bytes = 0;
         const uint64_t need = (uint64_t)width * (uint64_t)height * 16u + 65536u;
-        if (statvfs(dir, &vfs) == 0 && (uint64_t)vfs.f_bavail * vfs.f_frsize < need)
+        if (tsk_free_bytes(dir, &free_bytes) == 0 && free_bytes < need)
             return tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path,
                                  strerror(ENOSPC));
         return tsk_error_arg(TSK_ERR_IO, "path",
@@ -102,8 +101,8 @@ static tsk_status write_exr_synced(const char* path, const char* tmp, const floa
     }
     s = file_checksum(tmp, size, sum);
     if (s != TSK_OK) return s;
-    fd = open(tmp, O_RDONLY);
-    if (fd < 0 || fsync(fd) != 0) {
+    fd = tsk_open(tmp, O_RDONLY);
+    if (fd < 0 || tsk_fsync(fd) != 0) {
         int err = errno;
         if (fd >= 0) close(fd);
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path, strerror(err));
@@ -141,12 +140,12 @@ tsk_status tsk_bake_write_image(const char* path, int32_t frame, uint64_t key, c
         return TSK_ERR_MEMORY;
     }
     /* OpenCV picks the format by the extension, so the temporary name ends in .exr too */
-    snprintf(tmp, strlen(path) + 40, "%s.tmp%ld.exr", path, (long)getpid());
+    snprintf(tmp, strlen(path) + 40, "%s.tmp%ld.exr", path, tsk_process_id());
     uint64_t size = 0, sum = 0;
     tsk_status s = write_exr_synced(path, tmp, rgba, width, height, &size, &sum);
-    if (s == TSK_OK && rename(tmp, path) != 0)
+    if (s == TSK_OK && tsk_rename_over(tmp, path) != 0)
         s = tsk_error_arg(TSK_ERR_IO, "path", "cannot write '%s': %s", path, strerror(errno));
-    if (s != TSK_OK) unlink(tmp);
+    if (s != TSK_OK) tsk_unlink(tmp);
     tsk_free(tmp);
     if (s == TSK_OK) { /* the EXR first, then the sidecar that vouches for it */
         unsigned char side[SIDECAR_SIZE];
@@ -172,7 +171,7 @@ tsk_status tsk_bake_image_info(const char* path, int32_t* frame, uint64_t* key, 
     char* spath = sidecar_path(path);
     if (spath == NULL) return TSK_ERR_MEMORY;
     unsigned char h[SIDECAR_SIZE];
-    FILE* f = fopen(spath, "rb");
+    FILE* f = tsk_fopen(spath, "rb");
     if (f == NULL) {
         tsk_status s =
             tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s': %s", spath, strerror(errno));

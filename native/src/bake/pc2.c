@@ -8,9 +8,9 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "bake_internal.h"
+#include "core/file.h"
 
 static const char PC2_MAGIC[12] = "POINTCACHE2";
 enum { PC2_HEADER = 12 + 4 + 4 + 4 + 4 + 4 };
@@ -77,13 +77,13 @@ tsk_status tsk_bake_assemble_pc2(const char* path, const char* const* frame_path
 tsk_status tsk_pc2_info(const char* path, uint32_t* points, float* start_frame, float* sample_rate,
                         uint32_t* samples) {
     if (path == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is NULL");
-    FILE* f = fopen(path, "rb");
+    FILE* f = tsk_fopen(path, "rb");
     if (f == NULL)
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s': %s", path, strerror(errno));
     unsigned char h[PC2_HEADER];
     size_t got = fread(h, 1, PC2_HEADER, f);
-    struct stat st;
-    int stat_ok = fstat(fileno(f), &st) == 0;
+    uint64_t size = 0;
+    int stat_ok = tsk_file_size(f, &size) == 0;
     fclose(f);
     if (got != PC2_HEADER || memcmp(h, PC2_MAGIC, 12) != 0)
         return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is not a .pc2 point cache", path);
@@ -100,7 +100,7 @@ tsk_status tsk_pc2_info(const char* path, uint32_t* points, float* start_frame, 
         return tsk_error_arg(TSK_ERR_FORMAT, "path",
                              "'%s' has a bad .pc2 header (start frame %g, sample rate %g)", path,
                              (double)start, (double)rate);
-    if (!stat_ok || (uint64_t)st.st_size != PC2_HEADER + (uint64_t)np * 12u * (uint64_t)ns)
+    if (!stat_ok || size != PC2_HEADER + (uint64_t)np * 12u * (uint64_t)ns)
         return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is truncated or too long", path);
     if (points) *points = (uint32_t)np;
     if (start_frame) *start_frame = start;
@@ -120,12 +120,12 @@ tsk_status tsk_pc2_read_sample(const char* path, uint32_t index, float* xyz, uin
     if (index >= ns)
         return tsk_error_arg(TSK_ERR_ARGUMENT, "index", "'%s' has %u samples, asked for %u", path,
                              ns, index);
-    FILE* f = fopen(path, "rb");
+    FILE* f = tsk_fopen(path, "rb");
     if (f == NULL)
         return tsk_error_arg(TSK_ERR_IO, "path", "cannot open '%s': %s", path, strerror(errno));
-    long offset = (long)(PC2_HEADER + (uint64_t)np * 12u * index);
+    const uint64_t offset = PC2_HEADER + (uint64_t)np * 12u * index;
     size_t n = (size_t)np * 3;
-    int ok = fseek(f, offset, SEEK_SET) == 0 && fread(xyz, sizeof(float), n, f) == n;
+    int ok = tsk_fseek_set(f, offset) == 0 && fread(xyz, sizeof(float), n, f) == n;
     fclose(f);
     if (!ok) return tsk_error_arg(TSK_ERR_FORMAT, "path", "'%s' is truncated", path);
     for (size_t i = 0; i < n; ++i)

@@ -5,7 +5,6 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "bridge/opencv_capture_bridge.h"
 #include "core/exr_header.h"
@@ -87,10 +86,7 @@ static void frame_path(const tsk_depth_source* src, int number, char* out, size_
 
 /* Anything at the path counts (opening it says what is wrong with a pipe or a folder);
  * stat never waits on a FIFO, as opening one for reading would. */
-static int file_exists(const char* path) {
-    struct stat st;
-    return stat(path, &st) == 0;
-}
+static int file_exists(const char* path) { return tsk_path_exists(path); }
 
 /* index -1: discover the frames and check the first one */
 tsk_status tsk_files_read(tsk_depth_source* src, int index, float* depth_m, size_t count,

@@ -46,12 +46,30 @@ tsk_status tsk_depth_open_oni_local(const char* path, tsk_depth_source** out);
 
 /* .oni recordings through the recording reader process */
 tsk_status tsk_oni_proxy_open(tsk_depth_source* src, const char* path);
-/* Takes over `fd`, a socket to a reader (process `pid`, or -1 for none: tests and fuzzing
- * feed the bytes themselves), and receives and checks its hello. */
-tsk_status tsk_oni_proxy_attach(tsk_depth_source* src, int fd, int pid, const char* path);
-/* A recording source over `fd` with no reader process behind it: tests and fuzz_oni write
+/* Our end of the channel to a recording reader (oni_reader_protocol.h). POSIX: one end of a
+ * socket pair, both ways. Windows: two pipes, one each way, since a pipe cannot be closed
+ * for writing alone as a socket can: the reader's answers arrive on `answers` (a named pipe
+ * opened for overlapped reads, which time out), requests go to `requests`. */
+#ifdef _WIN32
+typedef struct tsk_oni_channel {
+    void* answers; /* HANDLE */
+    void* requests; /* HANDLE */
+} tsk_oni_channel;
+/* A new channel: `ours` as above; `theirs` is the reader's side (answers: the write end,
+ * requests: the read end), inheritable by a child process if `inheritable`. 0 on success,
+ * -1 with GetLastError set. Tests write the reader's side of a conversation with it. */
+int tsk_oni_channel_pair(tsk_oni_channel* ours, tsk_oni_channel* theirs, int inheritable);
+#else
+typedef int tsk_oni_channel;
+#endif
+/* Takes over `ch`, the channel to a reader (process id `pid`, or -1 for none: tests and
+ * fuzzing feed the bytes themselves), and receives and checks its hello. */
+tsk_status tsk_oni_proxy_attach(tsk_depth_source* src, tsk_oni_channel ch, int pid,
+                                const char* path);
+/* A recording source over `ch` with no reader process behind it: tests and fuzz_oni write
  * the reader's side of the conversation themselves. */
-tsk_status tsk_depth_attach_oni_reader(int fd, const char* name, tsk_depth_source** out);
+tsk_status tsk_depth_attach_oni_reader(tsk_oni_channel ch, const char* name,
+                                       tsk_depth_source** out);
 /* Test hook: the process id of a recording's reader (-1 if none). */
 int tsk_oni_proxy_pid(const tsk_depth_source* src);
 tsk_status tsk_oni_proxy_read(tsk_depth_source* src, float* depth_m, size_t count,

@@ -120,12 +120,13 @@ tsk_status tsk_depth_open_oni_local(const char* path, tsk_depth_source** out) {
     return open_recording(path, out, 1);
 }
 
-tsk_status tsk_depth_attach_oni_reader(int fd, const char* name, tsk_depth_source** out) {
+tsk_status tsk_depth_attach_oni_reader(tsk_oni_channel ch, const char* name,
+                                       tsk_depth_source** out) {
     *out = NULL;
     tsk_depth_source* src = new_source(TSK_DEPTH_ONI);
     if (src == NULL) return TSK_ERR_MEMORY;
     snprintf(src->description, sizeof src->description, "%s", name);
-    tsk_status s = tsk_oni_proxy_attach(src, fd, -1, src->description);
+    tsk_status s = tsk_oni_proxy_attach(src, ch, -1, src->description);
     if (s != TSK_OK) {
         tsk_depth_close(src);
         return s;

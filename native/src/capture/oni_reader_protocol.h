@@ -5,7 +5,8 @@
  * checking, and a damaged file can crash it (native/fuzz/crashes/oni-segv-libOniFile.oni is
  * one). In Blender's process that crash would take the artist's work with it; in the reader
  * it is a status. The reader runs the ordinary in-process recording code of depth_openni.c
- * and answers over a socket on file descriptor TSK_ONI_READER_FD.
+ * and answers over a socket on file descriptor TSK_ONI_READER_FD; on Windows over two pipes
+ * whose handles follow the recording on its command line (TSK_ONI_READER_HANDLES).
  *
  * Messages are fixed-size structs in the machine's own byte order (both ends are this build).
  *   reader -> Tussock, once, at start: tsk_oni_hello.
@@ -19,6 +20,9 @@
 
 #define TSK_ONI_READER_NAME "tussock_oni_reader"
 #define TSK_ONI_READER_FD 3
+/* Windows: `tussock_oni_reader RECORDING.oni REQUESTS ANSWERS`, two inherited pipe handles in
+ * decimal: it reads requests from the first and writes its answers to the second. */
+#define TSK_ONI_READER_HANDLES 2
 #define TSK_ONI_MAGIC "TSKONI02"
 #define TSK_ONI_MESSAGE 512
 

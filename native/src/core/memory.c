@@ -7,15 +7,34 @@
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
+#ifdef _WIN32
+#define WIN32_LEAN_AND_MEAN
+#include <windows.h>
+#else
 #include <unistd.h>
+#endif
 
 static _Atomic uint64_t g_budget; /* 0 = default */
 
 uint64_t tsk_physical_memory(void) {
+#ifdef _WIN32
+    /* asked once: memory checks run per step, and the query is a system call (under wine a
+     * round trip to its server) */
+    static _Atomic uint64_t total; /* 0: not asked yet */
+    uint64_t t = atomic_load(&total);
+    if (t == 0) {
+        MEMORYSTATUSEX status;
+        status.dwLength = sizeof status;
+        t = GlobalMemoryStatusEx(&status) ? (uint64_t)status.ullTotalPhys : 0;
+        atomic_store(&total, t);
+    }
+    return t;
+#else
     const long pages = sysconf(_SC_PHYS_PAGES);
     const long page = sysconf(_SC_PAGESIZE);
     if (pages <= 0 || page <= 0) return 0;
     return (uint64_t)pages * (uint64_t)page;
+#endif
 }
 
 static uint64_t default_budget(void) {

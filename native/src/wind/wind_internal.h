@@ -82,9 +82,10 @@ void tsk_continuum_sample_cells(const tsk_continuum* w, float cx, float cy, floa
 
 /* Hot point loops are compiled twice, for AVX2 and for the x86-64 baseline, and picked at
  * load time. Both versions do the same IEEE operations in the same order (no FMA: the
- * build uses -ffp-contract=off), so they give the same bytes. */
+ * build uses -ffp-contract=off), so they give the same bytes. Windows has no ifunc, which GCC
+ * picks the clone with: its build runs the baseline. */
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
-    !defined(__SANITIZE_ADDRESS__) && !defined(TSK_NO_CLONES)
+    !defined(__SANITIZE_ADDRESS__) && !defined(TSK_NO_CLONES) && !defined(_WIN32)
 #define TSK_WIND_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define TSK_WIND_CLONES
