@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Tussock's only entry point:  ./build.sh deps | build | test [--blender 3|4|5,...] | demo [--blender N]
 #                              | bench [--blender N] [--record] [NAME...] | package | fuzz [SECONDS [NAME...]]
-#                              | roots [4] [5] | shots [--blender N]
+#                              | roots [4] [5] | shots [--blender N] | windows
 # Each step is idempotent and quiet when there is nothing to do.
 set -euo pipefail
 
@@ -165,11 +165,12 @@ cmd_fuzz() {
 # Runs every test_* program of a build dir; adds to PASSED/FAILED.
 PASSED=0
 FAILED=0
-run_native_tests() { # dir, label
+run_native_tests() { # dir, label [, command that runs each test: e.g. in_root SUITE]
   local dir="$1" label="$2" t out line p f
+  shift 2
   for t in "$dir"/test_*; do
     [ -x "$t" ] || continue
-    if out="$(cd "$dir" && "$t" 2>&1)"; then :; else
+    if out="$(cd "$dir" && "$@" "$t" 2>&1)"; then :; else
       printf '%s\n' "$out"
     fi
     line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed' | tail -n 1 || true)"
@@ -295,17 +296,19 @@ cmd_test() {
   parse_blenders 3,4,5 "$@"
   [ ${#ARGS[@]} -eq 0 ] || die "test: unknown argument '${ARGS[0]}'"
   cmd_deps
-  # the roots download and build beside the native suites; they are waited for below
-  for m in "${MAJORS[@]}"; do
-    if [ -n "$(suite_of "$m")" ]; then
-      prep_log="$(mktemp)"
-      ( for m in "${MAJORS[@]}"; do root_build "$m"; done ) >"$prep_log" 2>&1 &
-      prep_pid=$!
-      break
-    fi
-  done
+  # The roots download and build beside the native suites, and so does the portable build
+  # (in its Debian 11 root) with the artists' roots it is tried in; they are waited for below.
+  prep_log="$(mktemp)"
+  (
+    [ "$BLENDER_CHOSEN" = 0 ] && portable_build
+    for m in "${MAJORS[@]}"; do
+      root_build "$m"
+      [ "$BLENDER_CHOSEN" = 1 ] || [ -z "$(suite_of "$m")" ] || artist_root "$(suite_of "$m")"
+    done
+  ) >"$prep_log" 2>&1 &
+  prep_pid=$!
   cmd_build
-  cmd_package >/dev/null
+  TSK_PORTABLE=0 cmd_package >/dev/null
   run_lint
   run_python_tests
   if [ "$BLENDER_CHOSEN" = 0 ]; then
@@ -327,14 +330,24 @@ cmd_test() {
       run_fuzzers "${TSK_CI_FUZZ_SECONDS:-15}"
     fi
   fi
-  if [ -n "$prep_pid" ]; then
-    if ! wait "$prep_pid"; then
-      cat "$prep_log" >&2
-      die "could not make the Debian roots of Blenders ${MAJORS[*]}"
-    fi
-    rm -f "$prep_log"
+  if ! wait "$prep_pid"; then
+    cat "$prep_log" >&2
+    die "could not make the portable build or the Debian roots of Blenders ${MAJORS[*]}"
+  fi
+  rm -f "$prep_log"
+  if [ "$BLENDER_CHOSEN" = 0 ]; then
+    # the portable build: its native suites on Debian 11 (glibc 2.31), and the floor
+    quiet in_root "$PORTABLE_SUITE" cmake --build "$PORTABLE/release" \
+      || die "portable build of the native tests failed"
+    run_native_tests "$PORTABLE/release" bullseye in_root "$PORTABLE_SUITE"
+    run_floor_checks
   fi
   for m in "${MAJORS[@]}"; do run_blender_suite "$m"; done
+  if [ "$BLENDER_CHOSEN" = 0 ]; then
+    local suites=()
+    for m in "${MAJORS[@]}"; do [ -z "$(suite_of "$m")" ] || suites+=("$(suite_of "$m")"); done
+    [ ${#suites[@]} -eq 0 ] || run_artist_checks "${suites[@]}"
+  fi
   t1=$(date +%s)
   say "test time: $((t1 - t0)) s"
   echo "$PASSED passed, $FAILED failed"
@@ -433,18 +446,14 @@ in_root() { # suite, command...
     TERM=dumb DEBIAN_FRONTEND=noninteractive "${pass[@]}" "$@"
 }
 
-# Makes (or brings up to date) the Debian root of `suite` with ROOT_PACKAGES installed.
-# A root whose stamp lists the same packages is reused as it is.
-root_ensure() { # suite
-  local suite="$1" dir="$ROOTS/$1" want="${ROOT_PACKAGES[*]}" mirror
-  if [ -f "$dir/.tussock-packages" ] && [ "$(cat "$dir/.tussock-packages")" = "$want" ]; then
-    return 0
-  fi
-  mkdir -p "$ROOTS"
+# A minimal Debian `suite` in `dir` (debootstrap, once), its apt set up for this machine.
+debootstrap_root() { # suite, dir, what it is for the messages
+  local suite="$1" dir="$2" mirror
+  mirror="$(host_mirror)"
+  mkdir -p "$(dirname "$dir")"
   if [ ! -x "$dir/usr/bin/apt-get" ]; then
-    say "build.sh: making the Debian $suite root in $dir (debootstrap)"
+    say "build.sh: making $3 in $dir (debootstrap)"
     rm -rf "$dir.tmp"
-    mirror="$(host_mirror)"
     quiet debootstrap --variant=minbase "$suite" "$dir.tmp" ${mirror:+"$mirror"} \
       || die "debootstrap $suite failed"
     rm -rf "$dir"
@@ -453,9 +462,29 @@ root_ensure() { # suite
   # sid's Release file can be past its Valid-Until date between two archive updates
   printf 'Acquire::Check-Valid-Until "false";\n' >"$dir/etc/apt/apt.conf.d/99tussock"
   if [ -f /etc/resolv.conf ]; then cp -L /etc/resolv.conf "$dir/etc/resolv.conf"; fi
+}
+
+# Makes (or brings up to date) the Debian root of `suite` with ROOT_PACKAGES installed (for
+# the portable build's root, PORTABLE_PACKAGES). A root whose stamp lists the same packages
+# is reused as it is.
+root_ensure() { # suite
+  local suite="$1" dir="$ROOTS/$1" want mirror pkgs=("${ROOT_PACKAGES[@]}")
+  [ "$suite" = "$PORTABLE_SUITE" ] && pkgs=("${PORTABLE_PACKAGES[@]}")
+  want="${pkgs[*]}"
+  if [ -f "$dir/.tussock-packages" ] && [ "$(cat "$dir/.tussock-packages")" = "$want" ]; then
+    return 0
+  fi
+  mirror="$(host_mirror)"
+  debootstrap_root "$suite" "$dir" "the Debian $suite root"
+  if [ "$suite" = "$PORTABLE_SUITE" ]; then
+    # the sources of the libraries it builds: Debian 12's versions (native/portable/
+    # build_deps.sh says why), and sid's for a file this mirror lacks in bookworm's revision
+    printf 'deb-src %s bookworm main\ndeb-src %s sid main\n' "${mirror:-http://deb.debian.org/debian}" \
+      "${mirror:-http://deb.debian.org/debian}" >"$dir/etc/apt/sources.list.d/tussock-src.list"
+  fi
   say "build.sh: installing into the $suite root: $want"
   quiet in_root "$suite" apt-get update -qq || die "apt-get update in the $suite root failed"
-  quiet in_root "$suite" apt-get install -y -qq --no-install-recommends "${ROOT_PACKAGES[@]}" \
+  quiet in_root "$suite" apt-get install -y -qq --no-install-recommends "${pkgs[@]}" \
     || die "apt-get install in the $suite root failed"
   printf '%s\n' "$want" >"$dir/.tussock-packages"
 }
@@ -495,6 +524,169 @@ root_build() { # major
     || die "packaging failed in the $suite root"
 }
 
+# ---- the portable Linux extension (docs/platforms.md) ---------------------------------------
+# Built in a Debian 11 root (glibc 2.31; glibc_floor.h pins the few newer symbols to 2.28),
+# against libraries that native/portable/build_deps.sh builds there from Debian's source
+# packages, once: they are kept in the root (/opt/tussock-deps), stamped with the hash of the
+# files that make them.
+PORTABLE_SUITE=bullseye
+PORTABLE_PACKAGES=(cmake ninja-build pkg-config g++ clang make patch xz-utils bzip2 dpkg-dev
+                   nasm ca-certificates binutils python3)
+PORTABLE="$BUILD/portable"
+
+portable_deps() {
+  local dir="$ROOTS/$PORTABLE_SUITE" want log
+  root_ensure "$PORTABLE_SUITE"
+  want="$(cat "$ROOT/native/portable/build_deps.sh" "$ROOT/native/portable/glibc_floor.h" \
+    | sha256sum | cut -c1-16)"
+  if [ "$(cat "$dir/opt/tussock-deps/.stamp" 2>/dev/null)" != "$want" ]; then
+    mkdir -p "$PORTABLE"
+    log="$PORTABLE/deps.log"
+    say "build.sh: building OpenCV, OpenSubdiv, OpenNI2 and their codecs from Debian's sources" \
+      "in the $PORTABLE_SUITE root, once (about 25 minutes on 2 cores; log: $log)"
+    rm -rf "$dir/opt/tussock-deps" "$dir/opt/tussock-deps.work"
+    if ! in_root "$PORTABLE_SUITE" bash "$ROOT/native/portable/build_deps.sh" /opt/tussock-src \
+        /opt/tussock-deps >"$log" 2>&1; then
+      tail -n 40 "$log" >&2
+      die "building the portable build's libraries failed (log: $log)"
+    fi
+    rm -rf "$dir/opt/tussock-deps.work"
+    printf '%s\n' "$want" >"$dir/opt/tussock-deps/.stamp"
+  fi
+  # The module is built against CPython 3.11's headers (limited API, abi3 >= 3.11, the
+  # Python of Blender 4.2 and later); Debian 11 has 3.9, so the host's (Debian 12) go in.
+  if ! cmp -s /usr/include/python3.11/Python.h "$dir/opt/python3.11/include/python3.11/Python.h"; then
+    mkdir -p "$dir/opt/python3.11/include/x86_64-linux-gnu"
+    cp -a /usr/include/python3.11 "$dir/opt/python3.11/include/"
+    cp -a /usr/include/x86_64-linux-gnu/python3.11 "$dir/opt/python3.11/include/x86_64-linux-gnu/"
+  fi
+}
+
+# The portable build: $BUILD/portable/{release,addon,dist}; the zip
+# dist/tussock-VERSION-linux_x64.zip, checked by tools/binary_floor.py.
+portable_build() {
+  local b="$PORTABLE/release" a="$PORTABLE/addon" deps f
+  portable_deps
+  deps="$ROOTS/$PORTABLE_SUITE/opt/tussock-deps"
+  if [ ! -f "$b/build.ninja" ]; then
+    quiet in_root "$PORTABLE_SUITE" cmake -S "$ROOT/native" -B "$b" -G Ninja \
+      -DCMAKE_BUILD_TYPE=Release -DTSK_PORTABLE_DEPS=/opt/tussock-deps \
+      "-DTSK_PYTHON_INCLUDE=/opt/python3.11/include/python3.11;/opt/python3.11/include" \
+      || die "cmake configure failed in the $PORTABLE_SUITE root"
+  fi
+  quiet in_root "$PORTABLE_SUITE" cmake --build "$b" --target _tussock tussock_oni_reader \
+    || die "portable build failed"
+  addon_for "$b" "$a"
+  # OpenNI2 and its drivers in lib/ (found through the binaries' RPATH $ORIGIN/lib; OpenNI2
+  # loads its drivers from OpenNI2/Drivers beside itself)
+  mkdir -p "$a/lib/OpenNI2/Drivers"
+  cp "$deps/openni2/libOpenNI2.so.0" "$a/lib/"
+  rm -f "$a"/lib/OpenNI2/Drivers/*
+  cp "$deps"/openni2/OpenNI2/Drivers/lib*.so.0 "$a/lib/OpenNI2/Drivers/"
+  # no symbols an artist's Blender needs: a smaller zip
+  for f in "$a/_tussock.abi3.so" "$a/tussock_oni_reader" "$a/lib/libOpenNI2.so.0" \
+      "$a"/lib/OpenNI2/Drivers/*.so.0; do
+    in_root "$PORTABLE_SUITE" strip --strip-unneeded "$f"
+  done
+  mkdir -p "$ROOT/dist"
+  "$PY" "$ROOT/tools/package.py" "$ROOT" "$ROOT/dist" "$a" --platform linux_x64 >/dev/null \
+    || die "packaging the linux_x64 zip failed"
+  "$PY" "$ROOT/tools/binary_floor.py" "$(portable_zip)" >"$PORTABLE/floor.txt" 2>&1 || {
+    cat "$PORTABLE/floor.txt" >&2
+    die "the linux_x64 zip needs more than the base system or newer symbols than the floor"
+  }
+}
+
+# ---- artists' machines: roots with Blender and numpy alone ---------------------------------
+# What an artist has: Debian's blender (with its own dependencies) and numpy, nothing of
+# ours, no OpenCV, OpenNI2 or OpenSubdiv development packages, no compiler. Made once per
+# suite in $ROOTS/artist-SUITE, from the packages the suite's test root already downloaded.
+ARTIST_PACKAGES=(blender python3-numpy)
+artist_root() { # suite
+  local suite="$1" dir="$ROOTS/artist-$1" want="${ARTIST_PACKAGES[*]}"
+  [ -f "$dir/.tussock-packages" ] && [ "$(cat "$dir/.tussock-packages")" = "$want" ] && return 0
+  root_ensure "$suite"  # its apt cache holds blender's packages
+  debootstrap_root "$suite" "$dir" "an artist's $suite root (Blender and numpy only)"
+  find "$ROOTS/$suite/var/cache/apt/archives" -maxdepth 1 -name '*.deb' \
+    -exec cp -n {} "$dir/var/cache/apt/archives/" \; 2>/dev/null || true
+  quiet in_root "artist-$suite" apt-get update -qq || die "apt-get update in artist-$suite failed"
+  quiet in_root "artist-$suite" apt-get install -y -qq --no-install-recommends "${ARTIST_PACKAGES[@]}" \
+    || die "apt-get install in artist-$suite failed"
+  in_root "artist-$suite" apt-get clean
+  printf '%s\n' "$want" >"$dir/.tussock-packages"
+}
+
+# The portable zip on an artist's machine (issue 41): in artist-SUITE, installed with
+# `blender --command extension install-file`, enabled in a new Blender, and the artist's
+# path (tools/artist_check.py: capture from files and a recording, refine, meadow with a
+# collider, tree, picture, bake, one rendered frame) run there; then the same script with
+# the suite's apt build (its test root); the hashes of both must be equal. Adds to
+# PASSED/FAILED, one result per suite.
+run_artist_checks() { # suite...
+  local suite w zip oni rc
+  zip="$(portable_zip)"
+  w="$BUILD/artist"
+  rm -rf "$w"
+  mkdir -p "$w"
+  oni="$w/blades.oni"
+  "$BUILD/release/png_to_oni" "$oni" "$ROOT/samples/blades/depth_####.png" >/dev/null \
+    || die "could not make the test recording"
+  for suite in "$@"; do
+    artist_root "$suite"
+    rc=0
+    # (the farm on an artist's machine, in sid: native/portable/artist_run.sh)
+    in_root "artist-$suite" env HOME="$w/$suite-home" TSK_ARTIST_ZIP="$zip" \
+      TSK_ARTIST_FARM="$([ "$suite" = sid ] && echo 1 || echo 0)" \
+      bash "$ROOT/native/portable/artist_run.sh" "$ROOT" "$w/$suite-portable" "$oni" \
+      >"$w/$suite-portable.log" 2>&1 || rc=$?
+    if [ "$rc" -eq 0 ]; then
+      in_root "$suite" env TSK_ADDON="$BUILD/root-$suite/addon" python3 \
+        "$ROOT/tools/blender_run.py" "$ROOT/tools/artist_check.py" -- "$w/$suite-apt/out.json" \
+        "$w/$suite-apt/work" "$ROOT/samples" "$oni" >"$w/$suite-apt.log" 2>&1 || rc=$?
+    fi
+    # trixie's and sid's OpenCV (4.10) is not the zip's (Debian 12's 4.6): the picture's
+    # mattes and inpainting are compared by files and sizes only (tools/artist_compare.py)
+    if [ "$rc" -eq 0 ] && "$PY" "$ROOT/tools/artist_compare.py" --opencv-differs \
+        "$w/$suite-portable/out.json" "$w/$suite-apt/out.json" >"$w/$suite-compare.txt" 2>&1; then
+      printf '%-8s %-28s 1 passed, 0 failed\n' artist "linux_x64 zip in $suite"
+      PASSED=$((PASSED + 1))
+    else
+      cat "$w/$suite-compare.txt" 2>/dev/null >&2 || true
+      tail -n 30 "$w/$suite-portable.log" "$w/$suite-apt.log" 2>/dev/null >&2 || true
+      printf '%-8s %-28s 0 passed, 1 failed (logs: %s)\n' artist "linux_x64 zip in $suite" "$w"
+      FAILED=$((FAILED + 1))
+    fi
+  done
+}
+
+# tools/binary_floor.py on what ships: the linux_x64 zip passes; the add-on built in the sid
+# root (glibc 2.4x, Debian's shared OpenCV) must fail it, or the check proves nothing.
+run_floor_checks() {
+  local out
+  if out="$("$PY" "$ROOT/tools/binary_floor.py" "$(portable_zip)" 2>&1)"; then
+    printf '%-8s %-28s 1 passed, 0 failed\n' floor "linux_x64 zip"; PASSED=$((PASSED + 1))
+  else
+    printf '%s\n' "$out"
+    printf '%-8s %-28s 0 passed, 1 failed\n' floor "linux_x64 zip"; FAILED=$((FAILED + 1))
+  fi
+  if [ -f "$BUILD/root-sid/addon/_tussock.abi3.so" ]; then
+    out="$("$PY" "$ROOT/tools/binary_floor.py" "$BUILD/root-sid/addon" 2>&1)" && out=""
+    if printf '%s\n' "$out" | grep -q 'above the floor GLIBC_2.28' \
+        && printf '%s\n' "$out" | grep -q 'needs libopencv_core'; then
+      printf '%-8s %-28s 1 passed, 0 failed\n' floor "sid build is refused"; PASSED=$((PASSED + 1))
+    else
+      printf '%s\n' "$out"
+      printf '%-8s %-28s 0 passed, 1 failed\n' floor "sid build is refused"; FAILED=$((FAILED + 1))
+    fi
+  fi
+}
+
+portable_zip() {
+  local v
+  v="$(sed -n -E 's/^version *= *"([0-9.]+)".*/\1/p' "$ROOT/manifest.toml")"
+  printf '%s\n' "$ROOT/dist/tussock-$v-linux_x64.zip"
+}
+
 # Runs a Python script of the checkout with Blender `major`: this machine's own, or the one
 # in its Debian root with the add-on built there (TSK_ADDON, TSK_DIST tell tools/blender_env.py
 # and the tests where that build is).
@@ -510,9 +702,15 @@ with_blender() { # major, python script, args...
   fi
 }
 
+# ./build.sh package: the Debian zips (legacy, extension) of this machine's build and, unless
+# TSK_PORTABLE=0, the self-contained linux_x64 extension of the portable build.
 cmd_package() {
   cmd_build
   "$PY" "$ROOT/tools/package.py" "$ROOT" "$ROOT/dist"
+  if [ "${TSK_PORTABLE:-1}" != 0 ]; then
+    portable_build
+    portable_zip
+  fi
 }
 
 # Screenshots of every Tussock panel, for the docs (docs/images/ui/ui_<state>.png): the
@@ -526,6 +724,23 @@ cmd_shots() {
   root_build "${MAJORS[0]}"
   TSK_UI_SHOTS="$ROOT/docs/images/ui" with_blender "${MAJORS[0]}" \
     "$ROOT/blender_tests/run.py" test_window_panels
+}
+
+# ./build.sh windows: the C core and its native tests cross-built for Windows x64 with
+# Debian's mingw-w64 (without OpenCV, OpenSubdiv and OpenNI2 so far) and run under wine
+# (native/portable/windows_tests.sh; docs/platforms.md says what passes). Not yet part of
+# ./build.sh test: two golden hashes differ there (mingw-w64's own sinf/cosf/fmaf).
+cmd_windows() {
+  local missing=() p
+  for p in mingw-w64 wine wine64; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if [ ${#missing[@]} -gt 0 ]; then
+    quiet apt-get update -qq || die "apt-get update failed"
+    DEBIAN_FRONTEND=noninteractive quiet apt-get install -y -qq --no-install-recommends \
+      "${missing[@]}" || die "apt-get install failed for: ${missing[*]}"
+  fi
+  bash "$ROOT/native/portable/windows_tests.sh" "$BUILD/windows"
 }
 
 # Makes the Debian roots of the Blenders named (default: all but this machine's own) and
@@ -549,9 +764,10 @@ main() {
     fuzz) cmd_deps; cmd_fuzz "$@" ;;
     roots) cmd_deps; cmd_roots "$@" ;;
     shots) cmd_shots "$@" ;;
+    windows) cmd_windows ;;
     *) say "usage: ./build.sh deps | build | test [--blender 3|4|5[,...]] | demo [--blender N]"
        say "                  | bench [--blender N] [--record] [NAME...] | package | fuzz [SECONDS [NAME...]]"
-       say "                  | roots [4] [5] | shots [--blender N]"
+       say "                  | roots [4] [5] | shots [--blender N] | windows"
        exit 2 ;;
   esac
 }

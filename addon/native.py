@@ -3,7 +3,12 @@ registration: it becomes one clear message that the panel shows and operators re
 
 import os
 
+HERE = os.path.dirname(os.path.abspath(__file__))
 BUILD_HINT = "run ./build.sh build in the Tussock source folder, then restart Blender"
+# An installed zip whose module is there but does not load (a Debian build on another
+# system): the self-contained zip is the answer, not a source folder the artist lacks.
+ZIP_HINT = ("install the Tussock zip made for this platform (tussock-VERSION-linux_x64.zip "
+            "on Linux), which carries its own libraries, then restart Blender")
 
 # Spinning OpenMP waiters steal the cores from Blender's own threads on small machines.
 # Tussock's parallel loops run on their own sleeping threads (native/src/core/parallel.c);
@@ -19,8 +24,9 @@ try:
     from . import _tussock as lib  # noqa: F401
 except Exception as exc:  # ImportError, OSError from a missing shared library, ...
     lib = None
+    _source = os.path.isfile(os.path.join(os.path.dirname(os.path.realpath(HERE)), "build.sh"))
     error = (f"Tussock's native library is not available ({exc.__class__.__name__}: {exc}); "
-             f"{BUILD_HINT}.")
+             f"{BUILD_HINT if _source else ZIP_HINT}.")
 
 Error = lib.Error if lib is not None else RuntimeError
 
@@ -30,7 +36,7 @@ Error = lib.Error if lib is not None else RuntimeError
 # execute bit back. Where the installed folder is read-only (a studio's shared install),
 # a copy in a private temporary folder runs instead: the library spawns $TSK_ONI_READER
 # when it is set (native/src/capture/depth_oni_proxy.c).
-ONI_READER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "tussock_oni_reader")
+ONI_READER = os.path.join(HERE, "tussock_oni_reader")
 
 
 def _private_reader_copy():
@@ -42,6 +48,11 @@ def _private_reader_copy():
     copy = os.path.join(folder, "tussock_oni_reader")
     shutil.copyfile(ONI_READER, copy)
     os.chmod(copy, 0o700)
+    # the portable build's reader finds OpenNI2 and its drivers in lib/ beside itself
+    # (RPATH $ORIGIN/lib): the copy gets a link to the installed lib/
+    lib = os.path.join(os.path.dirname(ONI_READER), "lib")
+    if os.path.isdir(lib):
+        os.symlink(lib, os.path.join(folder, "lib"))
     return copy
 
 

@@ -4,8 +4,11 @@
   dist/tussock-VERSION-extension.zip  files at the root with blender_manifest.toml, for 4.2+
 blender_manifest.toml is written from manifest.toml, the single source of metadata.
 
-usage: package.py REPO DIST [ADDON_DIR]   (ADDON_DIR: an add-on folder laid out by build.sh
-for a Blender in a Debian root, whose sources are links into addon/; default REPO/addon)"""
+usage: package.py REPO DIST [ADDON_DIR] [--platform linux_x64]
+  ADDON_DIR: an add-on folder laid out by build.sh for a Blender in a Debian root, whose
+  sources are links into addon/ (default REPO/addon).
+  --platform P: write only dist/tussock-VERSION-P.zip, the self-contained extension for one
+  platform (the portable build's folder, with its libraries in lib/; docs/platforms.md)."""
 
 import os
 import sys
@@ -68,16 +71,32 @@ def write_zip(path, entries):
     os.replace(tmp, path)
 
 
-def main(repo, dist, addon_dir=None):
+# Blender's platform names (blender_manifest.toml) for the zips' suffixes
+PLATFORMS = {"linux_x64": "linux-x64", "windows_x64": "windows-x64"}
+
+
+def main(repo, dist, addon_dir=None, platform=None):
     with open(os.path.join(repo, "manifest.toml"), "rb") as f:
         meta = tomllib.load(f)
     addon_dir = addon_dir or os.path.join(repo, "addon")
-    for built in ("_tussock.abi3.so", "tussock_oni_reader"):
-        if not os.path.isfile(os.path.join(addon_dir, built)):
-            sys.exit(f"package.py: {addon_dir}/{built} is missing; run ./build.sh build")
+    built = ("_tussock.abi3.so", "tussock_oni_reader")
+    if platform == "windows_x64":
+        built = ("_tussock.pyd",)
+    for name in built:
+        if not os.path.isfile(os.path.join(addon_dir, name)):
+            sys.exit(f"package.py: {addon_dir}/{name} is missing; run ./build.sh build")
     os.makedirs(dist, exist_ok=True)
     files = list(addon_files(addon_dir))
     base = f'{meta["id"]}-{meta["version"]}'
+    if platform is not None:
+        if platform not in PLATFORMS:
+            sys.exit(f"package.py: unknown platform {platform!r}: {', '.join(PLATFORMS)}")
+        meta = dict(meta, platforms=[PLATFORMS[platform]])
+        path = os.path.join(dist, f"{base}-{platform}.zip")
+        write_zip(path, [(rel, src, None) for src, rel in files]
+                  + [("blender_manifest.toml", None, blender_manifest(meta).encode())])
+        print(path)
+        return
     legacy = os.path.join(dist, base + "-legacy.zip")
     write_zip(legacy, [(f'{meta["id"]}/{rel}', src, None) for src, rel in files])
     ext = os.path.join(dist, base + "-extension.zip")
@@ -88,4 +107,10 @@ def main(repo, dist, addon_dir=None):
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:4])
+    args = sys.argv[1:]
+    plat = None
+    if "--platform" in args:
+        i = args.index("--platform")
+        plat = args[i + 1] if i + 1 < len(args) else sys.exit("package.py: --platform needs a name")
+        del args[i:i + 2]
+    main(*args[:3], platform=plat)

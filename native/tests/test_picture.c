@@ -13,6 +13,8 @@
 #include <unistd.h>
 #include <float.h>
 
+#include "test_os.h"
+
 /* ---- helpers ------------------------------------------------------------------------- */
 
 static float* random_image(int w, int h, uint64_t seed) {
@@ -174,8 +176,8 @@ TEST(test_warp_output_at_any_page_offset_gives_the_same_bytes) {
     const size_t n4 = (size_t)W * H * 4;
     float* src = NULL;
     char* arena = NULL;
-    CHECK(posix_memalign((void**)&src, 4096, n4 * sizeof(float)) == 0);
-    CHECK(posix_memalign((void**)&arena, 4096, n4 * sizeof(float) + 4096) == 0);
+    CHECK((src = test_aligned_alloc(4096, n4 * sizeof(float))) != NULL);
+    CHECK((arena = test_aligned_alloc(4096, n4 * sizeof(float) + 4096)) != NULL);
     for (size_t i = 0; i < n4; ++i) src[i] = tsk_rand01(41, (uint64_t)i, 0, 0);
     int cx, cy;
     CHECK(tsk_warp_grid_size(W, H, C, C, &cx, &cy) == TSK_OK);
@@ -216,8 +218,8 @@ TEST(test_warp_output_at_any_page_offset_gives_the_same_bytes) {
         }
     CHECK_MSG(moved > W * H / 4, "only %d of %d pixels moved by half a pixel", moved, W * H);
     CHECK_MSG(worst <= 1e-4, "max error %g against the reference sampler", worst);
-    free(src);
-    free(arena);
+    test_aligned_free(src);
+    test_aligned_free(arena);
     free(dx);
     free(dy);
     free(first);
@@ -1007,7 +1009,7 @@ TEST(test_several_layers_are_removed_front_to_back) {
 /* ---- files ---------------------------------------------------------------------------- */
 
 static void temp_path(char* buf, size_t n, const char* ext) {
-    snprintf(buf, n, "/tmp/tsk_picture_test_%d_%s", (int)getpid(), ext);
+    snprintf(buf, n, "%s/tsk_picture_test_%d_%s", test_tmp_root(), (int)getpid(), ext);
 }
 
 TEST(test_load_png_jpeg_exr_variants) {
@@ -1339,10 +1341,20 @@ TEST(test_bad_arguments_name_the_argument) {
 
 /* ---- determinism ------------------------------------------------------------------------ */
 
+/* The composite holds the background that OpenCV's cv::inpaint fills in, and Debian 12's
+ * libopencv-photo binary inpaints with other bytes than the same source (4.6.0+dfsg-12)
+ * built by native/portable/build_deps.sh, with Debian's flags or without (docs/platforms.md):
+ * the portable build has its own golden composite. */
+#ifdef TSK_PORTABLE_BUILD
+#define PICTURE_COMPOSITE_GOLDEN 0x00ef333790c3ec80ull
+#else
+#define PICTURE_COMPOSITE_GOLDEN 0x023716a716ad2271ull
+#endif
+
 /* Golden hashes (see tsk_test_fnv) of the warp (layer, UV), the composite, and the two Map UV
  * samplings of test_identical_bytes_with_1_and_2_threads. */
 static const uint64_t PICTURE_GOLDEN[5] = {0xaf53240d2f0efb7eull, 0x9f189dea2acc93fbull,
-                                           0x023716a716ad2271ull, 0x5146ddfbf0b3dfd4ull,
+                                           PICTURE_COMPOSITE_GOLDEN, 0x5146ddfbf0b3dfd4ull,
                                            0xe1e905c53f283db4ull};
 
 TEST(test_identical_bytes_with_1_and_2_threads) {
@@ -1434,13 +1446,13 @@ TEST_MAIN(TEST_ENTRY(test_picture_and_layers_over_memory_budget_are_refused),
           TEST_ENTRY(test_map_uv_5_identity_keeps_a_constant_and_the_picture),
           TEST_ENTRY(test_map_uv_5_multiplies_by_the_uv_alpha),
           TEST_ENTRY(test_warp_map_uv_5_samples_its_own_uv_pass),
-          TEST_ENTRY(test_inpainting_removes_the_layer),
-          TEST_ENTRY(test_matte_is_one_inside_zero_outside_monotone),
-          TEST_ENTRY(test_grabcut_separates_green_blob),
-          TEST_ENTRY(test_composite_at_rest_and_far_pixels_never_move),
-          TEST_ENTRY(test_several_layers_are_removed_front_to_back),
-          TEST_ENTRY(test_load_png_jpeg_exr_variants),
-          TEST_ENTRY(test_load_grey_alpha_png_written_by_hand),
-          TEST_ENTRY(test_bad_files_give_messages),
-          TEST_ENTRY(test_bad_arguments_name_the_argument),
-          TEST_ENTRY(test_identical_bytes_with_1_and_2_threads))
+          TEST_NEEDS(test_inpainting_removes_the_layer, "OpenCV"),
+          TEST_NEEDS(test_matte_is_one_inside_zero_outside_monotone, "OpenCV"),
+          TEST_NEEDS(test_grabcut_separates_green_blob, "OpenCV"),
+          TEST_NEEDS(test_composite_at_rest_and_far_pixels_never_move, "OpenCV"),
+          TEST_NEEDS(test_several_layers_are_removed_front_to_back, "OpenCV"),
+          TEST_NEEDS(test_load_png_jpeg_exr_variants, "OpenCV"),
+          TEST_NEEDS(test_load_grey_alpha_png_written_by_hand, "OpenCV"),
+          TEST_NEEDS(test_bad_files_give_messages, "OpenCV"),
+          TEST_NEEDS(test_bad_arguments_name_the_argument, "OpenCV"),
+          TEST_NEEDS(test_identical_bytes_with_1_and_2_threads, "OpenCV"))

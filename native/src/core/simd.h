@@ -71,4 +71,7 @@ void tsk_simd_force(int path);
 /* The kernel unit to run now (TSK_ISA_*): what the CPU has, within the forced path. */
 int tsk_simd_isa(void);
 
+/* The CPU's x86-64 level as the kernel units need it: 4 (x86-64-v4), 3 (x86-64-v3) or 0. */
+int tsk_simd_x86_level(void);
+
 #endif
