@@ -191,18 +191,44 @@ run_native_tests() { # dir, label [, command that runs each test: e.g. in_root S
 # addon/) and the binding's checks native/tests/py_*.py (handles, def tables, the checked-in
 # stub; run beside the release build's module). Same output and tally as the C tests.
 run_python_tests() {
-  local t out line p f dir
+  local t out dir
   for t in "$ROOT"/tests/test_*.py "$ROOT"/native/tests/py_*.py; do
     [ -f "$t" ] || continue
     case "$t" in "$ROOT"/native/*) dir="$BUILD/release" ;; *) dir="$ROOT" ;; esac
     out="$(cd "$dir" && PYTHONPATH="$BUILD/release" timeout 600 "$PY" "$t" 2>&1)" || true
-    line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed$' | tail -n 1 || true)"
-    if [ -z "$line" ]; then printf '%s\n' "$out"; p=0; f=1; else
-      p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
-      [ "$f" -eq 0 ] || printf '%s\n' "$out"
-    fi
-    printf '%-8s %-28s %s passed, %s failed\n' python "$(basename "$t")" "$p" "$f"
-    PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+    tally python "$(basename "$t")" "$out"
+  done
+}
+
+# Adds a Python test program's "N passed, N failed" to PASSED/FAILED, with one line for it
+# (its whole output too when it failed or printed no tally).
+tally() { # label, name, output
+  local line p f
+  line="$(printf '%s\n' "$3" | grep -E '^[0-9]+ passed, [0-9]+ failed$' | tail -n 1 || true)"
+  if [ -z "$line" ]; then printf '%s\n' "$3"; p=0; f=1; else
+    p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
+    [ "$f" -eq 0 ] || printf '%s\n' "$3"
+  fi
+  printf '%-8s %-28s %s passed, %s failed\n' "$1" "$2" "$p" "$f"
+  PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+}
+
+# The binding's checks (native/tests/py_*.py) on the portable module, with Debian 12's Python
+# 3.11 and with the artists' roots' (trixie 3.13, sid 3.14). Debian 11's 3.9 is older than
+# the stable ABI the module is built for (3.11), so the bullseye run has the native suites.
+run_portable_binding_checks() { # artist suite...
+  local t who out
+  for who in host "$@"; do
+    for t in "$ROOT"/native/tests/py_*.py; do
+      if [ "$who" = host ]; then
+        out="$(cd "$PORTABLE/addon" && PYTHONPATH="$PORTABLE/addon" timeout 600 "$PY" "$t" 2>&1)" \
+          || true
+      else
+        out="$(cd "$PORTABLE/addon" && in_root "artist-$who" env PYTHONPATH="$PORTABLE/addon" \
+          timeout 600 python3 "$t" 2>&1)" || true
+      fi
+      tally "py-$who" "portable $(basename "$t")" "$out"
+    done
   done
 }
 
@@ -347,6 +373,7 @@ cmd_test() {
     local suites=()
     for m in "${MAJORS[@]}"; do [ -z "$(suite_of "$m")" ] || suites+=("$(suite_of "$m")"); done
     [ ${#suites[@]} -eq 0 ] || run_artist_checks "${suites[@]}"
+    run_portable_binding_checks ${suites[@]+"${suites[@]}"}
   fi
   t1=$(date +%s)
   say "test time: $((t1 - t0)) s"
