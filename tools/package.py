@@ -71,6 +71,12 @@ def write_zip(path, entries):
     os.replace(tmp, path)
 
 
+def extension_entries(files, meta):
+    """The entries of a 4.2+ extension zip: the add-on's files at the root and the manifest."""
+    return ([(rel, src, None) for src, rel in files]
+            + [("blender_manifest.toml", None, blender_manifest(meta).encode())])
+
+
 # Blender's platform names (blender_manifest.toml) for the zips' suffixes
 PLATFORMS = {"linux_x64": "linux-x64", "windows_x64": "windows-x64"}
 
@@ -91,17 +97,14 @@ def main(repo, dist, addon_dir=None, platform=None):
     if platform is not None:
         if platform not in PLATFORMS:
             sys.exit(f"package.py: unknown platform {platform!r}: {', '.join(PLATFORMS)}")
-        meta = dict(meta, platforms=[PLATFORMS[platform]])
         path = os.path.join(dist, f"{base}-{platform}.zip")
-        write_zip(path, [(rel, src, None) for src, rel in files]
-                  + [("blender_manifest.toml", None, blender_manifest(meta).encode())])
+        write_zip(path, extension_entries(files, dict(meta, platforms=[PLATFORMS[platform]])))
         print(path)
         return
     legacy = os.path.join(dist, base + "-legacy.zip")
     write_zip(legacy, [(f'{meta["id"]}/{rel}', src, None) for src, rel in files])
     ext = os.path.join(dist, base + "-extension.zip")
-    write_zip(ext, [(rel, src, None) for src, rel in files]
-              + [("blender_manifest.toml", None, blender_manifest(meta).encode())])
+    write_zip(ext, extension_entries(files, meta))
     print(legacy)
     print(ext)
 

@@ -22,14 +22,8 @@ for tool in x86_64-w64-mingw32-gcc "$WINE" cmake ninja; do
   command -v "$tool" >/dev/null || { echo "$0: $tool is missing (apt-get install mingw-w64 wine wine64 cmake ninja-build)" >&2; exit 2; }
 done
 
-quiet() { # runs a command, shows its output only if it fails
-  local log rc=0
-  log="$(mktemp)"
-  "$@" >"$log" 2>&1 || rc=$?
-  [ "$rc" -eq 0 ] || cat "$log" >&2
-  rm -f "$log"
-  return "$rc"
-}
+# quiet and run_native_tests: the same as for the Linux builds
+source "$(dirname "$NATIVE")/build.sh"
 
 t0=$(date +%s)
 if [ ! -f "$BUILD_DIR/build.ninja" ]; then
@@ -46,26 +40,20 @@ t1=$(date +%s)
 export WINEPREFIX="$BUILD_DIR/wine" WINEDEBUG=-all WINEDLLOVERRIDES="mscoree,mshtml=" DISPLAY=
 trap '"${WINESERVER:-wineserver}" -k >/dev/null 2>&1 || true' EXIT
 
-passed=0 failed=0
-skipped=()
-for t in "$BUILD_DIR"/test_*.exe; do
-  [ -f "$t" ] || continue
-  # Windows programs end their lines with \r\n
-  if out="$(cd "$BUILD_DIR" && timeout "${TSK_WINDOWS_TEST_TIMEOUT:-1200}" "$WINE" "$t" 2>&1 | tr -d '\r'; exit "${PIPESTATUS[0]}")"; then :; else
-    printf '%s\n' "$out"
-  fi
-  line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed' | tail -n 1 || true)"
-  if [ -z "$line" ]; then
-    printf '%s\n' "$out"
-    p=0; f=1
-  else
-    p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
-    if [ "$f" -eq 0 ] && ! printf '%s\n' "$out" | grep -q "^$line\$"; then f=1; fi
-  fi
-  mapfile -t -O "${#skipped[@]}" skipped < <(printf '%s\n' "$out" | sed -n 's/^skip //p')
-  printf '%-8s %-28s %s passed, %s failed\n' "$LABEL" "$(basename "$t")" "$p" "$f"
-  passed=$((passed + p)); failed=$((failed + f))
-done
+# Windows programs end their lines with \r\n; each test's "skip" lines are kept for the
+# summary below
+SKIPS="$BUILD_DIR/skipped.txt"
+: >"$SKIPS"
+wine_test() { # test program
+  local out rc=0
+  out="$(timeout "${TSK_WINDOWS_TEST_TIMEOUT:-1200}" "$WINE" "$1" 2>&1 | tr -d '\r'
+    exit "${PIPESTATUS[0]}")" || rc=$?
+  printf '%s\n' "$out" | sed -n 's/^skip //p' >>"$SKIPS"
+  printf '%s\n' "$out"
+  return "$rc"
+}
+run_native_tests "$BUILD_DIR" "$LABEL" wine_test
+mapfile -t skipped <"$SKIPS"
 t2=$(date +%s)
 
 if [ "${#skipped[@]}" -gt 0 ]; then
@@ -74,5 +62,5 @@ if [ "${#skipped[@]}" -gt 0 ]; then
     | awk '{n=$1; $1=""; printf "%s %s (%d)", (NR>1?",":""), substr($0,2), n} END {print ""}'
 fi
 echo "$LABEL: cross-build $((t1 - t0)) s, tests under wine $((t2 - t1)) s" >&2
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+echo "$PASSED passed, $FAILED failed"
+[ "$FAILED" -eq 0 ]

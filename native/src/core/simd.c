@@ -31,8 +31,9 @@ static int forced_path(void) {
 /* The x86-64 micro-architecture levels, read with cpuid as GCC 12's
  * __builtin_cpu_supports("x86-64-v3"/"x86-64-v4") reads them (older compilers, such as the
  * portable build's GCC 10, know neither name): v3 is AVX, AVX2, BMI1, BMI2, F16C, FMA, LZCNT
- * and MOVBE (and v2's SSE4.2 and POPCNT) with the AVX state enabled by the OS; v4 adds AVX-512 F, BW, CD, DQ and VL with
- * the opmask and ZMM states enabled. Returns 4, 3, or 0 for anything less. */
+ * and MOVBE (and v2's SSE4.2 and POPCNT) with the AVX state enabled by the OS; v4 adds
+ * AVX-512 F, BW, CD, DQ and VL with the opmask and ZMM states enabled. Returns 4, 3, or 0 for
+ * anything less. */
 static int x86_level(void) {
     unsigned a, b, c, d;
     if (__get_cpuid_max(0, NULL) < 7 || !__get_cpuid(1, &a, &b, &c, &d)) return 0;
