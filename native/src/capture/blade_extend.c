@@ -10,6 +10,7 @@
 #include <math.h>
 
 #include "capture_internal.h"
+#include "core/tmath.h"
 
 #define TWO_PI 6.283185307179586
 #define FIT_MIN 6 /* fewest samples a fit uses */
@@ -93,7 +94,7 @@ int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, 
     if (m > FIT_MAX) m = FIT_MAX;
     const int lag = 3; /* tangent over +-3 samples of the smoothed skeleton */
     float hx = x[e] - x[e - lag > 0 ? e - lag : 0], hy = y[e] - y[e - lag > 0 ? e - lag : 0];
-    const double ref = atan2((double)hy, (double)hx);
+    const double ref = tsk_atan2((double)hy, (double)hx);
     double acc = 0.0;
     int n = 0;
     double wmean = 0.0;
@@ -105,7 +106,7 @@ int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, 
         if (k > 0) acc += hypot((double)(x[i + 1] - x[i]), (double)(y[i + 1] - y[i]));
         const int i0 = i - lag < 0 ? 0 : i - lag, i1 = i + lag > e ? e : i + lag;
         if (i1 - i0 < 2 || (k < skip && m - skip >= FIT_MIN)) continue;
-        double a = atan2((double)(y[i1] - y[i0]), (double)(x[i1] - x[i0])) - ref;
+        double a = tsk_atan2((double)(y[i1] - y[i0]), (double)(x[i1] - x[i0])) - ref;
         a -= TWO_PI * floor((a + 0.5 * TWO_PI) / TWO_PI); /* relative to ref, in [-pi, pi) */
         arc_back[n] = -acc;
         ang[n] = a;
@@ -150,14 +151,14 @@ int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, 
     int out = 0, miss = 0, last_in = 0;
     float last_dx = 0.0f, last_dy = 0.0f;
     const int to_centre = def->root == TSK_ROOT_CENTROID;
-    float centre_best = hypotf(px - cap->ring.cx, py - cap->ring.cy);
+    float centre_best = tsk_hypotf(px - cap->ring.cx, py - cap->ring.cy);
     for (int step = 1; step <= max_out; ++step) {
         const double s = (double)step;
         double turn = kappa * s;
         if (turn > CURVE_TURN_MAX) turn = CURVE_TURN_MAX;
         if (turn < -CURVE_TURN_MAX) turn = -CURVE_TURN_MAX;
         const double h = ref + a0 + turn;
-        const float dx = (float)cos(h), dy = (float)sin(h);
+        const float dx = (float)tsk_cos(h), dy = (float)tsk_sin(h);
         px += dx;
         py += dy;
         int moved = 0;
@@ -185,7 +186,7 @@ int tsk_capture_extend_root(const tsk_capture* cap, const tsk_capture_def* def, 
         if (wk > 1.5f * wend) wk = 1.5f * wend;
         if (wk < 1.0f) wk = 1.0f;
         if (to_centre) { /* blades radiate from the centroid: stop once past it */
-            const float dc = hypotf(px - cap->ring.cx, py - cap->ring.cy);
+            const float dc = tsk_hypotf(px - cap->ring.cx, py - cap->ring.cy);
             if (dc > centre_best + 1.0f) break;
             if (dc < centre_best) centre_best = dc;
         }
@@ -217,7 +218,7 @@ int tsk_capture_extend_tip(const tsk_capture* cap, const float* x, const float* 
     if (count < 4 || max_out <= 0) return 0;
     const int back = count > 6 ? 6 : count - 1;
     float dx = x[0] - x[back], dy = y[0] - y[back];
-    const float dl = hypotf(dx, dy);
+    const float dl = tsk_hypotf(dx, dy);
     if (dl < 1e-6f) return 0;
     dx /= dl;
     dy /= dl;

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "capture_internal.h"
+#include "core/tmath.h"
 
 #define EDGE_PX 1.0f /* a sample within this distance of the border lies on it */
 
@@ -117,7 +118,7 @@ tsk_status tsk_capture_make_ring(tsk_capture* cap, const tsk_capture_def* def, c
         !tsk_cap_grow((void**)&cap->tmp, &cap->tmp_cap, (size_t)m, sizeof(float), "contour"))
         return TSK_ERR_MEMORY;
     raw = cap->tmp;
-    for (int i = 0; i < m; ++i) raw[i] = hypotf(cap->ring.x[i] - cx, cap->ring.y[i] - cy);
+    for (int i = 0; i < m; ++i) raw[i] = tsk_hypotf(cap->ring.x[i] - cx, cap->ring.y[i] - cy);
     tsk_smooth_circular(raw, cap->ring.d, m, def->split_smooth);
     return TSK_OK;
 }

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "capture_internal.h"
+#include "core/tmath.h"
 
 #define MATCH_WINDOW 4 /* the matched point may advance up to this many samples per step */
 #define DEPTH_MAX_WINDOW 5
@@ -147,7 +148,7 @@ tsk_status tsk_capture_skeleton(tsk_capture* cap, const tsk_capture_def* def,
     count = tn + count + rn;
     arc[0] = 0.0f;
     for (int i = 1; i < count; ++i)
-        arc[i] = arc[i - 1] + hypotf(qx[i] - qx[i - 1], qy[i] - qy[i - 1]);
+        arc[i] = arc[i - 1] + tsk_hypotf(qx[i] - qx[i - 1], qy[i] - qy[i - 1]);
     const float total = arc[count - 1];
     /* arc from the tip where the matched pairs end and the shared part begins */
     const float matched_end = arc[tn + matched - 1];

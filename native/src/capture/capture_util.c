@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "capture_internal.h"
+#include "core/tmath.h"
 
 int tsk_cap_grow(void** p, size_t* cap, size_t need, size_t elem, const char* what) {
     if (need <= *cap) return 1;
@@ -26,7 +27,7 @@ static int make_kernel(float sigma, float* k) {
     if (r > SMOOTH_MAX_RADIUS) r = SMOOTH_MAX_RADIUS;
     double sum = 0.0;
     for (int i = -r; i <= r; ++i) {
-        k[i + r] = expf(-0.5f * (float)(i * i) / (sigma * sigma));
+        k[i + r] = tsk_expf(-0.5f * (float)(i * i) / (sigma * sigma));
         sum += k[i + r];
     }
     for (int i = 0; i <= 2 * r; ++i) k[i] = (float)(k[i] / sum);

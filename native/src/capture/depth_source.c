@@ -8,6 +8,7 @@
 #include "bridge/opencv_capture_bridge.h"
 #include "core/file.h"
 #include "depth_internal.h"
+#include "core/tmath.h"
 
 /* Kinect v1 / PrimeSense 640x480 depth: fx = fy = 570.3 (58.5° horizontal FOV) */
 #define DEFAULT_F_640 570.3f
@@ -33,8 +34,8 @@ tsk_status tsk_intrinsics_from_fov(int width, int height, float hfov, float vfov
     if (!(hfov > 0.0f && hfov < pi && vfov > 0.0f && vfov < pi))
         return tsk_error_arg(TSK_ERR_ARGUMENT, "hfov",
                              "fields of view must be in (0, pi) radians, got %g, %g", hfov, vfov);
-    out->fx = 0.5f * (float)width / tanf(0.5f * hfov);
-    out->fy = 0.5f * (float)height / tanf(0.5f * vfov);
+    out->fx = 0.5f * (float)width / tsk_tanf(0.5f * hfov);
+    out->fy = 0.5f * (float)height / tsk_tanf(0.5f * vfov);
     out->cx = 0.5f * (float)(width - 1);
     out->cy = 0.5f * (float)(height - 1);
     return TSK_OK;

@@ -14,7 +14,7 @@
  * Defining TSK_NO_SIMD (the CMake option of the same name) turns all of them off: only the
  * portable kernels and the portable branches are compiled, so that a build on x86-64 runs (and
  * the tests check) the code other targets get. Every path gives the same bytes: kernels use only
- * IEEE operations, fused multiply-adds only where every path writes them out (fmaf), and
+ * IEEE operations, fused multiply-adds only where every path writes them out (tsk_fmaf), and
  * -ffp-contract=off forbids the compiler's own contraction. */
 #ifndef TSK_CORE_SIMD_H
 #define TSK_CORE_SIMD_H

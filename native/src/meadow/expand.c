@@ -4,6 +4,7 @@
 #include "core/simd.h"
 #include "meadow_internal.h"
 #include "ribbon_input.h"
+#include "core/tmath.h"
 
 #include <math.h>
 #if TSK_SIMD_SSE2
@@ -344,7 +345,9 @@ static void expand_range(size_t begin, size_t end, size_t chunk, void* vctx) {
     float knots[3 * TSK_BLADE_MAX_KNOTS], widths[TSK_BLADE_MAX_KNOTS];
     for (size_t b = begin; b < end; ++b) {
         const tsk_blade_model* bm = &p->models[p->model[b]];
-        const float co = cosf(p->turn[b]), si = sinf(p->turn[b]), sc = p->scale[b];
+        float co, si;
+        tsk_sincosf(p->turn[b], &si, &co);
+        const float sc = p->scale[b];
         const float root[3] = {p->x[b] * c->tile_size, p->y[b] * c->tile_size, 0.0f};
         tsk_meadow_place_knots(bm, co, si, sc, root, knots);
         for (int32_t k = 0; k < K; ++k) widths[k] = bm->width[k] * sc;

@@ -2,6 +2,7 @@
  * geometry nodes (tile corner, patch offset, count), per-chunk instances, and explicit
  * blades (root, turn, scale, rest knots) of a range of tiles. */
 #include "meadow_internal.h"
+#include "core/tmath.h"
 
 #include <math.h>
 
@@ -124,7 +125,8 @@ static void fill_blades(size_t begin, size_t end, size_t chunk, void* vctx) {
             if (c->index) c->index[o] = b;
             if (c->knots || c->widths || c->sides) {
                 const tsk_blade_model* bm = &p->models[p->model[b]];
-                const float co = cosf(p->turn[b]), si = sinf(p->turn[b]);
+                float co, si;
+                tsk_sincosf(p->turn[b], &si, &co);
                 if (c->knots)
                     tsk_meadow_place_knots(bm, co, si, p->scale[b], root,
                                            &c->knots[3 * (size_t)o * K]);

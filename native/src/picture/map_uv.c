@@ -15,6 +15,7 @@
  * tabulated at 256 steps of r = Q / 256 like Blender's table, zeros read outside the
  * picture with their weights counted. */
 #include "picture_internal.h"
+#include "core/tmath.h"
 
 #include <math.h>
 
@@ -46,16 +47,16 @@ static void ellipse_axes(float A, float B, float C, float F, float* a, float* b)
 /* Angle of its major axis (computed only when the ellipse must be widened: atan2 is the
  * costliest step of the filter). Both branches of Blender's formula agree. */
 static float ellipse_angle(float A, float B, float C) {
-    return 0.5f * (atan2f(B, A - C) + 3.14159265358979323846f);
+    return 0.5f * (tsk_atan2f(B, A - C) + 3.14159265358979323846f);
 }
 
 /* The implicit ellipse from squared radii and angle (inverse of ellipse_axes). */
 static void ellipse_implicit(float a2, float b2, float th, float* A, float* B, float* C, float* F) {
-    float c2 = cosf(th);
+    float c2 = tsk_cosf(th);
     const float s2 = 1.0f - c2 * c2;
     c2 *= c2;
     *A = a2 * s2 + b2 * c2;
-    *B = (b2 - a2) * sinf(2.0f * th);
+    *B = (b2 - a2) * tsk_sinf(2.0f * th);
     *C = a2 * c2 + b2 * s2;
     *F = a2 * b2;
 }

@@ -3,6 +3,7 @@
  * as a warped RGBA image and as a UV pass for Blender's compositor Map UV node. */
 #include "core/simd.h"
 #include "picture_internal.h"
+#include "core/tmath.h"
 
 #include <math.h>
 #include <stdatomic.h>
@@ -150,7 +151,7 @@ tsk_status tsk_warp_corners(const tsk_warp_def* def, int width, int height,
             float l = def->root == TSK_ROOT_BOTTOM ? def->root_y - y : y - def->root_y;
             float q = l / def->height;
             q = q < 0.0f ? 0.0f : q > 1.0f ? 1.0f : q;
-            R = def->rigidity == 0.0f ? 1.0f : powf(q, def->rigidity);
+            R = def->rigidity == 0.0f ? 1.0f : tsk_powf(q, def->rigidity);
         }
         for (int kx = 0; kx < cx; ++kx) {
             const float x = (float)kx * (float)def->cell_x;

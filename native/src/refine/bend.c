@@ -3,6 +3,7 @@
  * a standard gusting wind, until the blade solver of the simulation issue replaces it.
  * The model is documented in tussock/refine.h (tsk_refine_bend_def). */
 #include "tussock/refine.h"
+#include "core/tmath.h"
 
 #include <math.h>
 #include <string.h>
@@ -60,7 +61,7 @@ static inline v3 transport(v3 a, v3 b, v3 v) {
 
 /* Rotation of v by angle phi about unit axis n (Rodrigues). */
 static inline v3 rotate(v3 v, v3 n, double phi) {
-    const double c = cos(phi), s = sin(phi);
+    const double c = tsk_cos(phi), s = tsk_sin(phi);
     return add(add(scale(v, c), scale(cross(n, v), s)), scale(n, dot(n, v) * (1.0 - c)));
 }
 
@@ -76,10 +77,10 @@ static void wind_axes(const tsk_refine_bend_def* def, v3* along, v3* across) {
 }
 
 static v3 wind_at(double speed, double gust, v3 along, v3 across, double t) {
-    const double a = speed * (1.0 + gust * (0.6 * sin(k_two_pi * 0.31 * t) +
-                                            0.3 * sin(k_two_pi * 0.87 * t + 1.1) +
-                                            0.1 * sin(k_two_pi * 2.3 * t + 2.3)));
-    const double c = speed * gust * 0.25 * sin(k_two_pi * 0.53 * t + 0.4);
+    const double a = speed * (1.0 + gust * (0.6 * tsk_sin(k_two_pi * 0.31 * t) +
+                                            0.3 * tsk_sin(k_two_pi * 0.87 * t + 1.1) +
+                                            0.1 * tsk_sin(k_two_pi * 2.3 * t + 2.3)));
+    const double c = speed * gust * 0.25 * tsk_sin(k_two_pi * 0.53 * t + 0.4);
     return add(scale(along, a), scale(across, c));
 }
 
@@ -273,7 +274,7 @@ static tsk_status rod_init(rod* r, const tsk_refine_bend_def* d, const float* kn
         const double gn = norm(G);
         v3 target = tj;
         if (gn > 0.0) {
-            const double theta = 2.0 * atan(gn / (2.0 * r->stiff[j]));
+            const double theta = 2.0 * tsk_atan(gn / (2.0 * r->stiff[j]));
             target = rotate(tj, scale(G, 1.0 / gn), -theta);
         }
         const v3 fw = cross(ft, fu);

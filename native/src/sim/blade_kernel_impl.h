@@ -17,11 +17,12 @@
  * Only IEEE add, sub, mul, div, sqrt, fused multiply-add (written out: fmadd, fnmadd, fmsub),
  * comparisons, min/max as (a > b ? a : b) and exact conversions are used, and -ffp-contract=off
  * keeps the compiler from fusing anything else, so every instruction set computes the same bits
- * (test_sim_kernel_paths_give_identical_bytes). A fused multiply-add rounds once, as C's fmaf:
- * one instruction on x86-64-v3 and later and on AArch64, fmaf lane by lane in the portable
- * path elsewhere. */
+ * (test_sim_kernel_paths_give_identical_bytes). A fused multiply-add rounds once, as IEEE's
+ * fusedMultiplyAdd: one instruction on x86-64-v3 and later and on AArch64, tsk_fmaf
+ * (core/tmath.h) lane by lane in the portable path elsewhere. */
 #include "meadow/ribbon_input.h"
 #include "sim/sim_internal.h"
+#include "core/tmath.h"
 
 #include <math.h>
 #include <string.h>
@@ -195,20 +196,20 @@ INL vf vsqrt(vf a) {
     return a;
 }
 #endif
-/* a * b + c, c - a * b and a * b - c, each rounded once: fmaf is IEEE fusedMultiplyAdd (GCC
-   makes it one instruction where the target has one, a call to the C library's exact fmaf
-   elsewhere). Negating an operand is exact, so these are the bits of vfmadd, vfnmadd and
-   vfmsub. */
+/* a * b + c, c - a * b and a * b - c, each rounded once: tsk_fmaf is IEEE fusedMultiplyAdd
+   (one instruction where the target has one, glibc's exact fmaf or Tussock's own elsewhere;
+   not every C library's fmaf is fused). Negating an operand is exact, so these are the bits
+   of vfmadd, vfnmadd and vfmsub. */
 INL vf fmadd(vf a, vf b, vf c) {
-    for (int l = 0; l < LN; ++l) a[l] = fmaf(a[l], b[l], c[l]);
+    for (int l = 0; l < LN; ++l) a[l] = tsk_fmaf(a[l], b[l], c[l]);
     return a;
 }
 INL vf fnmadd(vf a, vf b, vf c) {
-    for (int l = 0; l < LN; ++l) a[l] = fmaf(-a[l], b[l], c[l]);
+    for (int l = 0; l < LN; ++l) a[l] = tsk_fmaf(-a[l], b[l], c[l]);
     return a;
 }
 INL vf fmsub(vf a, vf b, vf c) {
-    for (int l = 0; l < LN; ++l) a[l] = fmaf(a[l], b[l], -c[l]);
+    for (int l = 0; l < LN; ++l) a[l] = tsk_fmaf(a[l], b[l], -c[l]);
     return a;
 }
 INL int any(vi m) {

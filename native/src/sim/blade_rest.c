@@ -5,6 +5,7 @@
  * the rebuilt rest pose stays within about a 20,000th of the longest segment of the given knots
  * (1 µm for 2 cm segments, measured with float coordinates up to 10 m from the origin). */
 #include "sim/sim_internal.h"
+#include "core/tmath.h"
 
 #include <math.h>
 
@@ -89,7 +90,7 @@ void tsk_sim_block_load_lane(int32_t K, float* block, int lane, const float* kno
         Q[(size_t)(k - 1) * 2 * W + l] = il;
         Q[((size_t)(k - 1) * 2 + 1) * W + l] = side_c;
         const float len = sim_rest_segment(d, il, side_c, gt, gs, gn);
-        for (int c = 0; c < 3; ++c) rp[c] = fmaf(len, gt[c], rp[c]); /* as the kernel's madd3 */
+        for (int c = 0; c < 3; ++c) rp[c] = tsk_fmaf(len, gt[c], rp[c]); /* as the kernel's madd3 */
         total += len;
     }
     /* widths (for wind drag only) in 255ths of the widest knot */

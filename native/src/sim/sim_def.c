@@ -1,5 +1,6 @@
 /* Defaults and validation of the blade simulation's definition (tsk_blade_sim_def). */
 #include "sim/sim_internal.h"
+#include "core/tmath.h"
 
 #include <math.h>
 
@@ -128,13 +129,13 @@ sim_step_params tsk_sim_step_params(const tsk_blade_sim_def* d, float dt) {
     p.iterations = d->iterations;
     p.dt = dt;
     p.dt2 = dt * dt;
-    p.damp = (float)exp(-(double)d->damping * dt);
+    p.damp = (float)tsk_exp(-(double)d->damping * dt);
     for (int c = 0; c < 3; ++c) p.gravity[c] = d->gravity[c];
     p.preload = d->gravity_preload;
     p.drag = (float)((double)d->wind_drag / d->linear_density * dt);
-    p.alpha_root = (float)(1.0 - exp(-(double)d->global_stiffness_root * dt));
-    p.alpha_tip = (float)(1.0 - exp(-(double)d->global_stiffness_tip * dt));
-    const double al = 1.0 - exp(-(double)d->local_stiffness * dt);
+    p.alpha_root = (float)(1.0 - tsk_exp(-(double)d->global_stiffness_root * dt));
+    p.alpha_tip = (float)(1.0 - tsk_exp(-(double)d->global_stiffness_tip * dt));
+    const double al = 1.0 - tsk_exp(-(double)d->local_stiffness * dt);
     p.alpha_local = (float)(al < 0.95 ? al : 0.95); /* above ~0.95 the sweep overshoots */
     p.ground = d->ground_height;
     return p;

@@ -6,6 +6,7 @@
 
 #include "core/simd.h"
 #include "tussock/sim.h"
+#include "core/tmath.h"
 
 #include <math.h>
 #include <string.h>
@@ -137,15 +138,15 @@ static inline float sim_side_coef(float rx, float ry) {
     return ry / den;
 }
 
-/* One lane of the kernel's dot3 and cross3: products summed with fused multiply-adds (fmaf
- * rounds once, as the kernels' vfmadd and vfmsub). */
+/* One lane of the kernel's dot3 and cross3: products summed with fused multiply-adds
+ * (tsk_fmaf rounds once, as the kernels' vfmadd and vfmsub). */
 static inline float sim_dot3(const float a[3], const float b[3]) {
-    return fmaf(a[2], b[2], fmaf(a[1], b[1], a[0] * b[0]));
+    return tsk_fmaf(a[2], b[2], tsk_fmaf(a[1], b[1], a[0] * b[0]));
 }
 static inline void sim_cross3(const float a[3], const float b[3], float out[3]) {
-    out[0] = fmaf(a[1], b[2], -(a[2] * b[1]));
-    out[1] = fmaf(a[2], b[0], -(a[0] * b[2]));
-    out[2] = fmaf(a[0], b[1], -(a[1] * b[0]));
+    out[0] = tsk_fmaf(a[1], b[2], -(a[2] * b[1]));
+    out[1] = tsk_fmaf(a[2], b[0], -(a[0] * b[2]));
+    out[2] = tsk_fmaf(a[0], b[1], -(a[1] * b[0]));
 }
 
 /* The two quotients of a rest segment d (metres), stored in the block's Q rows: 1 / |d| and
@@ -164,8 +165,8 @@ static inline float sim_rest_segment(const float d[3], float il, float c, float 
     const float len = sim_dot3(d, d) * il;
     const float rx = il * d[0], ry = il * d[1], rz = il * d[2];
     float u[3], w[3];
-    for (int i = 0; i < 3; ++i) u[i] = fmaf(n[i], rz, fmaf(s[i], ry, t[i] * rx));
-    for (int i = 0; i < 3; ++i) w[i] = fmaf(-c, t[i] + u[i], s[i]);
+    for (int i = 0; i < 3; ++i) u[i] = tsk_fmaf(n[i], rz, tsk_fmaf(s[i], ry, t[i] * rx));
+    for (int i = 0; i < 3; ++i) w[i] = tsk_fmaf(-c, t[i] + u[i], s[i]);
     for (int i = 0; i < 3; ++i) t[i] = u[i], s[i] = w[i];
     sim_cross3(u, w, n);
     return len;

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "tree_internal.h"
+#include "core/tmath.h"
 
 static tsk_tree_level_def lvl(float length, float length_v, float taper, float seg_splits,
                               float split_angle, float split_angle_v, int curve_res, float curve,
@@ -321,9 +322,9 @@ float tree_shape_ratio(int shape, float r) {
         case TSK_TREE_CONICAL:
             return 0.2f + 0.8f * r;
         case TSK_TREE_SPHERICAL:
-            return 0.2f + 0.8f * sinf(pi * r);
+            return 0.2f + 0.8f * tsk_sinf(pi * r);
         case TSK_TREE_HEMISPHERICAL:
-            return 0.2f + 0.8f * sinf(0.5f * pi * r);
+            return 0.2f + 0.8f * tsk_sinf(0.5f * pi * r);
         case TSK_TREE_CYLINDRICAL:
             return 1.0f;
         case TSK_TREE_TAPERED_CYLINDRICAL:

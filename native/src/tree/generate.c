@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "tree_internal.h"
+#include "core/tmath.h"
 
 #define DEG (3.14159265358979f / 180.0f)
 
@@ -130,15 +131,17 @@ static tsk_status push_leaf(gen* g, gleaf** out) {
 
 /* Radius of stem s at v before flare/lobes: seed 001, eq. 2 with the Weber–Penn taper amount. */
 static float stem_radius_at(const tsk_tree_def* d, const gstem* s, float v) {
-    return s->radius * (1.0f - s->taper * powf(v, d->taper_power));
+    return s->radius * (1.0f - s->taper * tsk_powf(v, d->taper_power));
 }
 
 /* Rotates unit d toward +Z by `angle` radians (negative: toward -Z), clamped at the poles. */
 static v3 toward_up(v3 d, float angle) {
-    float decl = acosf(fmaxf(-1.0f, fminf(1.0f, d.z)));
+    float decl = tsk_acosf(fmaxf(-1.0f, fminf(1.0f, d.z)));
     float nd = fmaxf(0.0f, fminf(3.14159265f, decl - angle));
     v3 h = v3_norm_or(v3_make(d.x, d.y, 0), v3_make(1, 0, 0));
-    return v3_make(h.x * sinf(nd), h.y * sinf(nd), cosf(nd));
+    float sn, cn;
+    tsk_sincosf(nd, &sn, &cn);
+    return v3_make(h.x * sn, h.y * sn, cn);
 }
 
 /* Pruning envelope of Weber & Penn (ShapeRatio 8) around the trunk axis. */
@@ -149,8 +152,8 @@ static int inside_envelope(const gen* g, v3 p) {
     if (!(ratio >= 0.0f && ratio <= 1.0f)) return 0;
     const float peak = d->prune_width_peak;
     float env;
-    if (ratio < 1.0f - peak) env = powf(ratio / (1.0f - peak), d->prune_power_high);
-    else env = peak > 0.0f ? powf((1.0f - ratio) / peak, d->prune_power_low) : 1.0f;
+    if (ratio < 1.0f - peak) env = tsk_powf(ratio / (1.0f - peak), d->prune_power_high);
+    else env = peak > 0.0f ? tsk_powf((1.0f - ratio) / peak, d->prune_power_low) : 1.0f;
     return sqrtf(p.x * p.x + p.y * p.y) / S < d->prune_width * env;
 }
 
@@ -175,10 +178,12 @@ static int shape_stem(const gen* g, const gstem* s, size_t idx, float L, v3 orig
         inc *= DEG;
         const float b_mid = beta + 0.5f * inc; /* midpoint rule along the segment */
         beta += inc;
-        dir = v3_comb(axis, cosf(b_mid), side, sinf(b_mid));
+        float sb, cb;
+        tsk_sincosf(b_mid, &sb, &cb);
+        dir = v3_comb(axis, cb, side, sb);
         if (s->level >= 2 && d->attraction_up != 0.0f) {
             dir = toward_up(dir, acc_up);
-            const float decl = acosf(fmaxf(-1.0f, fminf(1.0f, dir.z)));
+            const float decl = tsk_acosf(fmaxf(-1.0f, fminf(1.0f, dir.z)));
             const float step = d->attraction_up * decl / (float)R;
             dir = toward_up(dir, step);
             acc_up += step;
@@ -190,8 +195,11 @@ static int shape_stem(const gen* g, const gstem* s, size_t idx, float L, v3 orig
     }
     /* end direction: the last segment's (with the second half of its bend) */
     v3 t_end = dir;
-    if (s->level < 2 || d->attraction_up == 0.0f)
-        t_end = v3_comb(axis, cosf(beta), side, sinf(beta));
+    if (s->level < 2 || d->attraction_up == 0.0f) {
+        float sb, cb;
+        tsk_sincosf(beta, &sb, &cb);
+        t_end = v3_comb(axis, cb, side, sb);
+    }
     v3 t0 = axis;
     if (s->level == 0) {
         t0 = v3_norm_or(v3_make(t0.x, t0.y, t0.z * g->z_scale), t0);
@@ -232,9 +240,12 @@ static void place_stem(const gen* g, placer* pl, size_t idx) {
     } else {
         v3 Pp[4];
         const sloan_frames f = *stem_frames(pl, &g->s[s->parent], Pp);
-        tree_attach_frame(Pp, &f, s->v, cosf(s->theta), sinf(s->theta), &origin, &U, &V);
+        float st, ct;
+        tsk_sincosf(s->theta, &st, &ct);
+        tree_attach_frame(Pp, &f, s->v, ct, st, &origin, &U, &V);
     }
-    const float ca = cosf(s->alpha), sa = sinf(s->alpha); /* same as the tree's trig */
+    float ca, sa; /* the same bits as the tree's trig */
+    tsk_sincosf(s->alpha, &sa, &ca);
     const v3 axis = v3_comb(U, ca, V, sa), side = v3_comb(U, -sa, V, ca), W = v3_cross(U, V);
     v3 P[4];
     float L = s->length;
@@ -246,7 +257,7 @@ static void place_stem(const gen* g, placer* pl, size_t idx) {
             if (shape_stem(g, s, idx, Lp, origin, axis, side, P)) break;
         }
         L = L * (1.0f - g->d->prune_ratio) + Lp * g->d->prune_ratio;
-        s->radius *= powf(L / s->length, g->d->ratio_power);
+        s->radius *= tsk_powf(L / s->length, g->d->ratio_power);
         s->length = L;
         shape_stem(g, s, idx, L, origin, axis, side, P);
     }
@@ -261,7 +272,9 @@ static void place_stem(const gen* g, placer* pl, size_t idx) {
     int32_t parent = s->parent, level = s->level;
     float av = s->v, at = s->theta, aa = s->alpha;
     float seg = 1.0f;
-    float trig[4] = {cosf(s->theta), sinf(s->theta), cosf(s->alpha), sinf(s->alpha)};
+    float trig[4];
+    tsk_sincosf(s->theta, &trig[1], &trig[0]);
+    tsk_sincosf(s->alpha, &trig[3], &trig[2]);
     t->trig = trig;
     t->parent = &parent;
     t->level = &level;
@@ -423,7 +436,7 @@ static tsk_status grow_children(gen* g, size_t idx) {
         ch->theta = rot * DEG;
         ch->alpha = alpha * DEG;
         ch->length = L;
-        float r = p->radius * powf(L / p->length, d->ratio_power);
+        float r = p->radius * tsk_powf(L / p->length, d->ratio_power);
         ch->radius = fminf(r, stem_radius_at(d, p, v));
         ch->taper = lc->taper;
         ch->len_max = len_max;
@@ -516,10 +529,8 @@ static void build_branches(size_t begin, size_t end, size_t chunk, void* ctx) {
         t->attach_v[i] = s->v;
         t->attach_theta[i] = s->theta;
         t->attach_alpha[i] = s->alpha;
-        t->trig[4 * i] = cosf(s->theta);
-        t->trig[4 * i + 1] = sinf(s->theta);
-        t->trig[4 * i + 2] = cosf(s->alpha);
-        t->trig[4 * i + 3] = sinf(s->alpha);
+        tsk_sincosf(s->theta, &t->trig[4 * i + 1], &t->trig[4 * i]);
+        tsk_sincosf(s->alpha, &t->trig[4 * i + 3], &t->trig[4 * i + 2]);
         t->length[i] = s->length;
         memcpy(t->local + 9 * i, s->Q, sizeof s->Q);
         memcpy(t->root + 3 * i, s->root, sizeof s->root);
@@ -554,10 +565,8 @@ static void build_leaves(size_t begin, size_t end, size_t chunk, void* ctx) {
         t->leaf_attach[3 * j + 2] = l->alpha;
         t->leaf_size[2 * j] = l->length;
         t->leaf_size[2 * j + 1] = l->width;
-        t->leaf_trig[4 * j] = cosf(l->theta);
-        t->leaf_trig[4 * j + 1] = sinf(l->theta);
-        t->leaf_trig[4 * j + 2] = cosf(l->alpha);
-        t->leaf_trig[4 * j + 3] = sinf(l->alpha);
+        tsk_sincosf(l->theta, &t->leaf_trig[4 * j + 1], &t->leaf_trig[4 * j]);
+        tsk_sincosf(l->alpha, &t->leaf_trig[4 * j + 3], &t->leaf_trig[4 * j + 2]);
     }
 }
 

@@ -7,6 +7,7 @@
 
 #include "core/simd.h"
 #include "tree_internal.h"
+#include "core/tmath.h"
 
 #define TWO_PI 6.28318530717958647692f
 
@@ -39,14 +40,14 @@ static radius_terms branch_radius_terms(const tsk_branch_shape* s, float v, floa
         ft_v = -r * s->taper;
     } else {
         const float vp = v > 1e-6f ? v : 1e-6f;
-        vt = powf(v, s->taper_power);
-        ft_v = -r * s->taper * s->taper_power * powf(vp, s->taper_power - 1.0f);
+        vt = tsk_powf(v, s->taper_power);
+        ft_v = -r * s->taper * s->taper_power * tsk_powf(vp, s->taper_power - 1.0f);
     }
     const float ft = r * (1.0f - s->taper * vt);
     /* seed 001, eq. 3: f_flare = f/100 * 100^(1-8v) + 1 */
     float ff = 1.0f, ff_v = 0.0f;
     if (s->flare != 0.0f) {
-        const float e = s->flare / 100.0f * powf(100.0f, 1.0f - 8.0f * v);
+        const float e = s->flare / 100.0f * tsk_powf(100.0f, 1.0f - 8.0f * v);
         ff = e + 1.0f;
         ff_v = e * (-8.0f * 4.60517018598809f); /* d/dv 100^(1-8v) = -8 ln(100) 100^(1-8v) */
     }
@@ -54,13 +55,16 @@ static radius_terms branch_radius_terms(const tsk_branch_shape* s, float v, floa
     float fb = 1.0f, fb_v = 0.0f;
     if (s->bulge_depth != 0.0f && s->bulges != 0.0f) {
         const float w = s->bulges * TWO_PI;
-        fb = 1.0f + s->bulge_depth * sinf(w * v);
-        fb_v = s->bulge_depth * w * cosf(w * v);
+        float sw, cw;
+        tsk_sincosf(w * v, &sw, &cw);
+        fb = 1.0f + s->bulge_depth * sw;
+        fb_v = s->bulge_depth * w * cw;
     }
     /* seed 001, eq. 5: f_lobes = 1 + l_d sin(l_n theta) (1 - v l_t) */
     float fl = 1.0f, fl_v = 0.0f, fl_t = 0.0f;
     if (s->lobe_depth != 0.0f && s->lobes != 0.0f) {
-        const float sn = sinf(s->lobes * theta), cs = cosf(s->lobes * theta);
+        float sn, cs;
+        tsk_sincosf(s->lobes * theta, &sn, &cs);
         const float fade = 1.0f - v * s->lobe_fade;
         fl = 1.0f + s->lobe_depth * sn * fade;
         fl_v = -s->lobe_depth * sn * s->lobe_fade;
@@ -143,7 +147,9 @@ void tsk_branch_surface(const float* Pf, const float* Of, const tsk_branch_shape
     ring_setup(P, &f, v, &r);
     radius_terms rho = branch_radius_terms(shape, v, theta);
     v3 pos, nrm;
-    surface_point(&r, sinf(theta), cosf(theta), rho, &pos, normal ? &nrm : NULL);
+    float st, ct;
+    tsk_sincosf(theta, &st, &ct);
+    surface_point(&r, st, ct, rho, &pos, normal ? &nrm : NULL);
     position[0] = pos.x, position[1] = pos.y, position[2] = pos.z;
     if (normal) normal[0] = nrm.x, normal[1] = nrm.y, normal[2] = nrm.z;
 }
@@ -539,8 +545,7 @@ tsk_status tsk_tree_mesh_deform(const tsk_tree* t, const tsk_tree_mesh_def* m, f
         const int C = m->around[l];
         for (int k = 0; k < C; ++k) {
             const float th = TWO_PI * (float)k / (float)C;
-            tab[k] = sinf(th);
-            tab[C + k] = cosf(th);
+            tsk_sincosf(th, &tab[k], &tab[C + k]);
         }
         c.sincos[l] = tab;
     }

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "tree/wind_kernel.h"
+#include "core/tmath.h"
 
 enum { WIND_GRAIN = 2048 };
 
@@ -20,7 +21,7 @@ tsk_tree_wind_def tsk_default_tree_wind_def(void) {
 void tree_set_length_power(tsk_tree* t, float power) {
     for (size_t i = 0; i < t->n; ++i) {
         const float l = t->rest_seg[i];
-        float inv = l > 1e-12f ? (power == 1.0f ? 1.0f / l : 1.0f / powf(l, power)) : 0.0f;
+        float inv = l > 1e-12f ? (power == 1.0f ? 1.0f / l : 1.0f / tsk_powf(l, power)) : 0.0f;
         t->inv_l[i] = inv <= 1e12f ? inv : 1e12f; /* a micrometre twig, power 3: still finite */
     }
     t->inv_l_power = power;
@@ -121,7 +122,7 @@ tsk_status tsk_tree_wind_step(tsk_tree* t, const float* force, const tsk_tree_wi
     if (w.length_power != t->inv_l_power) tree_set_length_power(t, w.length_power);
     t->at_rest = 0;
     tree_wind_ctx c = {
-        t, force, NULL, NULL, w.strength, w.bend_power, powf(1.0f / 3.0f, w.bend_power), 0};
+        t, force, NULL, NULL, w.strength, w.bend_power, tsk_powf(1.0f / 3.0f, w.bend_power), 0};
     if (w.mode == TSK_TREE_WIND_LAGGED) {
         /* seed §4: parents from the last step; swap so that prev holds the last pose */
         float* tmp = t->prev;

@@ -4,6 +4,7 @@
  * rows with tsk_parallel_for; each row is written by one chunk only, so the bytes do not
  * depend on the thread count. */
 #include "wind_internal.h"
+#include "core/tmath.h"
 
 #include <math.h>
 #include <string.h>
@@ -359,7 +360,7 @@ static void finish_range(float* restrict q, size_t n, float keep) {
 static void finish_rows(size_t b, size_t e, size_t chunk, void* vctx) {
     (void)chunk;
     tsk_fluid* f = vctx;
-    const float keep = expf(-f->decay * f->dt);
+    const float keep = tsk_expf(-f->decay * f->dt);
     const size_t nu = (size_t)(f->nx + 1) * (size_t)f->ny;
     if (b < nu) finish_range(f->u + b, (e < nu ? e : nu) - b, keep);
     if (e > nu) {

@@ -1,6 +1,7 @@
 /* Gusts: deterministic random speed boosts with a raised-cosine shape in time whose front
  * travels downwind (model documented in wind.h, tsk_wind_gust_def). */
 #include "wind_internal.h"
+#include "core/tmath.h"
 
 #include <math.h>
 
@@ -23,7 +24,7 @@ static float envelope_in(const tsk_wind_gust_def* g, const gust_slot* s, double 
     const double a = tau - s->start;
     if (!(a > 0.0) || a >= g->duration) return 0.0f;
     const double two_pi = 6.283185307179586476925;
-    return s->peak * (float)(0.5 - 0.5 * cos(two_pi * a / g->duration));
+    return s->peak * (float)(0.5 - 0.5 * tsk_cos(two_pi * a / g->duration));
 }
 
 static int64_t slot_index(const tsk_wind_gust_def* g, double tau) {
