@@ -77,10 +77,16 @@ cmd_build() {
   # the extension and the recording reader it starts (src/capture/oni_reader_protocol.h)
   local f
   for f in _tussock.abi3.so tussock_oni_reader; do
-    if ! cmp -s "$BUILD/release/$f" "$ROOT/addon/$f"; then
-      cp "$BUILD/release/$f" "$ROOT/addon/$f"
-    fi
+    cmp -s "$BUILD/release/$f" "$ROOT/addon/$f" \
+      || install_binary "$BUILD/release/$f" "$ROOT/addon/$f"
   done
+}
+
+# Copies a built binary over the one a running Blender may have mapped: into a new file, then
+# renamed over it, so that the running process keeps the old file's pages (cp would rewrite
+# them in place, and Blender would die of SIGBUS).
+install_binary() { # from, to
+  cp "$1" "$2.new.$$" && mv -f "$2.new.$$" "$2"
 }
 
 build_asan() {
@@ -369,6 +375,7 @@ cmd_test() {
       || die "portable build of the native tests failed"
     run_native_tests "$PORTABLE/release" bullseye in_root "$PORTABLE_SUITE"
     run_floor_checks
+    [ "${TSK_WINDOWS:-1}" = 0 ] || windows_zip tally
   fi
   for m in "${MAJORS[@]}"; do run_blender_suite "$m"; done
   if [ "$BLENDER_CHOSEN" = 0 ]; then
@@ -531,7 +538,7 @@ addon_for() { # build dir, add-on dir
     [ -L "$to/$name" ] || ln -sfn "$e" "$to/$name"
   done
   for name in _tussock.abi3.so tussock_oni_reader; do
-    cmp -s "$from/$name" "$to/$name" || cp "$from/$name" "$to/$name"
+    cmp -s "$from/$name" "$to/$name" || install_binary "$from/$name" "$to/$name"
   done
 }
 
@@ -739,6 +746,7 @@ cmd_package() {
   if [ "${TSK_PORTABLE:-1}" != 0 ]; then
     portable_build
     portable_zip
+    windows_zip
   fi
 }
 
@@ -757,8 +765,8 @@ cmd_shots() {
 
 # ./build.sh windows: the C core and its native tests cross-built for Windows x64 with
 # Debian's mingw-w64 (without OpenCV, OpenSubdiv and OpenNI2 so far) and run under wine
-# (native/portable/windows_tests.sh; docs/platforms.md says what passes). Not yet part of
-# ./build.sh test: two golden hashes differ there (mingw-w64's own sinf/cosf/fmaf).
+# (native/portable/windows_tests.sh; docs/platforms.md says what passes); ./build.sh test runs
+# them too, and makes and checks the windows_x64 zip (windows_zip).
 windows_packages() {
   local missing=() p
   for p in mingw-w64 wine wine64; do
@@ -783,6 +791,33 @@ run_windows_tests() {
   windows_packages
   out="$(bash "$ROOT/native/portable/windows_tests.sh" "$BUILD/windows" 2>&1)" || true
   printf '%s\n' "$out" | grep -v -E '^[0-9]+ passed, [0-9]+ failed$' || true
+  line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed$' | tail -n 1 || true)"
+  if [ -z "$line" ]; then p=0; f=1; else
+    p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
+  fi
+  PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
+}
+
+# The windows_x64 zip (native/portable/windows_module.sh: _tussock.pyd against python3.dll, its
+# import table checked, loaded under wine); CPython's Windows headers from Debian's python3.11
+# source package, fetched in the portable build's root, whose apt lists bookworm's sources.
+# Prints the script's check lines; with `tally` set, adds them to PASSED/FAILED.
+windows_zip() { # [tally]
+  local src="$ROOTS/$PORTABLE_SUITE/opt/tussock-src/python" tarball out line p f
+  windows_packages
+  root_ensure "$PORTABLE_SUITE"
+  tarball="$(ls "$src"/python3.11_*.orig.tar.* 2>/dev/null | head -n 1 || true)"
+  if [ -z "$tarball" ]; then
+    mkdir -p "$src"
+    quiet in_root "$PORTABLE_SUITE" bash -c \
+      'cd /opt/tussock-src/python && apt-get source -qq --download-only python3.11/bookworm' \
+      || die "could not fetch python3.11's source package"
+    tarball="$(ls "$src"/python3.11_*.orig.tar.* | head -n 1)"
+  fi
+  out="$(bash "$ROOT/native/portable/windows_module.sh" "$BUILD/windows-module" "$tarball" \
+    "$ROOT/dist" 2>&1)" || true
+  printf '%s\n' "$out" | grep -v -E '^[0-9]+ passed, [0-9]+ failed$' || true
+  [ "${1:-}" = tally ] || return 0
   line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed$' | tail -n 1 || true)"
   if [ -z "$line" ]; then p=0; f=1; else
     p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
