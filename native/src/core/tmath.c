@@ -18,7 +18,6 @@ static const double PIO2_P1 = 0x1.921fb54p+0;
 static const double PIO2_P2 = 0x1.10b461p-30;
 static const double PIO2_P3 = 0x1.a62633p-58;
 static const double PIO2_P4 = 0x1.45c06e0e68948p-86;
-static const double PIO2_REST = 0x1.10b4611a62633p-30; /* P2 + P3 + P4 rounded */
 static const double PIO2_HI = 0x1.921fb54442d18p+0; /* pi/2 rounded, and what remains */
 static const double PIO2_LO = 0x1.1a62633145c07p-54;
 static const double PI_HI = 0x1.921fb54442d18p+1;
@@ -90,17 +89,10 @@ static inline __attribute__((always_inline)) int reduce_pio2(double x, double* r
         return 0;
     }
     if (ax < 0x1p25) {
+        int q;
+        if (for_float && tsk_reduce_pio2_float(x, r, &q)) return q; /* the inline one's bits */
         const double k = round_int(x * TWO_OVER_PI);
         const double t = x - k * PIO2_P1;
-        if (for_float) {
-            /* one rounded product and difference, 2^-57 at most: a float's 2^-45 wherever
-             * |r| > 2^-8, all but the arguments next to a multiple of pi/2 */
-            const double rr = t - k * PIO2_REST;
-            if (fabs(rr) > 0x1p-8) {
-                *r = rr;
-                return (int)((int64_t)k & 3);
-            }
-        }
         const double w = k * PIO2_P2;
         const double hi = t - w; /* two-sum: hi + lo = t - w exactly */
         const double bv = hi - t;
@@ -148,12 +140,7 @@ static inline __attribute__((always_inline)) void sincos_d(double x, double* s, 
     }
     double r;
     const int q = reduce_pio2(x, &r, for_float);
-    const double sr = tsk_sin_kernel(r), cr = tsk_cos_kernel(r);
-    /* the quadrant by selections and sign flips, not a switch: random angles would mispredict
-     * its branches */
-    const double s0 = (q & 1) ? cr : sr, c0 = (q & 1) ? sr : cr;
-    *s = (q & 2) ? -s0 : s0;
-    *c = ((q + 1) & 2) ? -c0 : c0;
+    tsk_sincos_quadrant(r, q, s, c);
 }
 
 double tsk_sin(double x) {

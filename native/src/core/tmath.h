@@ -72,30 +72,71 @@ static inline double tsk_cos_kernel(double r) {
     return 1.0 - 0.5 * z + z * z * p;
 }
 
-/* the out-of-line parts for |x| > pi/4 */
+/* the out-of-line parts, for what the inline code below leaves: |x| >= 2^25, x within 2^-8 of
+ * a multiple of pi/2, infinities and NaN */
 float tsk_sinf_reduced(float x);
 float tsk_cosf_reduced(float x);
 void tsk_sincosf_reduced(float x, float* s, float* c);
 
 #define TSK_TMATH_PIO4F 0x1.921fb4p-1f /* a float below pi/4 */
 
+/* x = q pi/2 + r for a float |x| < 2^25: k = x 2/pi rounded (exact IEEE additions), then
+ * x - k P1 (exact: P1 has 28 bits, Sterbenz) minus k times the rest of pi/2, one rounded
+ * product and difference, 2^-57 at most: a float's 2^-45 wherever |r| > 2^-8. 0 where that
+ * does not hold (tmath.c's reduce_pio2 starts with this, then reduces exactly). */
+static inline int tsk_reduce_pio2_float(double x, double* r, int* q) {
+    if (!(fabs(x) < 0x1p25)) return 0;
+    const double k = (x * 0x1.45f306dc9c883p-1 + 0x1.8p52) - 0x1.8p52;
+    const double rr = (x - k * 0x1.921fb54p+0) - k * 0x1.10b4611a62633p-30;
+    if (!(fabs(rr) > 0x1p-8)) return 0;
+    *r = rr;
+    *q = (int)((long long)k & 3);
+    return 1;
+}
+
+/* sin and cos of q pi/2 + r by selections and sign flips, not a switch: random angles would
+ * mispredict its branches */
+static inline void tsk_sincos_quadrant(double r, int q, double* s, double* c) {
+    const double sr = tsk_sin_kernel(r), cr = tsk_cos_kernel(r);
+    const double s0 = (q & 1) ? cr : sr, c0 = (q & 1) ? sr : cr;
+    *s = (q & 2) ? -s0 : s0;
+    *c = ((q + 1) & 2) ? -c0 : c0;
+}
+
 static inline float tsk_sinf(float x) {
-    if (!(fabsf(x) <= TSK_TMATH_PIO4F)) return tsk_sinf_reduced(x);
-    return fabsf(x) < 0x1p-27f ? x : (float)tsk_sin_kernel((double)x); /* sin x = x there */
+    double r, s, c;
+    int q;
+    if (fabsf(x) <= TSK_TMATH_PIO4F)
+        return fabsf(x) < 0x1p-27f ? x : (float)tsk_sin_kernel((double)x); /* sin x = x there */
+    if (!tsk_reduce_pio2_float((double)x, &r, &q)) return tsk_sinf_reduced(x);
+    tsk_sincos_quadrant(r, q, &s, &c);
+    return (float)s;
 }
 
 static inline float tsk_cosf(float x) {
-    if (!(fabsf(x) <= TSK_TMATH_PIO4F)) return tsk_cosf_reduced(x);
-    return (float)tsk_cos_kernel((double)x);
+    double r, s, c;
+    int q;
+    if (fabsf(x) <= TSK_TMATH_PIO4F) return (float)tsk_cos_kernel((double)x);
+    if (!tsk_reduce_pio2_float((double)x, &r, &q)) return tsk_cosf_reduced(x);
+    tsk_sincos_quadrant(r, q, &s, &c);
+    return (float)c;
 }
 
 static inline void tsk_sincosf(float x, float* s, float* c) {
-    if (!(fabsf(x) <= TSK_TMATH_PIO4F)) {
+    double r, sd, cd;
+    int q;
+    if (fabsf(x) <= TSK_TMATH_PIO4F) {
+        *s = fabsf(x) < 0x1p-27f ? x : (float)tsk_sin_kernel((double)x);
+        *c = (float)tsk_cos_kernel((double)x);
+        return;
+    }
+    if (!tsk_reduce_pio2_float((double)x, &r, &q)) {
         tsk_sincosf_reduced(x, s, c);
         return;
     }
-    *s = fabsf(x) < 0x1p-27f ? x : (float)tsk_sin_kernel((double)x);
-    *c = (float)tsk_cos_kernel((double)x);
+    tsk_sincos_quadrant(r, q, &sd, &cd);
+    *s = (float)sd;
+    *c = (float)cd;
 }
 
 #endif
