@@ -170,6 +170,8 @@ class MeadowJob(cache.Job):
                              "paths: Free Bake, then bake again")
 
     def outputs(self):
+        if self._prepared and self.blades == 0:
+            return []  # nothing touched, nothing written: the record lists only what is
         return [self.folder, self.pc2, self.manifest]
 
     def bytes_needed(self, frames):

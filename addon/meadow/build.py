@@ -48,6 +48,8 @@ def blade_models(collection):
         if mesh is None or "width" not in mesh.attributes or len(mesh.vertices) < 2:
             raise ValueError(f"'{obj.name}' in '{collection.name}' is not a Tussock blade "
                              "(a mesh of knots with a 'width' attribute)")
+        # in Edit Mode its attributes read as empty (foreach_get fails): a message instead
+        meshes.refuse_edit_mode(obj, "a meadow grown from it")
         n = len(mesh.vertices)
         co = np.empty(n * 3, np.float32)
         mesh.vertices.foreach_get("co", co)

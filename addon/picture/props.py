@@ -18,6 +18,8 @@ def _motion_changed(self, context):
     errors.in_update(scene.tussock_picture, frames.update, scene)
 
 
+LOOP_FRAMES_MAX = 10000  # frames of a seamless loop; its first frame steps the wind 2N
+
 MASK_ITEMS = [
     ("FILE", "Mask file", "A black-and-white image file the size of the picture "
      "(white = vegetation)"),
@@ -142,7 +144,10 @@ class TussockPicture(bpy.types.PropertyGroup):
                                      soft_max=256.0,
                                      description="Width of the soft matte edge, pixels (0 = "
                                      "hard edge)")
+    # max: a loop of N frames steps the wind 2N frames ahead of the first (frames.py,
+    # loop_field); with no limit, 2**31 - 1 froze Blender for good (soak, issue 42)
     loop_frames: bpy.props.IntProperty(name="Loop", default=0, soft_min=0, soft_max=10000,
+                                       max=LOOP_FRAMES_MAX,
                                        description="Seamless loop of this many frames from "
                                        "the scene's first frame (0 = no loop)",
                                        update=_motion_changed)

@@ -123,10 +123,19 @@ class TUSSOCK_OT_tree_apply_preset(bpy.types.Operator):
         meshes.refuse_edit_mode(obj, "applying a preset")  # before the settings change
         d = presets.load(self.preset)
         native.require().tree_create(d)  # check it before changing anything
+        old = params.to_dict(s.params)
         s.is_tree = False
         params.from_dict(s.params, d)
         s.is_tree = True
-        build.rebuild(obj)
+        try:
+            build.rebuild(obj)
+        except Exception:
+            # the preset is valid but the tree could not be posed (e.g. the scene's wind is
+            # refused): a cancelled operator leaves the settings as they were
+            s.is_tree = False
+            params.from_dict(s.params, old)
+            s.is_tree = True
+            raise
         return {"FINISHED"}
 
 
