@@ -2,6 +2,7 @@
 # Tussock's only entry point:  ./build.sh deps | build | test [--blender 3|4|5,...] | demo [--blender N]
 #                              | bench [--blender N] [--record] [NAME...] | package | fuzz [SECONDS [NAME...]]
 #                              | roots [4] [5] | shots [--blender N] | windows
+#                              | soak [--blender N] [--minutes M] [--seed S] [--window] [--gdb]
 # Each step is idempotent and quiet when there is nothing to do.
 set -euo pipefail
 
@@ -767,6 +768,43 @@ cmd_shots() {
 # Debian's mingw-w64 (without OpenCV, OpenSubdiv and OpenNI2 so far) and run under wine
 # (native/portable/windows_tests.sh; docs/platforms.md says what passes); ./build.sh test runs
 # them too, and makes and checks the windows_x64 zip (windows_zip).
+# ./build.sh soak [--blender N[,N]] [--minutes M] [--seed S] [--window] [--gdb] [...]: the
+# soak tester (tools/soak.py, issue 42) in each Blender named (default this machine's 3.4);
+# other arguments go to tools/soak.py as they are (--steps, --debug-memory, --only, ...).
+cmd_soak() {
+  local m rc=0
+  parse_blenders 3 "$@"
+  cmd_deps
+  cmd_build
+  for m in "${MAJORS[@]}"; do
+    root_build "$m"
+    say "build.sh soak: Blender $m"
+    with_blender "$m" "$ROOT/tools/soak.py" ${ARGS[@]+"${ARGS[@]}"} || rc=1
+  done
+  return "$rc"
+}
+
+# The short soak of the test run: TSK_SOAK_MINUTES (default 3) in background Blender `major`,
+# with a seed from the clock (printed, so that a red run can be replayed with --seed); one
+# result for the run, added to PASSED/FAILED. Not called by cmd_test yet.
+run_soak_checks() { # major...
+  local m out seed line
+  for m in "$@"; do
+    seed="$(($(date +%s) % 1000000))"
+    say "soak in Blender $m: seed $seed (./build.sh soak --blender $m --seed $seed replays it)"
+    if out="$(with_blender "$m" "$ROOT/tools/soak.py" --minutes "${TSK_SOAK_MINUTES:-3}" \
+        --seed "$seed" --max-failures 1 --shrink-minutes 5 2>&1)"; then
+      line="$(printf '%s\n' "$out" | grep -E '^soak: [0-9]+ steps in' | tail -n 1 || true)"
+      printf '%-8s %-28s 1 passed, 0 failed  (%s)\n' "blender$m" soak "${line#soak: }"
+      PASSED=$((PASSED + 1))
+    else
+      printf '%s\n' "$out" | tail -n 80
+      printf '%-8s %-28s 0 passed, 1 failed  (seed %s)\n' "blender$m" soak "$seed"
+      FAILED=$((FAILED + 1))
+    fi
+  done
+}
+
 windows_packages() {
   local missing=() p
   for p in mingw-w64 wine wine64; do
@@ -846,6 +884,7 @@ main() {
     fuzz) cmd_deps; cmd_fuzz "$@" ;;
     roots) cmd_deps; cmd_roots "$@" ;;
     shots) cmd_shots "$@" ;;
+    soak) cmd_soak "$@" ;;
     windows) cmd_windows ;;
     *) say "usage: ./build.sh deps | build | test [--blender 3|4|5[,...]] | demo [--blender N]"
        say "                  | bench [--blender N] [--record] [NAME...] | package | fuzz [SECONDS [NAME...]]"

@@ -1,0 +1,74 @@
+"""The soak tester's own test (issue 42), with the machine's Blender: a planted operator that
+raises in 1 call of 50 is found, shrunk to at most 5 steps and reported with its seed; a
+planted frame handler that leaks a mesh per frame is found; a short clean soak of the add-on
+passes. Run by ./build.sh test, or alone: /usr/bin/python3 tests/test_soak.py [NAME...]"""
+
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SOAK = os.path.join(HERE, "..", "tools", "soak.py")
+sys.path.insert(0, HERE)
+import harness  # noqa: E402
+
+# steps that take milliseconds: the planted fault comes up within seconds
+FAST = "planted,frame_set,play,rename,add_wind_source,duplicate,delete,undo,redo,set_prop"
+
+
+def soak(*args, plant=""):
+    """Runs tools/soak.py; returns (exit status, output)."""
+    env = dict(os.environ, TSK_SOAK_PLANT=plant)
+    with tempfile.TemporaryDirectory(prefix="tsk_soak_test_") as out:
+        proc = subprocess.run(["/usr/bin/python3", SOAK, "--out", out, "--max-failures", "1",
+                               *args], env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.STDOUT, text=True, errors="replace",
+                              timeout=600)
+    return proc.returncode, proc.stdout
+
+
+def summary(text):
+    m = re.search(r"^soak: (\d+) steps in (\d+) s, seed (\d+), (\d+) failures", text, re.M)
+    assert m, text[-3000:]
+    return tuple(int(x) for x in m.groups())
+
+
+def shrunk_steps(text):
+    m = re.search(r"^soak: \d+ steps shrunk to (\d+):\n((?:  \{.*\n)+)", text, re.M)
+    assert m, text[-3000:]
+    return int(m.group(1)), m.group(2).splitlines()
+
+
+def test_planted_raise_is_found_shrunk_to_5_steps_and_reported_with_its_seed():
+    code, text = soak("--seed", "7", "--steps", "400", "--only", FAST, plant="raise")
+    assert code == 1, (code, text[-3000:])
+    steps, _, seed, failures = summary(text)
+    assert failures == 1 and seed == 7, text[-3000:]
+    assert re.search(r"^soak: FAILURE with seed \d+: python-error", text, re.M), text[-3000:]
+    count, lines = shrunk_steps(text)
+    assert 1 <= count <= 5, (count, lines)
+    assert any('"op": "planted", "n": 0' in line for line in lines), lines
+    assert "ZeroDivisionError: the planted fault" in text, text[-3000:]
+    print(f"  found after {steps} steps, shrunk to {count}")
+
+
+def test_planted_leak_is_found():
+    code, text = soak("--seed", "3", "--steps", "60", "--only", "add_tree,play,scrub,rename",
+                      plant="leak")
+    assert code == 1, (code, text[-3000:])
+    assert re.search(r"^soak: FAILURE with seed 3: leak: .*'meshes'", text, re.M), text[-3000:]
+    count, _ = shrunk_steps(text)
+    assert count <= 5, count
+
+
+def test_a_short_clean_soak_passes():
+    code, text = soak("--seed", "11", "--steps", "40")
+    steps, _, seed, failures = summary(text)
+    assert code == 0 and failures == 0, (code, text[-5000:])
+    assert steps == 40 and seed == 11, text[-2000:]
+
+
+if __name__ == "__main__":
+    sys.exit(harness.run(globals()))
