@@ -2,10 +2,12 @@
 decorator, a name filter, and the closing line "N passed, N failed". Imported by every
 test_*.py in this folder; run.py starts one Blender per file."""
 
+import inspect
 import os
 import sys
 import time
 import traceback
+import types
 
 _tests = []
 
@@ -331,6 +333,79 @@ def meadow_crossed_by_ball(frames):
     meadow.tussock_meadow.colliders = coll
     meadow.tussock_meadow.use_simulation = True
     return meadow, ball
+
+
+# ---- what an add-on draws (the panel test draws all of it; the soak tester, tools/soak_blender.py,
+# draws the panels of each object it has made) -------------------------------------------
+
+def _subclasses(base):
+    seen = []
+    todo = list(base.__subclasses__())
+    while todo:
+        cls = todo.pop()
+        if cls not in seen:
+            seen.append(cls)
+            todo.extend(cls.__subclasses__())
+    return seen
+
+
+def _in(module, package):
+    return module == package or module.startswith(package + ".")
+
+
+def _ours(cls, package):
+    return getattr(cls, "is_registered", False) and (
+        _in(cls.__module__, package)
+        or getattr(cls, "bl_idname", "").startswith("TUSSOCK_")
+        or getattr(cls, "bl_category", "") == "Tussock")
+
+
+def ui_of(package):
+    """The add-on's panels (parents before children), menus, and the draw functions it
+    appended to other classes' draw (as (host class, function))."""
+    found = [c for c in _subclasses(_bpy().types.Panel) if _ours(c, package)]
+
+    def level(cls):
+        parent = getattr(cls, "bl_parent_id", None)
+        up = next((p for p in found if p.bl_idname == parent), None)
+        return 0 if up is None else level(up) + 1
+    panels = sorted(found, key=lambda c: (level(c), c.bl_idname))
+    menus = sorted((c for c in _subclasses(_bpy().types.Menu) if _ours(c, package)),
+                   key=lambda c: c.bl_idname)
+    appended = []
+    for name in dir(_bpy().types):
+        host = getattr(_bpy().types, name, None)
+        funcs = getattr(getattr(host, "draw", None), "_draw_funcs", None) or ()
+        for fn in funcs:
+            if _in(getattr(fn, "__module__", None) or "", package):
+                appended.append((host, fn))
+    return types.SimpleNamespace(panels=panels, menus=menus, appended=appended)
+
+
+class DrawSelf:
+    """What a panel's or menu's draw gets as `self` when this test draws it: the class's
+    attributes (methods bound to it) and a real UILayout."""
+
+    is_popover = False
+
+    def __init__(self, cls, layout):
+        self._cls, self.layout = cls, layout
+
+    def __getattr__(self, name):
+        raw = inspect.getattr_static(self._cls, name)
+        if isinstance(raw, types.FunctionType):
+            return types.MethodType(raw, self)
+        return getattr(self._cls, name)
+
+
+def defines(cls, name):
+    """The function `name` that the class (not bpy's base class) defines, or None."""
+    for klass in cls.__mro__:
+        if klass.__module__.lstrip("_").startswith("bpy"):  # bpy_types, 5.x's _bpy_types
+            return None
+        if name in klass.__dict__:
+            return klass.__dict__[name]
+    return None
 
 
 def _bpy():

@@ -17,14 +17,12 @@ Every panel must be drawn in at least one state."""
 import contextlib
 import ctypes
 import ctypes.util
-import inspect
 import os
 import re
 import shutil
 import sys
 import tempfile
 import traceback
-import types
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import harness  # noqa: E402
@@ -90,76 +88,6 @@ def problems(text):
 
 # ---- what the add-on draws -----------------------------------------------------------------
 
-def _subclasses(base):
-    seen = []
-    todo = list(base.__subclasses__())
-    while todo:
-        cls = todo.pop()
-        if cls not in seen:
-            seen.append(cls)
-            todo.extend(cls.__subclasses__())
-    return seen
-
-
-def _in(module, package):
-    return module == package or module.startswith(package + ".")
-
-
-def _ours(cls, package):
-    return getattr(cls, "is_registered", False) and (
-        _in(cls.__module__, package)
-        or getattr(cls, "bl_idname", "").startswith("TUSSOCK_")
-        or getattr(cls, "bl_category", "") == "Tussock")
-
-
-def ui_of(package):
-    """The add-on's panels (parents before children), menus, and the draw functions it
-    appended to other classes' draw (as (host class, function))."""
-    found = [c for c in _subclasses(bpy.types.Panel) if _ours(c, package)]
-
-    def level(cls):
-        parent = getattr(cls, "bl_parent_id", None)
-        up = next((p for p in found if p.bl_idname == parent), None)
-        return 0 if up is None else level(up) + 1
-    panels = sorted(found, key=lambda c: (level(c), c.bl_idname))
-    menus = sorted((c for c in _subclasses(bpy.types.Menu) if _ours(c, package)),
-                   key=lambda c: c.bl_idname)
-    appended = []
-    for name in dir(bpy.types):
-        host = getattr(bpy.types, name, None)
-        funcs = getattr(getattr(host, "draw", None), "_draw_funcs", None) or ()
-        for fn in funcs:
-            if _in(getattr(fn, "__module__", None) or "", package):
-                appended.append((host, fn))
-    return types.SimpleNamespace(panels=panels, menus=menus, appended=appended)
-
-
-class _Self:
-    """What a panel's or menu's draw gets as `self` when this test draws it: the class's
-    attributes (methods bound to it) and a real UILayout."""
-
-    is_popover = False
-
-    def __init__(self, cls, layout):
-        self._cls, self.layout = cls, layout
-
-    def __getattr__(self, name):
-        raw = inspect.getattr_static(self._cls, name)
-        if isinstance(raw, types.FunctionType):
-            return types.MethodType(raw, self)
-        return getattr(self._cls, name)
-
-
-def _defines(cls, name):
-    """The function `name` that the class (not bpy's base class) defines, or None."""
-    for klass in cls.__mro__:
-        if klass.__module__.lstrip("_").startswith("bpy"):  # bpy_types, 5.x's _bpy_types
-            return None
-        if name in klass.__dict__:
-            return klass.__dict__[name]
-    return None
-
-
 # ---- drawing, the two ways -----------------------------------------------------------------
 
 def draw_everything(state, ui, drawn_in):
@@ -197,11 +125,11 @@ def draw_everything(state, ui, drawn_in):
                         if visible:
                             box = popup.layout.box()
                             header = box.row(align=True)
-                            draw_header = _defines(cls, "draw_header")
+                            draw_header = harness.defines(cls, "draw_header")
                             if draw_header is not None:
-                                draw_header(_Self(cls, header), context)
+                                draw_header(harness.DrawSelf(cls, header), context)
                             header.label(text=cls.bl_label)
-                            cls.draw(_Self(cls, box.column()), context)
+                            cls.draw(harness.DrawSelf(cls, box.column()), context)
                     except Exception:  # noqa: BLE001 - the failure this test looks for
                         error = traceback.format_exc()
                 error = error or problems(text[0])
@@ -218,7 +146,7 @@ def draw_everything(state, ui, drawn_in):
                     try:
                         col = popup.layout.box().column()
                         col.label(text=name)
-                        fn(_Self(host, col), context)
+                        fn(harness.DrawSelf(host, col), context)
                     except Exception:  # noqa: BLE001
                         error = traceback.format_exc()
                 drawn_in.setdefault(name, []).append(state)
@@ -258,7 +186,7 @@ def spying(panels):
     seen, raised, restore = [], [], []
     for cls in panels:
         for name in ("draw_header", "draw"):
-            fn = _defines(cls, name)
+            fn = harness.defines(cls, name)
             if fn is None:
                 continue
             restore.append((cls, name, cls.__dict__.get(name)))
@@ -485,7 +413,7 @@ def expect(what, ok, detail=""):
 
 def scenario(package):
     """The states an artist meets, one after the other, each drawn."""
-    ui = ui_of(package)
+    ui = harness.ui_of(package)
     print("panels:", [c.bl_idname for c in ui.panels])
     print("menus:", [c.bl_idname for c in ui.menus])
     print("appended draws:", [f"{h.__name__}:{f.__name__}" for h, f in ui.appended])

@@ -938,47 +938,6 @@ def check_last_errors():
 
 # ---- panels (window mode) ------------------------------------------------------------------------
 
-def _defines(cls, name):
-    for klass in cls.__mro__:
-        if klass.__module__.lstrip("_").startswith("bpy"):
-            return None
-        if name in klass.__dict__:
-            return klass.__dict__[name]
-    return None
-
-
-class _Self:
-    """What a panel's draw gets as `self` here: the class's attributes and a real layout."""
-
-    is_popover = False
-
-    def __init__(self, cls, layout):
-        self._cls, self.layout = cls, layout
-
-    def __getattr__(self, name):
-        import inspect
-        import types
-        raw = inspect.getattr_static(self._cls, name)
-        if isinstance(raw, types.FunctionType):
-            return types.MethodType(raw, self)
-        return getattr(self._cls, name)
-
-
-def tussock_panels():
-    found, todo = [], list(bpy.types.Panel.__subclasses__())
-    while todo:
-        cls = todo.pop()
-        todo.extend(cls.__subclasses__())
-        if getattr(cls, "is_registered", False) and cls.__module__.startswith("tussock") \
-                and cls not in found:
-            found.append(cls)
-
-    def level(cls):
-        up = next((p for p in found if p.bl_idname == getattr(cls, "bl_parent_id", None)), None)
-        return 0 if up is None else level(up) + 1
-    return sorted(found, key=lambda c: (level(c), c.bl_idname))
-
-
 def draw_panels(out, limit=4):
     """Each Tussock object in turn active (up to `limit` per step, the next ones in the next
     step), every Tussock panel whose poll allows it drawn into a popover of the 3D view's
@@ -992,7 +951,7 @@ def draw_panels(out, limit=4):
     start = draw_panels.turn % len(names)
     draw_panels.turn += limit
     chosen = (names[start:] + names[:start])[:limit]
-    panels = tussock_panels()
+    panels = harness.ui_of("tussock").panels
     keep = ([o.name for o in bpy.context.selected_objects],
             bpy.context.view_layer.objects.active)
     errors = []
@@ -1012,10 +971,10 @@ def draw_panels(out, limit=4):
                     if poll and not poll(context):
                         continue
                     box = popup.layout.box()
-                    header = _defines(cls, "draw_header")
+                    header = harness.defines(cls, "draw_header")
                     if header is not None:
-                        header(_Self(cls, box.row()), context)
-                    cls.draw(_Self(cls, box.column()), context)
+                        header(harness.DrawSelf(cls, box.row()), context)
+                    cls.draw(harness.DrawSelf(cls, box.column()), context)
                     drawn.add(cls.bl_idname)
                 except Exception:  # noqa: BLE001 - what this check looks for
                     errors.append(f"{name}: {cls.bl_idname}: {traceback.format_exc()}")
