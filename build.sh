@@ -817,6 +817,48 @@ windows_packages() {
   fi
 }
 
+# The Windows build's third-party libraries: OpenSubdiv and OpenCV with its codecs, cross-built
+# by native/portable/build_deps_windows.sh from the portable build's Debian source packages
+# into $WINDOWS_DEPS/prefix (kept between runs, emptied when a script that makes them
+# changes). A run resumes after the last library that was finished; one that fails leaves the
+# Windows build to use those that were (its log says why). Sets WINDOWS_WITH: the CMake
+# options of the Windows builds (windows_tests.sh, windows_module.sh).
+WINDOWS_DEPS="${TSK_WINDOWS_DEPS:-/var/cache/tussock/windows-deps}"
+windows_deps() {
+  local prefix="$WINDOWS_DEPS/prefix" src="$ROOTS/$PORTABLE_SUITE/opt/tussock-src" want p
+  want="$(cat "$ROOT/native/portable/build_deps.sh" "$ROOT/native/portable/build_deps_windows.sh" \
+    "$ROOT/native/cmake/mingw-w64-x86_64.cmake" | sha256sum | cut -c1-16)"
+  if [ "$(cat "$WINDOWS_DEPS/.stamp" 2>/dev/null)" != "$want" ]; then
+    rm -rf "$WINDOWS_DEPS"
+    mkdir -p "$WINDOWS_DEPS"
+    printf '%s\n' "$want" >"$WINDOWS_DEPS/.stamp"
+  fi
+  if [ ! -f "$prefix/.built-opencv" ]; then
+    if ! ls "$src"/opencv_*.orig.tar.* >/dev/null 2>&1; then # (build_deps.sh fetches them)
+      root_ensure "$PORTABLE_SUITE"
+      mkdir -p "$src"
+      for p in zlib libpng1.6 libjpeg-turbo imath openexr opencv opensubdiv; do
+        in_root "$PORTABLE_SUITE" bash -c "cd /opt/tussock-src && apt-get source -qq \
+          --download-only $p/bookworm >/dev/null 2>&1" || true
+      done
+    fi
+    say "build.sh: cross-building OpenSubdiv and OpenCV for Windows from Debian's sources, once" \
+      "(about 20 minutes on 2 cores; log: $WINDOWS_DEPS/deps.log)"
+    flock "$WINDOWS_DEPS/.lock" bash "$ROOT/native/portable/build_deps_windows.sh" "$src" \
+      "$prefix" >"$WINDOWS_DEPS/deps.log" 2>&1 \
+      || say "build.sh: the Windows libraries did not all build (log: $WINDOWS_DEPS/deps.log)"
+    [ ! -f "$prefix/.built-opencv" ] || rm -rf "$prefix.work" # (the sources and objects)
+  fi
+  WINDOWS_WITH=(-DTSK_WITH_OPENNI2=OFF "-DTSK_PORTABLE_DEPS=$prefix")
+  for p in opensubdiv opencv; do
+    if [ -f "$prefix/.built-$p" ]; then
+      WINDOWS_WITH+=("-DTSK_WITH_${p^^}=ON")
+    else
+      WINDOWS_WITH+=("-DTSK_WITH_${p^^}=OFF")
+    fi
+  done
+}
+
 cmd_windows() {
   windows_packages
   bash "$ROOT/native/portable/windows_tests.sh" "$BUILD/windows"

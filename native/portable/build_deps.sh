@@ -99,6 +99,43 @@ cmake_build() { # source dir, cmake args...
   cmake --install "$src/_build" >/dev/null
 }
 
+# OpenCV's options here and in build_deps_windows.sh: the four modules Tussock uses, no GUI,
+# video, GDAL or other codecs; CPU baseline and optimisation as Debian's own build sets them
+# (debian/rules): the same code paths, so that results match the Debian build's bytes
+OPENCV_OPTIONS=(
+  -DBUILD_LIST=core,imgproc,imgcodecs,photo -DCPU_BASELINE=SSE2 -DCPU_BASELINE_DISABLE=SSE3
+  -DCMAKE_CXX_FLAGS_RELEASE="-O2" -DCMAKE_C_FLAGS_RELEASE="-O2" -DBUILD_ZLIB=OFF
+  -DBUILD_PNG=OFF -DBUILD_JPEG=OFF -DBUILD_OPENEXR=OFF -DBUILD_TIFF=OFF -DBUILD_WEBP=OFF
+  -DBUILD_JASPER=OFF -DBUILD_OPENJPEG=OFF -DBUILD_PROTOBUF=OFF -DWITH_PNG=ON -DWITH_JPEG=ON
+  -DWITH_OPENEXR=ON -DWITH_TIFF=OFF -DWITH_WEBP=OFF -DWITH_JASPER=OFF -DWITH_OPENJPEG=OFF
+  -DWITH_GDAL=OFF -DWITH_GDCM=OFF -DWITH_IMGCODEC_HDR=ON -DWITH_GTK=OFF -DWITH_QT=OFF
+  -DWITH_OPENGL=OFF -DWITH_VTK=OFF -DWITH_FFMPEG=OFF -DWITH_GSTREAMER=OFF -DWITH_V4L=OFF
+  -DWITH_1394=OFF -DWITH_OPENCL=OFF -DWITH_IPP=OFF -DWITH_ITT=OFF -DWITH_TBB=OFF
+  -DWITH_OPENMP=OFF -DWITH_EIGEN=OFF -DWITH_LAPACK=OFF -DWITH_PROTOBUF=OFF -DWITH_QUIRC=OFF
+  -DWITH_ADE=OFF -DWITH_VA=OFF -DWITH_VA_INTEL=OFF -DWITH_CAROTENE=OFF -DWITH_OPENVX=OFF
+  -DWITH_CUDA=OFF -DBUILD_TESTS=OFF -DBUILD_PERF_TESTS=OFF -DBUILD_EXAMPLES=OFF
+  -DBUILD_DOCS=OFF -DBUILD_opencv_apps=OFF -DBUILD_JAVA=OFF -DBUILD_opencv_python2=OFF
+  -DBUILD_opencv_python3=OFF -DOPENCV_GENERATE_PKGCONFIG=OFF -DOPENCV_FORCE_3RDPARTY_BUILD=OFF
+  -DCMAKE_INSTALL_LIBDIR=lib -DOPENCV_LIB_INSTALL_PATH=lib -DOPENCV_3P_LIB_INSTALL_PATH=lib
+  -DZLIB_ROOT="$PREFIX" -DOpenEXR_DIR="$PREFIX/lib/cmake/OpenEXR"
+)
+# (three of Debian's patches are for opencv_contrib, which we do not build)
+OPENCV_SKIPPED_PATCHES=(
+  0005-Fix-building-error-with-OGRE-1.12.9.patch
+  0009-fix-wechat_qrcode-Init-nBytes-after-the-count-value-.patch
+  0010-fix-wechat_qrcode-fixed-memory-leaks.patch
+)
+# OpenSubdiv's: the CPU library alone
+OPENSUBDIV_OPTIONS=(
+  -DNO_EXAMPLES=ON -DNO_TUTORIALS=ON -DNO_REGRESSION=ON -DNO_DOC=ON -DNO_TESTS=ON
+  -DNO_GLTESTS=ON -DNO_PTEX=ON -DNO_TBB=ON -DNO_OMP=ON -DNO_CUDA=ON -DNO_OPENCL=ON -DNO_CLEW=ON
+  -DNO_OPENGL=ON -DNO_GLEW=ON -DNO_GLFW=ON -DNO_DX=ON -DNO_METAL=ON -DNO_MACOS_FRAMEWORK=ON
+  -DNO_GPU=ON -DCMAKE_INSTALL_LIBDIR=lib
+)
+
+# build_deps_windows.sh sources this file for the helpers above, with its own flags
+[ "${BASH_SOURCE[0]}" = "$0" ] || return 0
+
 say "fetching Debian source packages into $SRC"
 for p in zlib libpng1.6 libjpeg-turbo imath openexr opencv opensubdiv libusb-1.0; do
   fetch "$p" bookworm
@@ -150,30 +187,9 @@ fi
 # ---- OpenCV: the four modules Tussock uses, no GUI, video, GDAL or other codecs --------------
 if ! built opencv; then
   say "OpenCV (core imgproc imgcodecs photo)"
-  # (three of Debian's patches are for opencv_contrib, which we do not build)
   d="$(unpack opencv 'opencv_*+dfsg.orig.tar.*' 'opencv_*.debian.tar.*' \
-    0005-Fix-building-error-with-OGRE-1.12.9.patch \
-    0009-fix-wechat_qrcode-Init-nBytes-after-the-count-value-.patch \
-    0010-fix-wechat_qrcode-fixed-memory-leaks.patch)"
-  # CPU baseline and optimisation as Debian's own build sets them (debian/rules): the same
-  # code paths, so that results match the Debian build's bytes
-  cmake_build "$d" -DBUILD_LIST=core,imgproc,imgcodecs,photo \
-    -DCPU_BASELINE=SSE2 -DCPU_BASELINE_DISABLE=SSE3 \
-    -DCMAKE_CXX_FLAGS_RELEASE="-O2" -DCMAKE_C_FLAGS_RELEASE="-O2" \
-    -DBUILD_ZLIB=OFF -DBUILD_PNG=OFF -DBUILD_JPEG=OFF -DBUILD_OPENEXR=OFF -DBUILD_TIFF=OFF \
-    -DBUILD_WEBP=OFF -DBUILD_JASPER=OFF -DBUILD_OPENJPEG=OFF -DBUILD_PROTOBUF=OFF \
-    -DWITH_PNG=ON -DWITH_JPEG=ON -DWITH_OPENEXR=ON -DWITH_TIFF=OFF -DWITH_WEBP=OFF \
-    -DWITH_JASPER=OFF -DWITH_OPENJPEG=OFF -DWITH_GDAL=OFF -DWITH_GDCM=OFF -DWITH_IMGCODEC_HDR=ON \
-    -DWITH_GTK=OFF -DWITH_QT=OFF -DWITH_OPENGL=OFF -DWITH_VTK=OFF -DWITH_FFMPEG=OFF \
-    -DWITH_GSTREAMER=OFF -DWITH_V4L=OFF -DWITH_1394=OFF -DWITH_OPENCL=OFF -DWITH_IPP=OFF \
-    -DWITH_ITT=OFF -DWITH_TBB=OFF -DWITH_OPENMP=OFF -DWITH_EIGEN=OFF -DWITH_LAPACK=OFF \
-    -DWITH_PROTOBUF=OFF -DWITH_QUIRC=OFF -DWITH_ADE=OFF -DWITH_VA=OFF -DWITH_VA_INTEL=OFF \
-    -DWITH_CAROTENE=OFF -DWITH_OPENVX=OFF -DWITH_CUDA=OFF \
-    -DBUILD_TESTS=OFF -DBUILD_PERF_TESTS=OFF -DBUILD_EXAMPLES=OFF -DBUILD_DOCS=OFF \
-    -DBUILD_opencv_apps=OFF -DBUILD_JAVA=OFF -DBUILD_opencv_python2=OFF \
-    -DBUILD_opencv_python3=OFF -DOPENCV_GENERATE_PKGCONFIG=OFF -DOPENCV_FORCE_3RDPARTY_BUILD=OFF \
-    -DCMAKE_INSTALL_LIBDIR=lib -DOPENCV_LIB_INSTALL_PATH=lib -DOPENCV_3P_LIB_INSTALL_PATH=lib \
-    -DZLIB_ROOT="$PREFIX" -DOpenEXR_DIR="$PREFIX/lib/cmake/OpenEXR"
+    "${OPENCV_SKIPPED_PATCHES[@]}")"
+  cmake_build "$d" "${OPENCV_OPTIONS[@]}"
   mark opencv
 fi
 
@@ -181,10 +197,7 @@ fi
 if ! built opensubdiv; then
   say "OpenSubdiv (osdCPU)"
   d="$(unpack opensubdiv 'opensubdiv_*.orig.tar.*' 'opensubdiv_*.debian.tar.*')"
-  cmake_build "$d" -DNO_EXAMPLES=ON -DNO_TUTORIALS=ON -DNO_REGRESSION=ON -DNO_DOC=ON \
-    -DNO_TESTS=ON -DNO_GLTESTS=ON -DNO_PTEX=ON -DNO_TBB=ON -DNO_OMP=ON -DNO_CUDA=ON \
-    -DNO_OPENCL=ON -DNO_CLEW=ON -DNO_OPENGL=ON -DNO_GLEW=ON -DNO_GLFW=ON -DNO_DX=ON \
-    -DNO_METAL=ON -DNO_MACOS_FRAMEWORK=ON -DNO_GPU=ON -DCMAKE_INSTALL_LIBDIR=lib
+  cmake_build "$d" "${OPENSUBDIV_OPTIONS[@]}"
   mark opensubdiv
 fi
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The binding for Windows x64: _tussock.pyd cross-built with Debian's mingw-w64 against
 # python3.dll (the stable ABI, which every Python 3 for Windows ships, Blender's included),
-# without the third-party libraries for now (TSK_THIRD_PARTY=OFF), and the windows_x64 zip.
+# with the OpenSubdiv and OpenCV that build_deps_windows.sh cross-built (build.sh's
+# windows_deps; no OpenNI2), linked in statically, and the windows_x64 zip.
 # CPython's Windows headers (Include/ and PC/pyconfig.h) come from Debian's python3.11 source
 # package; python3.dll's import library is made from the list of its exports in that source
 # (PC/python3dll.c) with mingw-w64's dlltool. The import table of the .pyd is checked by
@@ -27,7 +28,7 @@ for tool in x86_64-w64-mingw32-gcc x86_64-w64-mingw32-dlltool cmake ninja "${WIN
   command -v "$tool" >/dev/null || { echo "$0: $tool is missing (apt-get install mingw-w64 cmake ninja-build)" >&2; exit 2; }
 done
 
-source "$REPO/build.sh" # quiet
+source "$REPO/build.sh" # quiet, windows_deps
 
 # CPython's headers for Windows, and python3.dll's exports
 CPY="$BUILD_DIR/cpython"
@@ -50,12 +51,15 @@ n="$(grep -c '^    ' "$BUILD_DIR/python3.def")"
 x86_64-w64-mingw32-dlltool -d "$BUILD_DIR/python3.def" -l "$BUILD_DIR/libpython3.a" -D python3.dll
 
 B="$BUILD_DIR/build"
-if [ ! -f "$B/build.ninja" ]; then
-  quiet cmake -S "$NATIVE" -B "$B" -G Ninja \
-    -DCMAKE_TOOLCHAIN_FILE="$NATIVE/cmake/mingw-w64-x86_64.cmake" -DCMAKE_BUILD_TYPE=Release \
-    -DTSK_THIRD_PARTY=OFF -DTSK_PYTHON=ON "-DTSK_PYTHON_INCLUDE=$CPY/Include;$CPY/PC" \
-    "-DTSK_PYTHON_LIBRARY=$BUILD_DIR/libpython3.a" \
+windows_deps # WINDOWS_WITH
+# configured again when the libraries at hand change
+options=(-DCMAKE_TOOLCHAIN_FILE="$NATIVE/cmake/mingw-w64-x86_64.cmake" -DCMAKE_BUILD_TYPE=Release
+  -DTSK_THIRD_PARTY=ON "${WINDOWS_WITH[@]}" -DTSK_PYTHON=ON
+  "-DTSK_PYTHON_INCLUDE=$CPY/Include;$CPY/PC" "-DTSK_PYTHON_LIBRARY=$BUILD_DIR/libpython3.a")
+if [ ! -f "$B/build.ninja" ] || [ "$(cat "$B/.options" 2>/dev/null)" != "${options[*]}" ]; then
+  quiet cmake -S "$NATIVE" -B "$B" -G Ninja "${options[@]}" \
     || { echo "$0: cmake configure failed ($B)" >&2; exit 1; }
+  printf '%s\n' "${options[*]}" >"$B/.options"
 fi
 quiet cmake --build "$B" --target _tussock --parallel "${CMAKE_BUILD_PARALLEL_LEVEL:-2}" \
   || { echo "$0: the Windows module failed to build" >&2; exit 1; }

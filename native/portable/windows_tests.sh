@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The native library and its tests for Windows x64: cross-built with Debian's mingw-w64
-# (native/cmake/mingw-w64-x86_64.cmake) into BUILD_DIR, without the third-party libraries
-# for now (TSK_THIRD_PARTY=OFF: tests that need OpenCV, OpenSubdiv or OpenNI2 print "skip"),
-# and every test_*.exe run under Debian's wine in a wine prefix of its own (BUILD_DIR/wine).
+# (native/cmake/mingw-w64-x86_64.cmake) into BUILD_DIR, with the OpenSubdiv and OpenCV that
+# build_deps_windows.sh cross-built (build.sh's windows_deps; tests that need OpenNI2, or a
+# library that did not build, print "skip"), and every test_*.exe run under Debian's wine in a
+# wine prefix of its own (BUILD_DIR/wine).
 # Prints the per-test lines of build.sh's run_native_tests and "N passed, N failed" last;
 # exits non-zero on any failure.
 #   native/portable/windows_tests.sh BUILD_DIR
@@ -22,15 +23,19 @@ for tool in x86_64-w64-mingw32-gcc "$WINE" cmake ninja; do
   command -v "$tool" >/dev/null || { echo "$0: $tool is missing (apt-get install mingw-w64 wine wine64 cmake ninja-build)" >&2; exit 2; }
 done
 
-# quiet and run_native_tests: the same as for the Linux builds
+# quiet, run_native_tests and windows_deps: the same as for the Linux builds
 source "$(dirname "$NATIVE")/build.sh"
 
 t0=$(date +%s)
-if [ ! -f "$BUILD_DIR/build.ninja" ]; then
-  quiet cmake -S "$NATIVE" -B "$BUILD_DIR" -G Ninja \
-    -DCMAKE_TOOLCHAIN_FILE="$NATIVE/cmake/mingw-w64-x86_64.cmake" -DCMAKE_BUILD_TYPE=Release \
-    -DTSK_THIRD_PARTY=OFF -DTSK_PYTHON=OFF \
+windows_deps # WINDOWS_WITH
+# configured again when the libraries at hand change
+options=(-DCMAKE_TOOLCHAIN_FILE="$NATIVE/cmake/mingw-w64-x86_64.cmake" -DCMAKE_BUILD_TYPE=Release
+  -DTSK_THIRD_PARTY=ON "${WINDOWS_WITH[@]}" -DTSK_PYTHON=OFF)
+if [ ! -f "$BUILD_DIR/build.ninja" ] \
+    || [ "$(cat "$BUILD_DIR/.options" 2>/dev/null)" != "${options[*]}" ]; then
+  quiet cmake -S "$NATIVE" -B "$BUILD_DIR" -G Ninja "${options[@]}" \
     || { echo "$0: cmake configure failed ($BUILD_DIR)" >&2; exit 1; }
+  printf '%s\n' "${options[*]}" >"$BUILD_DIR/.options"
 fi
 quiet cmake --build "$BUILD_DIR" --parallel "${CMAKE_BUILD_PARALLEL_LEVEL:-2}" \
   || { echo "$0: the Windows cross-build failed" >&2; exit 1; }

@@ -21,17 +21,29 @@ static int tsk_test_failed_checks;
 #define TEST_ENTRY(name) \
     { #name, name, NULL }
 
-/* The entry of a test that needs a third-party library ("OpenCV", "OpenSubdiv", "OpenNI2"). A
- * build without them (CMake option TSK_THIRD_PARTY=OFF, which defines
- * TSK_TEST_WITHOUT_THIRD_PARTY) skips it with the line "skip NAME (built without LIBRARY)";
- * every other build runs it as a TEST_ENTRY. */
-#ifdef TSK_TEST_WITHOUT_THIRD_PARTY
-#define TEST_NEEDS(name, library) \
-    { #name, name, "built without " library }
+/* The entry of a test that needs a third-party library: TEST_NEEDS(name, OpenCV), and so
+ * for OpenSubdiv and OpenNI2 (a token, not a string: it names the reason below). A build
+ * without the library (CMake option TSK_WITH_OPENCV=OFF, TSK_WITH_OPENSUBDIV=OFF or
+ * TSK_WITH_OPENNI2=OFF, which defines TSK_TEST_WITHOUT_OPENCV, ..._OPENSUBDIV or ..._OPENNI2)
+ * skips it with the line "skip NAME (built without LIBRARY)"; every other build runs it as a
+ * TEST_ENTRY. (A constant per library, because TEST_MAIN's table of cases is static.) */
+#ifdef TSK_TEST_WITHOUT_OPENCV
+#define TSK_TEST_WHY_OpenCV "built without OpenCV"
 #else
-#define TEST_NEEDS(name, library) \
-    { #name, name, NULL }
+#define TSK_TEST_WHY_OpenCV NULL
 #endif
+#ifdef TSK_TEST_WITHOUT_OPENSUBDIV
+#define TSK_TEST_WHY_OpenSubdiv "built without OpenSubdiv"
+#else
+#define TSK_TEST_WHY_OpenSubdiv NULL
+#endif
+#ifdef TSK_TEST_WITHOUT_OPENNI2
+#define TSK_TEST_WHY_OpenNI2 "built without OpenNI2"
+#else
+#define TSK_TEST_WHY_OpenNI2 NULL
+#endif
+#define TEST_NEEDS(name, library) \
+    { #name, name, TSK_TEST_WHY_##library }
 
 /* The entry of a test of what only POSIX systems have (file-size limits, FIFOs, sockets as
  * files): Windows builds skip it with "skip NAME (POSIX only)", and compile its function

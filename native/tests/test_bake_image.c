@@ -31,8 +31,13 @@ static float* uv_image(int w, int h, int frame) {
     return v;
 }
 
+/* A missing file (a write that failed before) leaves the checks after it to fail. */
 static void flip_byte(const char* path, long offset) {
     FILE* f = fopen(path, "r+b");
+    if (f == NULL || offset < 0) {
+        if (f) fclose(f);
+        return;
+    }
     fseek(f, offset, SEEK_SET);
     int c = fgetc(f);
     fseek(f, offset, SEEK_SET);
@@ -170,8 +175,8 @@ TEST(test_read_only_folder_and_full_disk_report_io_errors_for_images) {
 }
 #endif
 
-TEST_MAIN(TEST_NEEDS(test_image_frame_round_trip_is_exact_and_deterministic, "OpenCV"),
-          TEST_NEEDS(test_corrupt_foreign_and_missing_image_frames_are_refused, "OpenCV"),
+TEST_MAIN(TEST_NEEDS(test_image_frame_round_trip_is_exact_and_deterministic, OpenCV),
+          TEST_NEEDS(test_corrupt_foreign_and_missing_image_frames_are_refused, OpenCV),
           TEST_ENTRY(test_bad_image_arguments_are_refused),
           TEST_POSIX_NEEDS(test_read_only_folder_and_full_disk_report_io_errors_for_images,
-                           "OpenCV"))
+                           OpenCV))

@@ -1392,6 +1392,6 @@ TEST_MAIN(TEST_ENTRY(test_tree_and_mesh_over_memory_budget_are_refused),
           TEST_ENTRY(test_wind_simd_path_equals_scalar_path),
           TEST_ENTRY(test_wind_rejects_bad_force), TEST_ENTRY(test_tree_bad_parameters_are_named),
           TEST_ENTRY(test_tree_random_parameters_never_crash),
-          TEST_NEEDS(test_subdiv_cube_once_gives_catmull_clark_points, "OpenSubdiv"),
-          TEST_NEEDS(test_subdiv_stencils_on_moved_cage_equal_refining_it, "OpenSubdiv"),
-          TEST_NEEDS(test_tree_smoothed_mesh_through_stencils, "OpenSubdiv"))
+          TEST_NEEDS(test_subdiv_cube_once_gives_catmull_clark_points, OpenSubdiv),
+          TEST_NEEDS(test_subdiv_stencils_on_moved_cage_equal_refining_it, OpenSubdiv),
+          TEST_NEEDS(test_tree_smoothed_mesh_through_stencils, OpenSubdiv))

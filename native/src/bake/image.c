@@ -101,7 +101,8 @@ static tsk_status write_exr_synced(const char* path, const char* tmp, const floa
     }
     s = file_checksum(tmp, size, sum);
     if (s != TSK_OK) return s;
-    fd = tsk_open(tmp, O_RDONLY);
+    /* opened for writing: Windows flushes only a handle with write access */
+    fd = tsk_open(tmp, O_WRONLY);
     if (fd < 0 || tsk_fsync(fd) != 0) {
         int err = errno;
         if (fd >= 0) close(fd);

@@ -27,7 +27,8 @@ tsk_status tsk_fopen_regular(const char* path, const char* arg, FILE** out);
 
 /// fopen(path, mode).
 FILE* tsk_fopen(const char* path, const char* mode);
-/// open(path, flags, 0644) for O_RDONLY, or O_WRONLY | O_CREAT | O_TRUNC (a new file).
+/// open(path, flags, 0644) for O_RDONLY, O_WRONLY (an existing file, to sync it) or
+/// O_WRONLY | O_CREAT | O_TRUNC (a new file).
 int tsk_open(const char* path, int flags);
 /// fsync(fd): the file's data is on the disk when it returns 0.
 int tsk_fsync(int fd);

@@ -1,5 +1,5 @@
 /* Stand-in for the OpenCV bridges (bridge/opencv_capture.cpp, bridge/opencv_picture.cpp) in a
- * build without OpenCV (CMake option TSK_THIRD_PARTY=OFF): every function fails with a message
+ * build without OpenCV (CMake option TSK_WITH_OPENCV=OFF): every function fails with a message
  * that says so, and writes nothing a caller could mistake for a result. */
 #include "bridge/opencv_capture_bridge.h"
 #include "bridge/opencv_picture_bridge.h"

@@ -1,5 +1,5 @@
 /* Stand-in for the OpenNI2 back end (capture/depth_openni.c) in a build without OpenNI2 (CMake
- * option TSK_THIRD_PARTY=OFF): opening a device or a recording fails with a message that says
+ * option TSK_WITH_OPENNI2=OFF): opening a device or a recording fails with a message that says
  * so. A recording still goes through the recording reader process (capture/depth_oni_proxy.c),
  * whose own copy of this file gives the answer. */
 #include "capture/depth_internal.h"

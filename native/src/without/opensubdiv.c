@@ -1,5 +1,5 @@
 /* Stand-in for the OpenSubdiv bridge (bridge/opensubdiv.cpp) in a build without OpenSubdiv
- * (CMake option TSK_THIRD_PARTY=OFF): a smooth tree mesh fails with a message that says so. */
+ * (CMake option TSK_WITH_OPENSUBDIV=OFF): a smooth tree mesh fails with a message that says so. */
 #include "bridge/opensubdiv_bridge.h"
 
 static tsk_status without_opensubdiv(void) {
