@@ -162,6 +162,74 @@ def test_colliders_fit_spheres_and_capsules():
     assert rows.shape == (1, 8) and rows.dtype == np.float32
 
 
+def dash(frame):
+    """A 0.1 m ball rolling 0.5 m a frame (12 m/s) along y = 1 m, sunk into the blades."""
+    x = 0.25 + 0.5 * (frame - 1)
+    return np.array([[0, 0.1, x, 1.0, 0.08, x, 1.0, 0.08]], np.float32)
+
+
+def test_a_fast_ball_pushes_every_blade_on_its_way():
+    """A ball that moves five times its size per frame bends the blades between the places
+    where the frames show it, as much as those at them: without the sweep (before=None)
+    no blade between them moves, which is what the sweep is for."""
+    def moved_on_the_way(sweep):
+        runner = make_runner()
+        runner.restart(1)
+        for f in range(2, 7):
+            runner.step(f, dash(f), FPS, lambda f, xyz: np.zeros_like(xyz),
+                        dash(f - 1) if sweep else None)
+        tiles, _ = runner.active()
+        rest = np.concatenate([runner.rest_blades(t)[0] for t in tiles]).reshape(-1, runner.K, 3)
+        moved = np.abs(runner.knots().reshape(-1, runner.K, 3) - rest).max(axis=(1, 2))
+        roots = rest[:, 0, :]
+        # rooted on the path (within half the ball's radius of its line), frames 1..6
+        on_path = (np.abs(roots[:, 1] - 1.0) < 0.05) & (roots[:, 0] > 0.3) & (roots[:, 0] < 2.7)
+        between = on_path & (np.abs((roots[:, 0] - 0.25) % 0.5 - 0.25) < 0.06)
+        assert between.sum() >= 30, between.sum()
+        return (moved[between] > 0.02).mean(), (moved[on_path & ~between] > 0.02).mean()
+
+    between, at = moved_on_the_way(True)
+    assert between > 0.7 and at > 0.7, (between, at)
+    between, at = moved_on_the_way(False)
+    assert between < 0.05, between
+
+
+def test_swept_rows_cover_the_path_and_end_where_the_frame_is():
+    """substep_rows: still shapes are the frame's rows in every step (the same bytes); a
+    moving sphere is, in each step, the capsule between its centres at the step's start and
+    end; a moving capsule gets copies at most its radius apart; the last step ends at the
+    frame's rows; rows that change kind, or a changed count, are not swept."""
+    still = np.array([[0, 0.2, 1, 1, 0.1, 1, 1, 0.1], [1, 0.1, 0, 0, 0, 0, 1, 0]], np.float32)
+    for sub in solver.substep_rows(still, still, 2):
+        assert sub.tobytes() == still.tobytes()
+    after = still.copy()
+    after[0, 2] += 1.0  # the sphere moves 1 m along x
+    after[1, 2:8] += [0, 2.0, 0, 0, 2.0, 0]  # the capsule (radius 0.1) moves 2 m along y
+    subs = solver.substep_rows(still, after, 2)
+    assert len(subs) == 2
+    s0, s1 = subs
+    assert s0[0, 0] == 1 and s0[0, 2] == 1.0 and s0[0, 5] == 1.5  # capsule x 1 -> 1.5
+    assert s1[0, 0] == 1 and s1[0, 2] == 1.5 and s1[0, 5] == 2.0
+    assert s1[1].tobytes() == after[1].tobytes()  # the capsule where the frame has it
+    for i, sub in enumerate(subs):  # copies at most a radius apart along its 1 m a step
+        caps = sub[1:]
+        assert len(caps) == 10 and (caps[:, 0] == 1).all(), len(caps)
+        ys = np.sort(caps[:, 3])
+        assert math.isclose(ys[0], i + 0.1, abs_tol=1e-6) and ys[-1] == i + 1.0, ys
+        assert np.diff(ys).max() <= 0.1 + 1e-6, np.diff(ys)
+    changed = after.copy()
+    changed[0, 0] = 1  # the sphere became a capsule: not swept
+    assert solver.substep_rows(still, changed, 2)[0][0].tobytes() == changed[0].tobytes()
+    for sub in solver.substep_rows(still[:1], after, 2):  # a row more: nothing swept
+        assert sub.tobytes() == after.tobytes()
+    for sub in solver.substep_rows(None, after, 3):
+        assert sub.tobytes() == after.tobytes()
+    many = np.tile(still[1:], (3000, 1))  # 3,000 capsules that each need copies: too many
+    moved = many.copy()
+    moved[:, 3] += 1.0
+    assert all(len(sub) == 3000 for sub in solver.substep_rows(many, moved, 2))
+
+
 def test_steps_per_frame_follow_the_frame_rate():
     assert [solver.steps_per_frame(f) for f in (60, 24, 10, 5, 1)] == [2, 2, 2, 4, 20]
     for bad in (0.05, 0.0, float("nan"), -24.0):

@@ -54,13 +54,18 @@ def read_colliders_steps(scene, coll, frames, rows):
         scene.frame_set(current)
 
 
-def touched_tiles(definition, rows_per_frame):
-    """Sorted int32 indices of every tile that the colliders of any of the frames touch:
-    exactly the tiles the simulation wakes up over those frames."""
+def touched_tiles(definition, rows_per_frame, fps):
+    """Sorted int32 indices of every tile that the colliders of frames 2.. of
+    `rows_per_frame` (consecutive frames) touch on their way from the frame before, swept as
+    the solver's steps sweep them (solver.substep_rows): exactly the tiles the simulation
+    wakes up over those frames."""
     lib = native.require()
     sim = lib.blade_sim_create(**definition)
+    steps = solver.steps_per_frame(fps)
     touched = set()
-    for rows in rows_per_frame:  # one native call per frame
+    swept = (sub for before, rows in zip(rows_per_frame, rows_per_frame[1:])
+             for sub in solver.substep_rows(before, rows, steps))
+    for rows in swept:  # one native call per solver step
         lib.blade_sim_set_colliders(sim, np.ascontiguousarray(rows, np.float32).ravel())
         n = lib.blade_sim_pending(sim)
         if n:
@@ -130,9 +135,10 @@ class MeadowJob(cache.Job):
         frames = range(self.range[0], self.range[1] + 1)
         self.colliders = {}
         yield from read_colliders_steps(self._scene, self._coll, frames, self.colliders)
-        # the state at the first frame is the rest pose: its colliders are never used
-        self.tiles = touched_tiles(self.runner_args[2],
-                                   [self.colliders[f] for f in frames[1:]])
+        # the state at the first frame is the rest pose: its colliders are only where the
+        # second frame's sweep starts
+        self.tiles = touched_tiles(self.runner_args[2], [self.colliders[f] for f in frames],
+                                   self.fps)
         self.layout = baked.rest_layout(solver.Runner(*self.runner_args), self.tiles)
         counts = self.layout["counts"]
         self.blades = int(counts.sum())
@@ -227,7 +233,7 @@ class MeadowJob(cache.Job):
         for f in range(self.range[0], max(todo) + 1):
             yield
             if f > self.range[0]:
-                runner.step(f, self.colliders[f], self.fps, wind.sample)
+                runner.step(f, self.colliders[f], self.fps, wind.sample, self.colliders[f - 1])
             if f in todo:
                 lib.bake_write_frame(cache.frame_path(self.folder, f), f,
                                      self.frame_positions(runner))

@@ -147,7 +147,8 @@ class Playback:
         try:
             while r.frame < frame:
                 f = r.frame + 1
-                r.step(f, self.colliders.get(f, solver.NO_COLLIDERS), fps, wind_at)
+                r.step(f, self.colliders.get(f, solver.NO_COLLIDERS), fps, wind_at,
+                       self.colliders.get(f - 1))
                 self._take_snapshot()
         except (native.Error, ValueError):
             # A refused step (bad colliders, time step...) must not count as simulated: the

@@ -14,6 +14,7 @@ from .. import native
 STEPS_PER_FRAME = 2  # solver steps per frame, more at low frame rates (steps_per_frame)
 MAX_STEP_SECONDS = 1.0 / 20.0  # a step is never longer
 MAX_STEPS_PER_FRAME = 240  # below 1/12 fps a frame would take more: refused with a message
+TSK_MAX_COLLIDERS = 4096  # TSK_BLADE_SIM_MAX_COLLIDERS (tussock/sim.h)
 NO_COLLIDERS = np.zeros((0, 8), np.float32)
 
 
@@ -80,6 +81,60 @@ def fit_collider(matrix, corners, sphere):
 def collider_rows(rows):
     """float32 (n, 8) from fit_collider's rows (None ones left out)."""
     return np.array([r for r in rows if r is not None], np.float32).reshape(-1, 8)
+
+
+MAX_SWEEP_COPIES = 16  # in-between copies of one capsule in one solver step
+
+
+def substep_rows(before, rows, steps):
+    """The collider rows of each of a frame's `steps` solver steps, swept from `before` (the
+    rows of the frame before, or None) to `rows`: a foot that moves farther than its own
+    size in a frame must still push every blade on its way, not jump over them. Step i
+    holds the shapes where they are at the end of the step (moved linearly) together with
+    the volume they swept during it: a moving sphere becomes the capsule between its two
+    centres (exactly the volume it sweeps), and a capsule that moves more than its radius
+    gets copies at in-between positions, at most its radius apart (so no point of its path
+    is farther than half a radius from a copy's axis). Rows whose kind changed between the
+    frames, or all of them when the count changed, are not swept. Elementwise float64
+    arithmetic rounded to float32 once: the same bytes on every machine."""
+    rows = np.asarray(rows, np.float32).reshape(-1, 8)
+    if before is None or len(rows) == 0 or np.shape(before) != rows.shape:
+        return [rows] * steps
+    b = np.asarray(before, np.float64)
+    r = rows.astype(np.float64)
+    same = b[:, 0] == r[:, 0]
+    b[~same] = r[~same]
+    out = []
+    for i in range(steps):  # a few solver steps per frame
+        p0 = b + (r - b) * (i / steps)
+        p1 = b + (r - b) * ((i + 1) / steps)
+        p1[:, 0] = r[:, 0]
+        move = np.linalg.norm(p1[:, 2:5] - p0[:, 2:5], axis=1)  # (a sphere's b is unused)
+        move = np.where(r[:, 0] == 0, move,
+                        np.maximum(move, np.linalg.norm(p1[:, 5:8] - p0[:, 5:8], axis=1)))
+        now = p1.copy()
+        sphere = (r[:, 0] == 0) & (move > 0)
+        now[sphere, 0] = 1  # sphere -> capsule from its centre before to its centre now
+        now[sphere, 2:5] = p0[sphere, 2:5]
+        now[sphere, 5:8] = p1[sphere, 2:5]
+        capsule = r[:, 0] == 1
+        copies = np.zeros(len(r), np.int64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            need = np.ceil(move / p1[:, 1]) - 1
+        copies[capsule] = np.clip(np.nan_to_num(need[capsule], nan=0.0, posinf=0.0), 0,
+                                  MAX_SWEEP_COPIES)
+        if copies.sum() + len(r) > TSK_MAX_COLLIDERS:
+            copies[:] = 0  # too many shapes to sweep them all: none is swept
+        idx = np.repeat(np.arange(len(r)), copies)
+        if len(idx):
+            first = np.repeat(np.cumsum(copies) - copies, copies)
+            j = np.arange(len(idx)) - first + 1  # 1..copies for each swept row
+            f = (j / (copies[idx] + 1.0))[:, None]
+            extra = p0[idx] + (p1[idx] - p0[idx]) * f
+            extra[:, 0] = 1
+            now = np.concatenate([now, extra])
+        out.append(now.astype(np.float32))
+    return out
 
 
 class Runner:
@@ -172,17 +227,18 @@ class Runner:
             return np.concatenate(parts)
         return np.zeros((0, 3) if what == 3 else 0, np.float32)
 
-    def step(self, frame, rows, fps, wind_at):
-        """Steps from frame - 1 to `frame` with the collider rows of `frame` and the wind
+    def step(self, frame, rows, fps, wind_at, before=None):
+        """Steps from frame - 1 to `frame` with the collider rows of `frame`, swept from
+        `before`, those of frame - 1 (substep_rows; None: not swept), and the wind
         wind_at(frame, xyz (n, 3)) -> (n, 3) m/s."""
         steps = steps_per_frame(fps)
         lib, sim = self.lib, self.sim
-        lib.blade_sim_set_colliders(sim, np.ascontiguousarray(rows, np.float32).ravel())
-        self._provide_pending()
         dt = 1.0 / fps / steps
-        wind, layout, n = self._wind(frame, wind_at)
-        for _ in range(steps):
-            if lib.blade_sim_info(sim)["active_blades"] != n:  # a step released a tile
+        n = None
+        for sub in substep_rows(before, rows, steps):
+            lib.blade_sim_set_colliders(sim, np.ascontiguousarray(sub).ravel())
+            self._provide_pending()
+            if lib.blade_sim_info(sim)["active_blades"] != n:  # tiles woke up or were released
                 wind, layout, n = self._wind(frame, wind_at)
             lib.blade_sim_step(sim, dt, wind, layout)
         self.frame = frame
