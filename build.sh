@@ -765,7 +765,7 @@ cmd_shots() {
 }
 
 # ./build.sh windows: the C core and its native tests cross-built for Windows x64 with
-# Debian's mingw-w64 (without OpenCV, OpenSubdiv and OpenNI2 so far) and run under wine
+# Debian's mingw-w64 (with OpenCV, OpenSubdiv and OpenNI2: windows_deps) and run under wine
 # (native/portable/windows_tests.sh; docs/platforms.md says what passes); ./build.sh test runs
 # them too, and makes and checks the windows_x64 zip (windows_zip).
 # ./build.sh soak [--blender N[,N]] [--minutes M] [--seed S] [--window] [--gdb] [...]: the
@@ -821,8 +821,9 @@ windows_packages() {
 # by native/portable/build_deps_windows.sh from the portable build's Debian source packages
 # into $WINDOWS_DEPS/prefix (kept between runs, emptied when a script that makes them
 # changes). A run resumes after the last library that was finished; one that fails leaves the
-# Windows build to use those that were (its log says why). Sets WINDOWS_WITH: the CMake
-# options of the Windows builds (windows_tests.sh, windows_module.sh).
+# Windows build to use those that were (its log says why). Then OpenNI2 (windows_openni2).
+# Sets WINDOWS_WITH: the CMake options of the Windows builds (windows_tests.sh,
+# windows_module.sh).
 WINDOWS_DEPS="${TSK_WINDOWS_DEPS:-/var/cache/tussock/windows-deps}"
 windows_deps() {
   local prefix="$WINDOWS_DEPS/prefix" src="$ROOTS/$PORTABLE_SUITE/opt/tussock-src" want p
@@ -849,7 +850,13 @@ windows_deps() {
       || say "build.sh: the Windows libraries did not all build (log: $WINDOWS_DEPS/deps.log)"
     [ ! -f "$prefix/.built-opencv" ] || rm -rf "$prefix.work" # (the sources and objects)
   fi
-  WINDOWS_WITH=(-DTSK_WITH_OPENNI2=OFF "-DTSK_PORTABLE_DEPS=$prefix")
+  windows_openni2 "$src"
+  WINDOWS_WITH=("-DTSK_PORTABLE_DEPS=$prefix")
+  if [ -f "$WINDOWS_DEPS/openni2/.built-openni2" ]; then
+    WINDOWS_WITH+=(-DTSK_WITH_OPENNI2=ON "-DTSK_OPENNI2_WINDOWS=$WINDOWS_DEPS/openni2")
+  else
+    WINDOWS_WITH+=(-DTSK_WITH_OPENNI2=OFF)
+  fi
   for p in opensubdiv opencv; do
     if [ -f "$prefix/.built-$p" ]; then
       WINDOWS_WITH+=("-DTSK_WITH_${p^^}=ON")
@@ -857,6 +864,35 @@ windows_deps() {
       WINDOWS_WITH+=("-DTSK_WITH_${p^^}=OFF")
     fi
   done
+}
+
+# OpenNI2 for the Windows build (native/portable/build_openni2_windows.sh: OpenNI2.dll and its
+# drivers, from the same Debian source package as the portable build's) in a prefix of its own,
+# $WINDOWS_DEPS/openni2, with a stamp of its own: changing how it is built rebuilds it alone
+# (a few minutes), not OpenCV. A build that fails leaves the Windows build without OpenNI2.
+windows_openni2() { # source folder
+  local src="$1" oni="$WINDOWS_DEPS/openni2" want
+  want="$(cat "$ROOT/native/portable/build_deps.sh" \
+    "$ROOT/native/portable/build_openni2_windows.sh" "$ROOT"/native/portable/openni2_windows/* \
+    "$ROOT/native/cmake/mingw-w64-x86_64.cmake" | sha256sum | cut -c1-16)"
+  if [ "$(cat "$oni/.stamp" 2>/dev/null)" != "$want" ]; then
+    rm -rf "$oni" "$oni.work"
+    mkdir -p "$oni"
+    printf '%s\n' "$want" >"$oni/.stamp"
+  fi
+  [ ! -f "$oni/.built-openni2" ] || return 0
+  if ! ls "$src"/openni2_*.orig.tar.* >/dev/null 2>&1; then # (build_deps.sh fetches it)
+    root_ensure "$PORTABLE_SUITE"
+    mkdir -p "$src"
+    in_root "$PORTABLE_SUITE" bash -c "cd /opt/tussock-src && apt-get source -qq \
+      --download-only openni2/bookworm >/dev/null 2>&1" || true
+  fi
+  say "build.sh: cross-building OpenNI2 for Windows from Debian's sources, once" \
+    "(about 6 minutes on 2 cores; log: $WINDOWS_DEPS/openni2.log)"
+  flock "$WINDOWS_DEPS/.lock" bash "$ROOT/native/portable/build_openni2_windows.sh" "$src" \
+    "$oni" >"$WINDOWS_DEPS/openni2.log" 2>&1 \
+    || say "build.sh: OpenNI2 for Windows did not build (log: $WINDOWS_DEPS/openni2.log)"
+  [ ! -f "$oni/.built-openni2" ] || rm -rf "$oni.work" # (the sources and objects)
 }
 
 cmd_windows() {

@@ -4,7 +4,7 @@
 # portable Linux build (build_deps.sh, whose helpers this script sources): OpenSubdiv's CPU
 # library first, then OpenCV's core, imgproc, imgcodecs and photo with the PNG, JPEG and
 # OpenEXR codecs (zlib, libpng, libjpeg-turbo, Imath, OpenEXR). All static, linked into the
-# test programs and _tussock.pyd. No OpenNI2: its Windows back end is another driver model.
+# test programs and _tussock.pyd. OpenNI2 is built apart (build_openni2_windows.sh), as DLLs.
 #   build_deps_windows.sh SRC PREFIX
 #   SRC     the folder of Debian's source packages that build_deps.sh fetched
 #   PREFIX  where the results go (build.sh's windows_deps stamps it with this file's hash)

@@ -2,11 +2,15 @@
 # The binding for Windows x64: _tussock.pyd cross-built with Debian's mingw-w64 against
 # python3.dll (the stable ABI, which every Python 3 for Windows ships, Blender's included),
 # with the OpenSubdiv and OpenCV that build_deps_windows.sh cross-built (build.sh's
-# windows_deps; no OpenNI2), linked in statically, and the windows_x64 zip.
+# windows_deps) linked in statically, and the windows_x64 zip. With the OpenNI2 of
+# build_openni2_windows.sh, the zip carries OpenNI2.dll beside the .pyd (Python's importer
+# searches the .pyd's folder for the DLLs it imports), its drivers in OpenNI2/Drivers beside
+# that (where OpenNI2.dll looks for them), and tussock_oni_reader.exe beside both (the library
+# starts it from its own folder, and Windows finds the reader's OpenNI2.dll in the same one).
 # CPython's Windows headers (Include/ and PC/pyconfig.h) come from Debian's python3.11 source
 # package; python3.dll's import library is made from the list of its exports in that source
 # (PC/python3dll.c) with mingw-w64's dlltool. The import table of the .pyd is checked by
-# tools/binary_floor.py: python3.dll and Windows's own DLLs only; and under wine the .pyd is
+# tools/binary_floor.py: python3.dll, the zip's own DLLs and Windows's; and under wine the .pyd is
 # loaded as Python's importer loads it, beside a stand-in python3.dll that exports the stable
 # ABI's names (native/portable/wine/pyd_load.c), so Windows's loader resolves every import and
 # runs its start-up code. No Python for Windows is at hand to call PyInit__tussock.
@@ -61,7 +65,11 @@ if [ ! -f "$B/build.ninja" ] || [ "$(cat "$B/.options" 2>/dev/null)" != "${optio
     || { echo "$0: cmake configure failed ($B)" >&2; exit 1; }
   printf '%s\n' "${options[*]}" >"$B/.options"
 fi
-quiet cmake --build "$B" --target _tussock --parallel "${CMAKE_BUILD_PARALLEL_LEVEL:-2}" \
+with_openni2=0
+case " ${WINDOWS_WITH[*]} " in *" -DTSK_WITH_OPENNI2=ON "*) with_openni2=1 ;; esac
+targets=(_tussock)
+[ "$with_openni2" = 0 ] || targets+=(tussock_oni_reader openni2_runtime)
+quiet cmake --build "$B" --target "${targets[@]}" --parallel "${CMAKE_BUILD_PARALLEL_LEVEL:-2}" \
   || { echo "$0: the Windows module failed to build" >&2; exit 1; }
 quiet x86_64-w64-mingw32-strip --strip-unneeded "$B/_tussock.pyd"
 
@@ -75,6 +83,14 @@ for e in "$REPO"/addon/*; do
   ln -s "$e" "$A/$name"
 done
 cp "$B/_tussock.pyd" "$A/_tussock.pyd"
+if [ "$with_openni2" = 1 ]; then
+  mkdir -p "$A/OpenNI2/Drivers"
+  cp "$B/tussock_oni_reader.exe" "$B/OpenNI2.dll" "$A/"
+  cp "$B"/OpenNI2/Drivers/*.dll "$A/OpenNI2/Drivers/"
+  # (the copies only: the build folder keeps its symbols for a debugger)
+  quiet x86_64-w64-mingw32-strip --strip-unneeded "$A/tussock_oni_reader.exe" "$A/OpenNI2.dll" \
+    "$A"/OpenNI2/Drivers/*.dll
+fi
 "$PY" "$REPO/tools/package.py" "$REPO" "$DIST" "$A" --platform windows_x64 >/dev/null \
   || { echo "$0: packaging the windows_x64 zip failed" >&2; exit 1; }
 zip="$(ls -t "$DIST"/*-windows_x64.zip | head -n 1)"
@@ -103,9 +119,28 @@ awk '/^    /{ if ($2 == "DATA") printf "__declspec(dllexport) int %s;\n", $1;
 x86_64-w64-mingw32-gcc -shared -o "$L/python3.dll" "$L/python3_stand_in.c"
 x86_64-w64-mingw32-gcc -municode -O2 -Wall -Werror -o "$L/pyd_load.exe" "$HERE/wine/pyd_load.c"
 cp "$B/_tussock.pyd" "$L/"
+[ "$with_openni2" = 0 ] || cp "$A/OpenNI2.dll" "$L/" # (what the .pyd imports beside python3.dll)
 export WINEPREFIX="$BUILD_DIR/wine" WINEDEBUG=-all WINEDLLOVERRIDES="mscoree,mshtml=" DISPLAY=
 trap '"${WINESERVER:-wineserver}" -k >/dev/null 2>&1 || true' EXIT
 check "pyd loads under wine" "${WINE:-wine}" "$L/pyd_load.exe" "$L/_tussock.pyd" PyInit__tussock
+if [ "$with_openni2" = 1 ]; then
+  # OpenNI2's drivers as shipped, loaded as OpenNI2.dll loads them (their imports resolved,
+  # their start-up code run), and the reader started: it prints its usage when run by hand
+  drivers_load() {
+    local d
+    for d in "$A"/OpenNI2/Drivers/*.dll; do
+      "${WINE:-wine}" "$L/pyd_load.exe" "$d" oniDriverCreate || return 1
+    done
+  }
+  check "OpenNI2 drivers load (wine)" drivers_load
+  reader_runs() {
+    local out
+    out="$("${WINE:-wine}" "$A/tussock_oni_reader.exe" 2>&1)" || true
+    printf '%s\n' "$out"
+    printf '%s\n' "$out" | grep -q "usage: "
+  }
+  check "oni reader starts (wine)" reader_runs
+fi
 
 echo "windows_x64 zip: $zip ($(du -k "$zip" | cut -f1) KiB)" >&2
 echo "$passed passed, $failed failed"

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The native library and its tests for Windows x64: cross-built with Debian's mingw-w64
 # (native/cmake/mingw-w64-x86_64.cmake) into BUILD_DIR, with the OpenSubdiv and OpenCV that
-# build_deps_windows.sh cross-built (build.sh's windows_deps; tests that need OpenNI2, or a
-# library that did not build, print "skip"), and every test_*.exe run under Debian's wine in a
-# wine prefix of its own (BUILD_DIR/wine).
+# build_deps_windows.sh cross-built and the OpenNI2 of build_openni2_windows.sh, its DLL and
+# drivers copied into BUILD_DIR (build.sh's windows_deps; tests that need a library that did
+# not build print "skip"), and every test_*.exe run under Debian's wine in a wine prefix of its
+# own (BUILD_DIR/wine).
 # Prints the per-test lines of build.sh's run_native_tests and "N passed, N failed" last;
 # exits non-zero on any failure.
 #   native/portable/windows_tests.sh BUILD_DIR

@@ -178,5 +178,4 @@ TEST(test_read_only_folder_and_full_disk_report_io_errors_for_images) {
 TEST_MAIN(TEST_NEEDS(test_image_frame_round_trip_is_exact_and_deterministic, OpenCV),
           TEST_NEEDS(test_corrupt_foreign_and_missing_image_frames_are_refused, OpenCV),
           TEST_ENTRY(test_bad_image_arguments_are_refused),
-          TEST_POSIX_NEEDS(test_read_only_folder_and_full_disk_report_io_errors_for_images,
-                           OpenCV))
+          TEST_POSIX_NEEDS(test_read_only_folder_and_full_disk_report_io_errors_for_images, OpenCV))
