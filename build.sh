@@ -379,6 +379,8 @@ cmd_test() {
     [ "${TSK_WINDOWS:-1}" = 0 ] || windows_zip tally
   fi
   for m in "${MAJORS[@]}"; do run_blender_suite "$m"; done
+  # the short random soak, a new seed each run (TSK_SOAK_MINUTES per Blender; 0 skips)
+  [ "${TSK_SOAK_MINUTES:-3}" = 0 ] || run_soak_checks "${MAJORS[@]}"
   if [ "$BLENDER_CHOSEN" = 0 ]; then
     local suites=()
     for m in "${MAJORS[@]}"; do [ -z "$(suite_of "$m")" ] || suites+=("$(suite_of "$m")"); done
@@ -786,7 +788,7 @@ cmd_soak() {
 
 # The short soak of the test run: TSK_SOAK_MINUTES (default 3) in background Blender `major`,
 # with a seed from the clock (printed, so that a red run can be replayed with --seed); one
-# result for the run, added to PASSED/FAILED. Not called by cmd_test yet.
+# result for the run, added to PASSED/FAILED.
 run_soak_checks() { # major...
   local m out seed line
   for m in "$@"; do

@@ -141,7 +141,7 @@ def test_wind_source_arguments_out_of_the_stored_range_are_refused():
         for v in outside(TussockWindSource, name):
             expect_cancel(ops.add_wind_source, name, **{name: v})
     # 0.0005 was clamped to 0.001 before; now the operator says why
-    expect_cancel(ops.add_wind_source, "Radius (radius) must be at least 0.001",
+    expect_cancel(ops.add_wind_source, "Radius (radius) must be from 0.001 to 1e+06",
                   radius=0.0005)
     assert ops.add_wind_source(strength=0.3, radius=0.25, interval=2.0) == {"FINISHED"}
     s = bpy.context.active_object.tussock_wind_source

@@ -700,9 +700,8 @@ def test_picture_bad_input_cancels():
     layer.rect = (0, 0, 0, 0)                                            # empty rectangle
     expect_cancel(op, "rect", filepath=pic8)
     layer.rect = (4, 4, 40, 30)
-    layer.grabcut_max_side = -1
-    expect_cancel(op, "proposal size", filepath=pic8)
-    layer.grabcut_max_side = 0
+    layer.grabcut_max_side = -1                                          # clamped, as C's range
+    assert layer.grabcut_max_side == 0
     layer.strokes_path = picture_png("strokes_small.png", 10, 10)
     expect_cancel(op, "10x10", filepath=pic8)
     layer.strokes_path = ""
@@ -711,14 +710,22 @@ def test_picture_bad_input_cancels():
     expect_cancel(op, "scale map", filepath=pic8)
     layer.scale_map_path = ""
     # NaN / negative / huge parameters of the layer and of the picture
+    # out of range: clamped by the properties' hard limits, which are C's ranges
+    for obj, prop, value, clamped in [
+        (layer, "lambda_x", INF, 1e6), (layer, "rigidity", -1.0, 0.0), (layer, "cell_x", 0, 1),
+        (layer, "cell_y", -4, 1), (layer, "cell_x", 2 ** 31 - 1, 4096),
+        (s, "inpaint_radius", -1.0, 1.0), (s, "feather", INF, 256.0),
+    ]:
+        old = getattr(obj, prop)
+        setattr(obj, prop, value)
+        assert getattr(obj, prop) == clamped, (prop, value, getattr(obj, prop))
+        setattr(obj, prop, old)
+    # NaN gets past Blender's clamping: C refuses it
     for obj, prop, value, needle in [
         (layer, "lambda_x", NAN, "lambda"), (layer, "lambda_y", NAN, "lambda"),
-        (layer, "lambda_x", INF, "lambda"), (layer, "rigidity", NAN, "rigidity"),
-        (layer, "rigidity", -1.0, "rigidity"), (layer, "cell_x", 0, "cell_x"),
-        (layer, "cell_y", -4, "cell_y"), (layer, "cell_x", 2 ** 31 - 1, "cell_x"),
-        (s, "inpaint_radius", NAN, "radius"), (s, "inpaint_radius", -1.0, "radius"),
+        (layer, "rigidity", NAN, "rigidity"), (s, "inpaint_radius", NAN, "radius"),
         (s, "grow", NAN, "grow"), (s, "feather", NAN, "feather"),
-        (s, "feather", INF, "feather"), (s, "loop_frames", -3, "loop"),
+        (s, "loop_frames", -3, "loop"),
     ]:
         old = getattr(obj, prop)
         setattr(obj, prop, value)
@@ -728,12 +735,15 @@ def test_picture_bad_input_cancels():
             raise AssertionError(f"{prop} = {value}: {exc}") from None
         setattr(obj, prop, old)
     layer.root_auto = False
-    for prop, value in (("root_line", NAN), ("root_height", NAN), ("root_height", 0.0),
-                        ("root_line", 3e38)):
+    for prop, value in (("root_line", NAN), ("root_height", NAN)):
         old = getattr(layer, prop)
         setattr(layer, prop, value)
         expect_cancel(op, "", filepath=pic8)
         setattr(layer, prop, old)
+    layer.root_height, layer.root_line = 0.0, 3e38  # clamped to what the warp takes
+    assert layer.root_height == np.float32(0.01) and layer.root_line < 1e7, (
+        layer.root_height, layer.root_line)
+    layer.root_height, layer.root_line = 100.0, 0.0
     layer.root_auto = True
 
 

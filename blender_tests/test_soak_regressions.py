@@ -26,6 +26,18 @@ def saved_scene(name, frames=6):
     return scene, folder
 
 
+def animate_sample_picture(scene):
+    """The sample picture, animated with one layer of grass on coarse cells: (its settings, the
+    layer)."""
+    p = scene.tussock_picture
+    p.filepath = os.path.join(PICTURE, "meadow.png")
+    layer = p.layers.add()
+    layer.name, layer.mask_path = "grass", os.path.join(PICTURE, "grass_mask.png")
+    layer.cell_x = layer.cell_y = 32
+    assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
+    return p, layer
+
+
 def record_and_disk(folder):
     """(paths tussock_written.json lists, names in the cache folder)"""
     root = os.path.join(folder, "tussock_cache")
@@ -67,12 +79,7 @@ def test_a_huge_picture_loop_is_limited_and_does_not_freeze_blender():
     # the first frame, and Blender never came back.
     from tussock.picture.props import LOOP_FRAMES_MAX
     scene = harness.empty_scene(6)
-    p = scene.tussock_picture
-    p.filepath = os.path.join(PICTURE, "meadow.png")
-    layer = p.layers.add()
-    layer.name, layer.mask_path = "grass", os.path.join(PICTURE, "grass_mask.png")
-    layer.cell_x = layer.cell_y = 32
-    assert bpy.ops.tussock.animate_picture() == {"FINISHED"}
+    p, layer = animate_sample_picture(scene)
     scene.frame_set(3)
     t0 = time.monotonic()
     p.loop_frames = 2 ** 31 - 1
@@ -107,17 +114,188 @@ def test_a_meadow_from_blades_one_of_which_is_in_edit_mode_says_so():
 
 @test
 def test_a_preset_that_cannot_be_posed_leaves_the_tree_as_it_was():
-    # soak seed 200, shrunk to: a tree; a wind wave whose phase is at its limit (3.4e38,
-    # which the native wind refuses); Apply Preset. The operator cancelled with the wind's
-    # message, but the tree's parameters were already the preset's.
+    # soak seed 200, shrunk to: a tree; a wind the tree cannot be posed in (then a wave's
+    # phase of 3.4e38, which the property now refuses; here a keyframed setting of the fluid
+    # wind, which holds for the whole shot); Apply Preset. The operator cancelled with the
+    # wind's message, but the tree's parameters were already the preset's.
     scene = harness.empty_scene(6)
     assert bpy.ops.tussock.add_tree(preset="european_larch", seed=137,
                                     leaves=False) == {"FINISHED"}
-    wave = scene.tussock_wind.waves.add()
-    wave.phase = 3.4e38
-    expect_cancel(bpy.ops.tussock.tree_apply_preset, "phase", preset="lombardy_poplar")
-    wave.phase = 0.0
+    tree = bpy.context.active_object
+    w = scene.tussock_wind
+    w.use_fluid = True
+    w.keyframe_insert("fluid_speed", frame=1)
+    before = tree.tussock_tree.params.level_0.length
+    expect_cancel(bpy.ops.tussock.tree_apply_preset, "keyframed", preset="lombardy_poplar")
+    assert tree.tussock_tree.params.level_0.length == before
+    scene.animation_data_clear()
     assert bpy.ops.tussock.tree_apply_preset(preset="lombardy_poplar") == {"FINISHED"}
+
+
+@test
+def test_a_frame_played_and_put_back_is_no_change_in_the_soak_fingerprint():
+    # soak seed 5 in Blender 5.2, shrunk to: animate a picture; keyframe a layer's lambda_x;
+    # set it by hand and keyframe it at another frame; bake (with a simulated meadow) and
+    # press Esc. lambda_x went from the value set by hand to its F-curve's value at the
+    # current frame: Blender writes that when the bake, having played frames to read the
+    # meadow's colliders, puts the current frame back (measured in 5.2: 33.0 before, the
+    # F-curve's 19.14 after; Tussock writes no picture setting). The fingerprint of the soak
+    # describes keyframed settings at their F-curve's value, as a frame change leaves them.
+    sys.path.insert(0, os.path.join(harness.REPO, "tools"))
+    import soak_blender
+    scene = harness.empty_scene(40)
+    p, layer = animate_sample_picture(scene)
+    for frame, value in ((1, 10.0), (20, 90.0)):
+        layer.lambda_x = value
+        layer.keyframe_insert("lambda_x", frame=frame)
+    scene.frame_set(5)
+    keyed = layer.lambda_x
+    layer.lambda_x = 33.0
+    layer.keyframe_insert("lambda_x", frame=40)
+    before = soak_blender.description()
+    assert layer.lambda_x == 33.0
+    scene.frame_set(9)
+    scene.frame_set(5)
+    harness.check_near(layer.lambda_x, keyed, 1e-4, "lambda_x after the frame came back")
+    after = soak_blender.description()
+    assert after == before, soak_blender.changes(before, after)
+
+
+@test
+def test_a_meadow_joined_with_a_leafy_tree_grows_no_blades_on_the_tree():
+    # soak seed 31 (in a window), shrunk to: a meadow; a tree with leaves; select both, the
+    # meadow active; Join (Ctrl+J). The meadow's modifier put a chunk of blades on each of
+    # the tree's vertices: millions of blades, and each frame took 42 s to draw in a window.
+    # The joined object is the plain mesh Join made, no longer a meadow.
+    scene = harness.empty_scene(4)
+    assert bpy.ops.tussock.add_meadow(size=(2.0, 2.0), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=True) == {"FINISHED"}
+    tree = bpy.context.active_object
+    points, tree_vertices = len(meadow.data.vertices), len(tree.data.vertices)
+    assert tree_vertices > 10000, tree_vertices
+    harness.select_objects([meadow, tree])
+    assert bpy.ops.object.join() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    joined = bpy.context.active_object
+    assert joined == meadow and len(joined.data.vertices) == points + tree_vertices
+    assert not joined.tussock_meadow.is_meadow
+    assert not [m.name for m in joined.modifiers if m.type == "NODES"], list(joined.modifiers)
+    t0 = time.monotonic()
+    scene.frame_set(2)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    instanced = sum(1 for i in depsgraph.object_instances
+                    if i.is_instance and i.parent and i.parent.original == joined)
+    secs = time.monotonic() - t0
+    assert instanced == 0, f"{instanced} chunks of blades on the joined mesh"
+    assert secs < 10, f"a frame took {secs:.1f} s"
+
+
+# ---- every setting at its limits ---------------------------------------------------------------
+
+def _groups(idb, label):
+    """(label, group) of every Tussock property group on a datablock, nested groups and
+    collection items included."""
+    todo = [(f"{label}.{name}", g) for name, g in harness._tussock_groups(idb)]
+    while todo:
+        path, group = todo.pop(0)
+        yield path, group
+        for prop in group.bl_rna.properties:
+            if prop.identifier == "rna_type":
+                continue
+            if prop.type == "POINTER" and isinstance(prop.fixed_type, bpy.types.PropertyGroup):
+                todo.append((f"{path}.{prop.identifier}", getattr(group, prop.identifier)))
+            elif prop.type == "COLLECTION":
+                todo += [(f"{path}.{prop.identifier}[{i}]", item)
+                         for i, item in enumerate(getattr(group, prop.identifier))]
+
+
+def _errors(idbs):
+    """{group path: last_error} of every Tussock group that reports one."""
+    return {path: g.last_error for idb, label in idbs for path, g in _groups(idb, label)
+            if getattr(g, "last_error", "")}
+
+
+def _clear_errors(idbs):
+    for idb, label in idbs:
+        for _path, g in _groups(idb, label):
+            if getattr(g, "last_error", ""):
+                g.last_error = ""
+
+
+# Limits between two settings, which hard limits of one cannot hold: the native library
+# checks them and the error names both (an artist changes either). A setting at its own
+# limit may break one of these, but no other check.
+RELATIONS = ("is unstable",                  # continuum c against the grid's cells (CFL)
+             "more than the patch's",        # blades_per_tile <= patch_blades
+             "divide patch_blades",          # chunk_blades divides patch_blades
+             "more than blades_per_tile",    # chunk_blades <= blades_per_tile
+             "larger than the meadow area",  # tile_size <= the meadow's sides
+             "chunk objects",                # patch_blades / chunk_blades <= MAX_CHUNKS
+             ">= scale_min",                 # a meadow's scale_max >= scale_min
+             "must be below",                # a tree's scale_v < scale, ...
+             "when pruning",                 # prune_width > 0 when prune_ratio > 0
+             "the trunk has no length",      # level 0 length, its variation and the scale
+             "these parameters grow more")   # a tree's branches and leaves, all levels
+
+
+OWN = {"meadow": "tussock_meadow", "tree": "tussock_tree", "source": "tussock_wind_source"}
+
+
+def _limits_scene():
+    """A meadow, a leafy tree, a wind source on the fluid wind with 2 waves, an animated
+    picture: every kind of Tussock setting is read at a frame."""
+    scene = harness.empty_scene(4)
+    assert bpy.ops.tussock.add_meadow(size=(1.0, 1.0), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=True) == {"FINISHED"}
+    tree = bpy.context.active_object
+    assert bpy.ops.tussock.add_wind_source() == {"FINISHED"}
+    source = bpy.context.active_object
+    w = scene.tussock_wind
+    w.use_fluid = True
+    w.fluid_resolution = 16
+    for _ in range(2):
+        w.waves.add()
+    p, layer = animate_sample_picture(scene)
+    return scene, [(scene, "scene"), (meadow, "meadow"), (tree, "tree"), (source, "source")]
+
+
+@test
+def test_every_setting_at_its_hard_limits_plays_without_an_error():
+    # soak seed 200: a wind wave's phase at its limit (3.4e38, it had none), which the
+    # native wind refuses (|phase| <= 1e4): every frame reported an error. Each Tussock
+    # number is set to its hard minimum and maximum in turn and a frame is played: the
+    # property's limits must be ones the native library accepts.
+    scene, idbs = _limits_scene()
+    scene.frame_set(2)
+    assert not _errors(idbs), _errors(idbs)
+    failures = []
+    frame = 2
+    for idb, label in idbs:
+        for path, group in list(_groups(idb, label)):
+            if label in OWN and not path.startswith(f"{label}.{OWN[label]}"):
+                continue  # the object's other kinds of settings are not read
+            for prop in group.bl_rna.properties:
+                if (prop.type not in ("INT", "FLOAT") or prop.is_readonly or prop.is_hidden
+                        or getattr(prop, "is_array", False)):
+                    continue
+                name = prop.identifier
+                old = getattr(group, name)
+                for value in (prop.hard_min, prop.hard_max):
+                    setattr(group, name, value)
+                    frame = 5 - frame  # 2, 3, 2, ...: each setting is read at a new frame
+                    scene.frame_set(frame)
+                    errs = {k: v for k, v in _errors(idbs).items()
+                            if not any(r in v for r in RELATIONS)}
+                    if errs:
+                        failures.append(f"{path}.{name} = {value:g}: {errs}")
+                    setattr(group, name, old)
+                    scene.frame_set(1)
+                    _clear_errors(idbs)
+    assert not failures, "\n".join(failures)
 
 
 harness.main()

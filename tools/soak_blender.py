@@ -223,8 +223,65 @@ _STATUS = re.compile(r"last_error=('(?:[^'\\]|\\.)*'|\"(?:[^\"\\]|\\.)*\")")
 
 
 def description():
-    """harness.scene_description() without the panels' status lines."""
-    return [_STATUS.sub("last_error=...", line) for line in harness.scene_description()]
+    """harness.scene_description() without the panels' status lines, with every keyframed
+    Tussock setting at its F-curve's value of the current frame. A value set by hand on a
+    keyframed setting lasts only until the next frame change (Blender writes the F-curve's
+    value back): an operator that plays frames (a bake reads a meadow's colliders so) and
+    puts the current frame back changes it as any frame change does, and so does Blender 5.2
+    when such an operator is cancelled."""
+    with animated_at_current_frame():
+        return [_STATUS.sub("last_error=...", line) for line in harness.scene_description()]
+
+
+def _fcurves(anim_data):
+    action = anim_data.action if anim_data is not None else None
+    if action is None:
+        return ()
+    if hasattr(action, "fcurves"):  # 3.4-4.5
+        return action.fcurves
+    from bpy_extras import anim_utils  # 5.0+: slotted actions
+    bag = anim_utils.action_get_channelbag_for_slot(action, anim_data.action_slot)
+    return bag.fcurves if bag is not None else ()
+
+
+@contextlib.contextmanager
+def animated_at_current_frame():
+    """Sets each keyframed Tussock number or switch to its F-curve's value at the current
+    frame (as Blender's frame change would, clamped to the property's limits) and puts the
+    values back afterwards. Written as ID properties, which runs no update callback: the
+    scene is not recomputed, only described."""
+    frame = scene().frame_current
+    saved = []
+    for idb in list(bpy.data.scenes) + list(bpy.data.objects):
+        for fc in _fcurves(idb.animation_data):
+            path = fc.data_path
+            if not path.startswith("tussock_") or "." not in path:
+                continue
+            owner_path, name = path.rsplit(".", 1)
+            try:
+                owner = idb.path_resolve(owner_path)
+                prop = owner.bl_rna.properties[name]
+            except (ValueError, KeyError):
+                continue
+            if prop.type not in ("FLOAT", "INT", "BOOLEAN") or prop.is_readonly:
+                continue
+            value = min(max(fc.evaluate(frame), getattr(prop, "hard_min", 0)),
+                        getattr(prop, "hard_max", 1))
+            value = float(value) if prop.type == "FLOAT" else int(round(value))
+            old = getattr(owner, name)
+            if getattr(prop, "is_array", False) or getattr(prop, "array_length", 0):
+                new = list(old)
+                new[fc.array_index] = value
+                saved.append((owner, name, list(old)))
+                owner[name] = new
+            else:
+                saved.append((owner, name, old))
+                owner[name] = value
+    try:
+        yield
+    finally:
+        for owner, name, old in reversed(saved):
+            owner[name] = old
 
 
 def changes(before, after, limit=6):
@@ -1184,4 +1241,5 @@ def main():
     bpy.app.timers.register(tick, first_interval=0.5, persistent=True)
 
 
-main()
+if __name__ == "__main__":  # not when a test imports its checks
+    main()

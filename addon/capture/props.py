@@ -41,11 +41,16 @@ class TussockCaptureSettings(bpy.types.PropertyGroup):
                                          description=TIPS["device_uri"])
     auto_band: bpy.props.BoolProperty(name="Auto", default=True,
                                       description="Find the nearest significant depth")
-    near: bpy.props.FloatProperty(name="Near", default=0.4, min=0.0, unit="LENGTH",
+    # limits of tsk_capture_def_validate (native/src/capture/capture.c); near < far is
+    # checked there, with both values in the message
+    near: bpy.props.FloatProperty(name="Near", default=0.4, min=0.0, max=10000.0,
+                                  unit="LENGTH",
                                   description=TIPS["near"])
-    far: bpy.props.FloatProperty(name="Far", default=1.0, min=0.0, unit="LENGTH",
+    far: bpy.props.FloatProperty(name="Far", default=1.0, min=0.0, max=10000.0,
+                                 unit="LENGTH",
                                  description=TIPS["far"])
     min_area: bpy.props.IntProperty(name="Minimum blade area", default=150, min=1,
+                                    max=1 << 26,
                                     subtype="PIXEL",
                                     description=TIPS["min_area"])
     frames: bpy.props.IntProperty(name="Frames to average", default=1, min=1, max=300,

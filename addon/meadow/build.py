@@ -4,6 +4,7 @@ them into the chunk collection and the instance point cloud. All native work hap
 before any Blender data is touched, so an error leaves the scene as it was."""
 
 import hashlib
+import sys
 
 import bpy
 import numpy as np
@@ -29,6 +30,10 @@ def ground_area(ground):
 
 
 MAX_KNOTS = 64  # knots of a blade model (the native patch's limit)
+# Each chunk of the patch is a Blender object: Blender adds one object in about a
+# millisecond and slows down with every thousand more (65,536 chunks of a 2**20-blade patch
+# took minutes, soak), so the patch is cut into at most this many (the default is 1,024).
+MAX_CHUNKS = 4096
 
 
 def blade_models(collection):
@@ -132,9 +137,16 @@ def make_patch(settings):
     if models is not None:
         kw.update(knots=models[0], widths=models[1], knot_counts=models[2])
     try:
-        return lib.patch_create(**kw)
+        patch = lib.patch_create(**kw)
     except lib.Error as exc:  # name the setting the artist knows
         raise lib.Error(f"patch ({settings.patch_blades} blades): {exc}") from None
+    chunks = settings.patch_blades // max(settings.chunk_blades, 1)
+    if chunks > MAX_CHUNKS:
+        raise ValueError(
+            f"chunk_blades: a patch of {settings.patch_blades} blades (Patch size) in chunks "
+            f"of {settings.chunk_blades} makes {chunks} chunk objects, more than "
+            f"{MAX_CHUNKS}: raise Chunk to at least {-(-settings.patch_blades // MAX_CHUNKS)}")
+    return patch
 
 
 def compute_patch(settings):
@@ -312,6 +324,51 @@ def write_steps(obj, settings, key, patch, layout):
     obj["tussock_instances"] = int(info["chunk_instances"])
     obj.update_tag()
     return info
+
+
+_objects_seen = None  # the number of objects at the last look for joined meadows
+
+
+def joined_meadows():
+    """Meadows whose mesh holds geometry that is not the meadow's own instance points: Join
+    (Ctrl+J) with the meadow active puts the other objects' vertices, edges and faces into
+    its mesh, and the meadow's modifier would then put a chunk of blades on every vertex (a
+    leafy tree: millions of blades, 17 to 40 s a frame in a window). Join removes the other
+    objects, so the meadows are looked at only when the number of objects changed."""
+    global _objects_seen
+    count = len(bpy.data.objects)
+    if count == _objects_seen:
+        return []
+    _objects_seen = count
+    found = []
+    for obj in identity.meadows():  # one per meadow object
+        if obj.type != "MESH" or obj.library is not None or obj.mode == "EDIT" \
+                or obj.modifiers.get(MODIFIER) is None:
+            continue
+        mesh = obj.data
+        # (fewer points than instances is a meadow whose points were deleted in Edit Mode)
+        if len(mesh.polygons) or len(mesh.edges) \
+                or len(mesh.vertices) > obj.get("tussock_instances", len(mesh.vertices)):
+            found.append(obj)
+    return found
+
+
+def release_joined(obj):
+    """A meadow joined with other objects becomes the plain mesh that Join made: no blades
+    on its vertices, no simulation. The message says why and how to get the meadow back
+    (Undo): printed here, and returned for the caller to report."""
+    mod = obj.modifiers.get(MODIFIER)
+    if mod is not None:
+        obj.modifiers.remove(mod)
+    obj.tussock_meadow.is_meadow = False
+    for key in ("tussock_blades", "tussock_tiles", "tussock_instances"):
+        if key in obj:
+            del obj[key]
+    text = (f"Tussock: '{obj.name}' is no longer a meadow: it was joined with other objects, "
+            "and its blades would grow on each of their vertices. Undo (Ctrl+Z) brings the "
+            "meadow back; to place objects on a meadow, keep them separate objects")
+    print(text, file=sys.stderr)
+    return text
 
 
 def rebuild_growing(blades):

@@ -163,4 +163,18 @@ class TUSSOCK_OT_add_meadow(bpy.types.Operator):
         progress.end(context)
 
 
-classes = (TUSSOCK_OT_add_meadow,)
+class TUSSOCK_OT_meadow_joined(bpy.types.Operator):
+    """Reports that a meadow joined with other objects is a plain mesh now (a handler, which
+    found it, cannot report)"""
+    bl_idname = "tussock.meadow_joined"
+    bl_label = "Meadow Joined"
+    bl_options = {"INTERNAL"}
+
+    message: bpy.props.StringProperty(options={"HIDDEN", "SKIP_SAVE"})
+
+    def execute(self, context):
+        self.report({"WARNING"}, self.message)
+        return {"FINISHED"}
+
+
+classes = (TUSSOCK_OT_add_meadow, TUSSOCK_OT_meadow_joined)

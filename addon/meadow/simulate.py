@@ -55,6 +55,26 @@ def forget(obj=None):
         identity.forget()
 
 
+def _release_joined():
+    """Meadows joined with other objects become plain meshes (build.release_joined); True
+    when there was one."""
+    joined = build.joined_meadows()
+    texts = [build.release_joined(obj) for obj in joined]
+    if joined:
+        sync(force=True)
+        if not bpy.app.background:  # in the status bar and the Info editor, after the handler
+            bpy.app.timers.register(lambda: _report(texts), first_interval=0.0)
+    return bool(joined)
+
+
+def _report(texts):
+    wm = bpy.context.window_manager
+    if wm.windows:
+        with bpy.context.temp_override(window=wm.windows[0]):
+            for text in texts:
+                bpy.ops.tussock.meadow_joined(message=text)
+
+
 def sync(force=False):
     """After objects were made or removed: gives duplicated meadows their own ids (and so
     their own simulation and blades objects), and frees the simulations of meadows that are
@@ -86,7 +106,7 @@ def _sync_later():
     script may remove one with none at all: this look, twice a second, finds such a meadow
     gone and frees what it owned (it costs a count of the file's objects while none is made
     or removed)."""
-    if native.available() and not playback.suspended:
+    if native.available() and not playback.suspended and not _release_joined():
         sync()
     return SYNC_EVERY
 
@@ -94,6 +114,8 @@ def _sync_later():
 @bpy.app.handlers.persistent
 def _on_depsgraph_update(scene, depsgraph=None):
     if playback.suspended:
+        return
+    if _release_joined():  # the depsgraph's list of updates is stale once an object changed
         return
     sync()
     if depsgraph is not None:

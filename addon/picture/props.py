@@ -19,6 +19,11 @@ def _motion_changed(self, context):
 
 
 LOOP_FRAMES_MAX = 10000  # frames of a seamless loop; its first frame steps the wind 2N
+LAMBDA_MAX = 1e6  # TSK_WARP_MAX_LAMBDA
+CELL_MAX = 4096  # TSK_PICTURE_MAX_CELL, pixels
+# the root line is passed as picture height - line, which the warp keeps within 1e7 pixels
+# for a picture of up to TSK_PICTURE_MAX_SIDE (16384) pixels
+ROOT_LINE_MAX = 1e7 - 16384
 
 MASK_ITEMS = [
     ("FILE", "Mask file", "A black-and-white image file the size of the picture "
@@ -64,21 +69,23 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
                                            description="Optional image file the size of "
                                            "the picture: red strokes force vegetation, blue "
                                            "strokes force background")
-    grabcut_iterations: bpy.props.IntProperty(name="Iterations", default=5, soft_min=1,
-                                              soft_max=50,
+    grabcut_iterations: bpy.props.IntProperty(name="Iterations", default=5, min=1, max=50,
                                               description="GrabCut refinement rounds")
-    grabcut_max_side: bpy.props.IntProperty(name="Proposal size", default=0, soft_min=0,
-                                            soft_max=16384,
+    grabcut_max_side: bpy.props.IntProperty(name="Proposal size", default=0, min=0,
+                                            max=16384,
                                             description="Propose the mask on a copy "
                                             "shrunk to at most this many pixels per side "
                                             "(faster; the mask edge follows the coarse "
                                             "pixels). 0 = full resolution")
-    # motion (seed 004, eq. 5-7); no hard limits, so a bad value is reported, not clamped
+    # motion (seed 004, eq. 5-7); hard limits are those of the native warp (check_def in
+    # native/src/picture/warp.c), so no value the panel takes is refused at a frame
     lambda_x: bpy.props.FloatProperty(name="λ x", default=24.0, soft_min=0.0, soft_max=200.0,
+                                      min=-LAMBDA_MAX, max=LAMBDA_MAX,
                                       description="How far the vegetation moves sideways: "
                                       "cells per unit of continuum velocity and second",
                                       update=_motion_changed)
     lambda_y: bpy.props.FloatProperty(name="λ y", default=8.0, soft_min=0.0, soft_max=200.0,
+                                      min=-LAMBDA_MAX, max=LAMBDA_MAX,
                                       description="How far it moves up and down (keep low "
                                       "for grass seen from the side)", update=_motion_changed)
     scale_map_path: bpy.props.StringProperty(name="Scale map", subtype="FILE_PATH",
@@ -86,8 +93,7 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
                                              description="Optional image file the size of "
                                              "the picture multiplying λ (dark = far, moves "
                                              "less; white = 1)")
-    rigidity: bpy.props.FloatProperty(name="Rigidity r", default=1.0, soft_min=0.0,
-                                      soft_max=10.0,
+    rigidity: bpy.props.FloatProperty(name="Rigidity r", default=1.0, min=0.0, max=10.0,
                                       description="How much the roots hold: movement grows "
                                       "as (height above the roots / layer height)^r",
                                       update=_motion_changed)
@@ -98,16 +104,20 @@ class TussockPictureLayer(bpy.types.PropertyGroup):
     root_auto: bpy.props.BoolProperty(name="Root line from mask", default=True,
                                       description="Root line and height from the mask's "
                                       "bounding box", update=_motion_changed)
-    root_line: bpy.props.FloatProperty(name="Root line", default=0.0,
+    root_line: bpy.props.FloatProperty(name="Root line", default=0.0, min=-ROOT_LINE_MAX,
+                                       max=ROOT_LINE_MAX,
                                        description="Root line, pixels from the picture's "
                                        "bottom", update=_motion_changed)
-    root_height: bpy.props.FloatProperty(name="Height", default=100.0,
-                                         description="Height of the vegetation above (or "
-                                         "below) its root line, pixels", update=_motion_changed)
-    cell_x: bpy.props.IntProperty(name="Cell x", default=16, soft_min=1, soft_max=256,
+    root_height: bpy.props.FloatProperty(name="Height", default=100.0, min=0.01, max=1e7,
+                                         description="Height of the vegetation above its "
+                                         "root line (below it when rooted at the top), pixels",
+                                         update=_motion_changed)
+    cell_x: bpy.props.IntProperty(name="Cell x", default=16, soft_min=1, soft_max=256, min=1,
+                                  max=CELL_MAX,
                                   description="Warp grid cell width, pixels",
                                   update=_motion_changed)
-    cell_y: bpy.props.IntProperty(name="Cell y", default=16, soft_min=1, soft_max=256,
+    cell_y: bpy.props.IntProperty(name="Cell y", default=16, soft_min=1, soft_max=256, min=1,
+                                  max=CELL_MAX,
                                   description="Warp grid cell height, pixels",
                                   update=_motion_changed)
 
@@ -133,15 +143,13 @@ class TussockPicture(bpy.types.PropertyGroup):
     inpaint: bpy.props.EnumProperty(name="Inpainting", items=INPAINT_ITEMS, default="TELEA",
                                     description="How the background behind the vegetation is "
                                                 "filled in")
-    inpaint_radius: bpy.props.FloatProperty(name="Radius", default=5.0, soft_min=1.0,
-                                            soft_max=100.0,
+    inpaint_radius: bpy.props.FloatProperty(name="Radius", default=5.0, min=1.0, max=100.0,
                                             description="Neighbourhood of each filled "
                                             "background pixel, pixels")
-    grow: bpy.props.FloatProperty(name="Grow", default=3.0, soft_min=0.0, soft_max=64.0,
+    grow: bpy.props.FloatProperty(name="Grow", default=3.0, min=0.0, max=64.0,
                                   description="The filled region is the mask grown by this, "
                                   "pixels")
-    feather: bpy.props.FloatProperty(name="Feather", default=4.0, soft_min=0.0,
-                                     soft_max=256.0,
+    feather: bpy.props.FloatProperty(name="Feather", default=4.0, min=0.0, max=256.0,
                                      description="Width of the soft matte edge, pixels (0 = "
                                      "hard edge)")
     # max: a loop of N frames steps the wind 2N frames ahead of the first (frames.py,

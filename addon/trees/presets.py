@@ -7,6 +7,7 @@ import os
 import re
 
 from .. import compat, native
+from . import params
 
 _items = []  # kept alive: Blender needs enum item strings to outlive the callback
 
@@ -56,7 +57,9 @@ def load(name):
 def check(name, d):
     """Raises ValueError naming the first entry of a preset dict that is not a tree parameter
     of the right type (a hand-edited or foreign JSON file), so that applying it cannot fail
-    half-way with a TypeError. Values themselves (NaN, ranges) are the native check's."""
+    half-way with a TypeError, or whose value is outside the parameter's limits (the
+    properties would clamp it on the way in and grow another tree than the file says).
+    Limits between parameters are the native check's."""
     schema = native.require().tree_default_def()
 
     def bad(key, why):
@@ -76,6 +79,10 @@ def check(name, d):
         if not ok:
             bad(key, f"must be {'an integer' if type(ref) is int else 'a number'} "
                      f"in range, got {v!r}")
+        limits = (params.LEVEL_LIMITS if key.startswith("level[") else params.LIMITS)
+        lo_hi = limits.get(key.rsplit(".", 1)[-1])
+        if lo_hi is not None and not lo_hi[0] <= v <= lo_hi[1]:  # (NaN too)
+            bad(key, f"must be in [{lo_hi[0]:g}, {lo_hi[1]:g}], got {v!r}")
 
     for k, v in d.items():
         if k == "level":

@@ -133,6 +133,12 @@ def keyed_value(ad, path, frame, owner, name):
     return float(np.float32(_value(ad, path, 0, frame, owner, name)))
 
 
+def _front_speed(v):
+    """0 (gusts everywhere at once) or at least the 1 mm/s that the native wind takes for a
+    travelling front: a slower front is the slowest one."""
+    return v if v == 0.0 or v >= 1e-3 else 1e-3
+
+
 def sines_kwargs(scene, frame):
     """Keyword arguments of the breeze, waves and gusts at `frame` (wind_set_sines)."""
     w = scene.tussock_wind
@@ -150,7 +156,8 @@ def sines_kwargs(scene, frame):
                 gust_interval=v["gust_interval"],
                 gust_duration=min(v["gust_duration"], v["gust_interval"]),
                 gust_dir_x=math.cos(heading), gust_dir_y=math.sin(heading),
-                gust_front_speed=v["gust_front_speed"], seed=max(0, int(round(v["seed"]))))
+                gust_front_speed=_front_speed(v["gust_front_speed"]),
+                seed=max(0, int(round(v["seed"]))))
 
 
 def fluid_kwargs(scene):
