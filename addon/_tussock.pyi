@@ -298,6 +298,67 @@ def capture_summary(capture: Any, /) -> dict[str, Any]:
     """
 
 
+def collider_fit_bones(
+    points: Any,
+    to_armature: Any,
+    heads: Any,
+    tails: Any,
+    rest: Any,
+    parent: Any,
+    deforms: Any,
+    min_size: Any,
+    out: Any,
+    group: Any,
+    /,
+) -> None:
+    """
+    Which vertices make each deforming bone's limb, at rest: the bone of each point into
+    group (int32, -1 none), and each bone's capsule in bone space into out (float32, 8 per
+    bone; kind -1 for a bone with no points). points: float32 xyz of the mesh at rest;
+    to_armature: 16 floats, mesh -> armature space; heads, tails: xyz per bone; rest: 16
+    floats per bone (Bone.matrix_local); parent: int32 (-1 none); deforms: uint8; min_size:
+    bones spanning less give their points to their parent.
+    """
+
+
+def collider_fit_groups(
+    points: Any,
+    triangles: Any,
+    group: Any,
+    to_world: Any,
+    armature_world: Any,
+    pose: Any,
+    rows: Any,
+    /,
+) -> None:
+    """
+    Each bone's capsule fitted to its points where they are now (float32 xyz, object space;
+    group from collider_fit_bones) and the triangles (int32 triples or None) they are
+    corners of, in its frame armature_world @ pose[i] (16 floats per bone, PoseBone.matrix),
+    into rows (float32, 8 per bone, world space; kind -1: none).
+    """
+
+
+def collider_fit_spheres(
+    points: Any,
+    triangles: Any,
+    world: Any,
+    max_spheres: Any,
+    rows: Any,
+    /,
+) -> int:
+    """
+    -> count. At most max_spheres spheres holding every triangle (int32 triples, or None:
+    the points) placed by world (16 floats), into rows (float32, 8 * max_spheres).
+    """
+
+
+def collider_mesh_volume(points: Any, triangles: Any, /) -> float:
+    """
+    -> float. The volume a closed triangle mesh encloses (m^3).
+    """
+
+
 def default_blade_sim_def() -> dict[str, Any]:
     """
     -> dict: every blade-simulation setting and its default.
