@@ -393,7 +393,7 @@ cmd_test() {
   [ "$FAILED" -eq 0 ]
 }
 
-# ./build.sh demo [--blender N]: the demo's two clips and frames into out/, rendered by this
+# ./build.sh demo [--blender N]: the demo's three clips and frames into out/, rendered by this
 # machine's Blender 3.4 or by Blender N from its Debian root.
 cmd_demo() {
   parse_blenders 3 "$@"

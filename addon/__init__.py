@@ -17,6 +17,7 @@ from .capture import operators as capture_operators  # noqa: E402
 from .capture import props as capture_props  # noqa: E402
 from .capture import ui as capture_ui  # noqa: E402
 from .farm import submit as farm_submit  # noqa: E402
+from .meadow import colliders as meadow_colliders  # noqa: E402
 from .meadow import operators as meadow_operators  # noqa: E402
 from .meadow import props as meadow_props  # noqa: E402
 from .meadow import simulate as meadow_simulate  # noqa: E402
@@ -37,8 +38,8 @@ from .wind import ui as wind_ui  # noqa: E402
 
 # One list of classes, registered in order and unregistered in reverse.
 _MODULES = (prefs, ui, capture_props, capture_operators, capture_ui, meadow_props,
-            meadow_operators, meadow_ui, meadow_simulate, refine_operators, refine_ui,
-            wind_props, wind_operators, wind_ui, tree_props, tree_operators, tree_ui,
+            meadow_colliders, meadow_operators, meadow_ui, meadow_simulate, refine_operators,
+            refine_ui, wind_props, wind_operators, wind_ui, tree_props, tree_operators, tree_ui,
             tree_animate, picture_props, picture_operators, picture_ui, picture_animate, bake,
             farm_submit)
 

@@ -5,6 +5,7 @@ import bpy
 
 _added = []  # (list name, function)
 _timers = []
+_draws = []  # handles of SpaceView3D draw handlers
 
 
 def add(list_name, fn):
@@ -28,6 +29,12 @@ def remove_timer(fn):
         _timers.remove(fn)
 
 
+def add_draw(fn):
+    """fn() drawn in every 3D viewport after its scene (POST_VIEW: world-space coordinates),
+    until remove_all."""
+    _draws.append(bpy.types.SpaceView3D.draw_handler_add(fn, (), "WINDOW", "POST_VIEW"))
+
+
 def remove_all():
     while _added:
         list_name, fn = _added.pop()
@@ -36,3 +43,5 @@ def remove_all():
             handler_list.remove(fn)
     while _timers:
         remove_timer(_timers[-1])
+    while _draws:
+        bpy.types.SpaceView3D.draw_handler_remove(_draws.pop(), "WINDOW")

@@ -5,7 +5,8 @@ lost suite; test_window_*.py files run in a real Blender window on Xvfb instead.
 gets a fresh user folder whose addons/tussock links to addon/ (tools/blender_env.py).
 Prints per-file results and, last, "N passed, N failed"; exits non-zero on any failure.
 
-usage: run.py [NAME_FILTER ...]   (environment: BLENDER, TSK_TEST_TIMEOUT seconds)"""
+usage: run.py [NAME_FILTER ...]   (environment: BLENDER, TSK_TEST_TIMEOUT seconds,
+TSK_TEST_FILTER: only tests whose name holds it, TSK_TEST_VERBOSE=1: every file's output)"""
 
 import glob
 import os
@@ -58,7 +59,7 @@ def main():
         p, f = (int(found[-1][0]), int(found[-1][1])) if found else (0, 0)
         if code != 0 and f == 0:
             f = 1  # crashed, timed out or failed outside a test: count the file as a failure
-        if f or code != 0:
+        if f or code != 0 or os.environ.get("TSK_TEST_VERBOSE") == "1":
             sys.stdout.write(out)
         print(f"{name}: {p} passed, {f} failed ({secs:.1f} s, exit {code})")
         sys.stdout.flush()

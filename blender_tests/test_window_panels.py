@@ -488,6 +488,25 @@ def scenario(package):
         scene.frame_set(f)
     yield from states.draw("meadow_colliders")
 
+    # the ball selected: its Collider panel, its shape drawn over the viewport; then a walking
+    # character in the same collection, a capsule per bone
+    from tussock.meadow import colliders as collider_shapes  # noqa: E402
+    select_only(ball)
+    ball.tussock_collider.show_shapes = True
+    yield from states.draw("collider_ball")
+    sys.path.insert(0, os.path.join(harness.REPO, "tools"))
+    import walker  # noqa: E402
+    with override():
+        _rig, body = walker.build(scene, start=(-1.5, 1.0, 0.0), frames=(1, FRAMES))
+    colliders.objects.link(body)
+    body.tussock_collider.show_shapes = True
+    select_only(body)
+    scene.frame_set(3)
+    shape, rows = collider_shapes.shown(body) or (None, ())
+    expect("the character is fitted a capsule per bone", shape == "BONES" and len(rows) > 8,
+           f"{shape}, {len(rows)} shapes")
+    yield from states.draw("collider_character")
+
     # an interactive bake: in slices on the main thread under a modal timer (a bake needs a
     # saved file); in 3.4 too, where a worker thread once crashed Blender
     os.makedirs(TMP, exist_ok=True)

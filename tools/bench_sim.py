@@ -21,7 +21,12 @@ import time
 import bpy
 import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_common import emit, wanted  # noqa: E402
+from bench_common import NAMES, emit, wanted  # noqa: E402
+
+# `blade_playback_character` asked for by name runs alone (wanted() would also run the group
+# blade_playback, a prefix of it)
+NAMES_ONLY_CHARACTER = bool(NAMES) and all(n.startswith("blade_playback_character")
+                                           for n in NAMES)
 
 
 def cpu_seconds():
@@ -65,8 +70,8 @@ def add_log(scene, log_length):
 
 
 def inside_log(points, scene, coll):
-    """(points inside the log's capsule by more than INSIDE_TOLERANCE, deepest in m, points
-    not finite) for float (n, 3) `points`: the capsule Tussock fits to the log
+    """(points inside the collider shapes by more than INSIDE_TOLERANCE, deepest in m, points
+    not finite) for float (n, 3) `points`: the shapes Tussock fits to the log or the character
     (simulate.colliders), so that Tussock's knots and Blender's hair points are judged alike.
     A point that is not finite (a simulation that blew up) counts as inside."""
     from tussock.meadow import simulate
@@ -85,11 +90,14 @@ def inside_log(points, scene, coll):
     return count, float(good.max()) if len(good) else 0.0, int(bad.sum())
 
 
-def emit_inside(who, inside, points, at_rest, extra, peer=None):
-    """The correctness line of inside_log's `inside`; `at_rest` is the count for the same
-    strands left at rest, what a simulation that did nothing would give."""
+def emit_inside(prefix, who, inside, points, at_rest, extra, peer=None):
+    """The correctness line of inside_log's `inside` (`prefix`_inside, or
+    blade_playback_inside_log for the log); `at_rest` is the
+    count for the same strands left at rest, what a simulation that did nothing would give."""
     count, deepest, bad = inside
-    emit("blade_playback_inside_log", count, "points inside the log",
+    name = "blade_playback_inside_log" if prefix == "blade_playback" else f"{prefix}_inside"
+    emit(name, count, "points inside the log" if name.endswith("_log") else
+         "points inside the character",
          dict({"result": "pass" if count == 0 else "fail", "points_checked": points,
                "points_not_finite": bad,
                "inside_if_left_at_rest": at_rest,
@@ -98,10 +106,25 @@ def emit_inside(who, inside, points, at_rest, extra, peer=None):
                "what": who}, **extra), peer=peer)
 
 
-def playback(name, log_length, display=1.0, check=False):
-    """Times frames 49-64 of the log scene; with `check`, also emits the knots-in-the-log
-    line and returns (frame seconds, simulated blades, their rest knots (n, K, 3)) for the
-    peers."""
+def add_character(scene):
+    """The walking character of tools/walker.py (an armature deforming a mesh of tubes),
+    walking along +x from x = -3 m at 1.2 m/s over frames 1-64 (through the meadow during
+    frames 49-64), in the collection "Colliders"; (body, collection)."""
+    import walker
+    scene.render.fps, scene.render.fps_base = 24, 1.0
+    _rig, body = walker.build(scene, start=(-3.0, 0.0, 0.0), speed=1.2, frames=(1, TIMED[-1]))
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    coll.objects.link(body)
+    return body, coll
+
+
+def playback(name, add_collider, display=1.0, check=False, params=None):
+    """Times frames 49-64 of the meadow that `add_collider(scene)` -> (object, collection)
+    goes through, the time Tussock spent fitting collider shapes reported apart; with `check`,
+    also emits the knots-inside line (prefixed `name`) and returns (frame seconds, simulated
+    blades, their rest knots (n, K, 3)) for the peers."""
+    from tussock.meadow import colliders as collider_shapes
     from tussock.meadow import simulate
     reset()
     scene = bpy.context.scene
@@ -109,31 +132,32 @@ def playback(name, log_length, display=1.0, check=False):
     bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=64, density="UNIFORM",
                                display=display)
     meadow = bpy.context.active_object
-    # from frame 49 on the tiles the log passed over are still recovering and those under it
-    # still pressed; 4.5 m long, it keeps 20,480 blades simulated (the issue's 20,000)
-    _, coll = add_log(scene, log_length)
+    _, coll = add_collider(scene)
     meadow.tussock_meadow.colliders = coll
     meadow.tussock_meadow.use_simulation = True
     load = os.getloadavg()[0]
-    for f in range(1, TIMED[0]):  # the log rolls in
+    for f in range(1, TIMED[0]):  # the collider comes in
         scene.frame_set(f)
-    times, cpus, active = [], [], []
+    times, cpus, fits, active = [], [], [], []
     for f in TIMED:
-        c, t = cpu_seconds(), time.perf_counter()
+        c, t, fit = cpu_seconds(), time.perf_counter(), collider_shapes.stats["fit_seconds"]
         scene.frame_set(f)
         times.append(time.perf_counter() - t)
         cpus.append(cpu_seconds() - c)
+        fits.append(collider_shapes.stats["fit_seconds"] - fit)
         active.append(meadow["tussock_active_blades"])
     med = statistics.median(times)
     emit(name, round(1.0 / med, 2), "fps",
-         {"frame_ms_median": round(med * 1e3, 1),
-          "frame_cpu_ms_median": round(statistics.median(cpus) * 1e3, 1),
-          "frames": f"{TIMED[0]}-{TIMED[-1]}", "log_m": log_length,
-          "active_blades_min": min(active), "active_blades_max": max(active),
-          "active_tiles": meadow["tussock_active_tiles"],
-          "instanced_blades": meadow["tussock_blades"],
-          "viewport_display": display, "viewport_blades": meadow["tussock_viewport_blades"],
-          "load_average": round(load, 2), "target_fps": target_fps()})
+         dict({"frame_ms_median": round(med * 1e3, 1),
+               "frame_cpu_ms_median": round(statistics.median(cpus) * 1e3, 1),
+               "fit_ms_median": round(statistics.median(fits) * 1e3, 2),
+               "collider_shapes": len(simulate.colliders(scene, coll)),
+               "frames": f"{TIMED[0]}-{TIMED[-1]}",
+               "active_blades_min": min(active), "active_blades_max": max(active),
+               "active_tiles": meadow["tussock_active_tiles"],
+               "instanced_blades": meadow["tussock_blades"],
+               "viewport_display": display, "viewport_blades": meadow["tussock_viewport_blades"],
+               "load_average": round(load, 2), "target_fps": target_fps()}, **(params or {})))
     if not check:
         return None
     runner = simulate.playback_of(meadow).runner
@@ -141,7 +165,7 @@ def playback(name, log_length, display=1.0, check=False):
     inside = inside_log(knots, scene, coll)
     tiles, _ = runner.active()
     rest = np.concatenate([runner.rest_blades(t)[0] for t in tiles])  # one call per tile
-    emit_inside("Tussock's simulated knots", inside, len(knots),
+    emit_inside(name, "Tussock's simulated knots", inside, len(knots),
                 inside_log(rest, scene, coll)[0], {"blades": len(knots) // runner.K})
     return med, active[-1], rest.reshape(-1, runner.K, 3)
 
@@ -211,20 +235,22 @@ def timed_frames(scene):
     return times, all_times
 
 
-def peer_hair(tussock, strands):
-    """Blender's own hair physics on the meadow's ground under the same log: every
+def peer_hair(tussock, strands, add_collider, prefix="blade_playback", gn_only=False):
+    """Blender's own hair physics on the meadow's ground with the same collider: every
     20,480 / `strands`-th of Tussock's simulated blades, rest shapes as they are (16 points,
-    roots on the ground). The Geometry Nodes asset where Blender ships it, else particle
-    hair (which grows its own straight strands of the blades' median height over the
-    simulated area)."""
+    roots on the ground). The Geometry Nodes asset where Blender ships it, else (unless
+    `gn_only`) particle hair (which grows its own straight strands of the blades' median
+    height over the simulated area)."""
     t_frame, t_blades, rest = tussock
     pick = rest[np.linspace(0, len(rest) - 1, min(strands, len(rest))).astype(np.int64)]
     reset()
+    group = hair_dynamics_group()
+    if group is None and gn_only:
+        return
     scene = bpy.context.scene
     bpy.ops.mesh.primitive_plane_add(size=32.0)  # the meadow's ground, with its UV map
     ground = bpy.context.active_object
-    log, coll = add_log(scene, 4.5)
-    group = hair_dynamics_group()
+    log, coll = add_collider(scene)
     load = os.getloadavg()[0]
     if group is not None:
         peer, what = "blender_hair_gn", "Geometry Nodes Hair Dynamics asset, Physics mode"
@@ -292,7 +318,7 @@ def peer_hair(tussock, strands):
     med = statistics.median(times)
     per = med / n * 1e6
     t_per = t_frame / t_blades * 1e6
-    emit("blade_playback_strand_frame", round(per, 2), "µs per strand-frame",
+    emit(f"{prefix}_strand_frame", round(per, 2), "µs per strand-frame",
          dict({"strands": n, "points_per_strand": k, "frame_ms_median": round(med * 1e3, 1),
                "frame_ms_median_all": round(statistics.median(all_times) * 1e3, 1),
                "frames": f"{TIMED[0]}-{TIMED[-1]}", "what": what,
@@ -306,7 +332,7 @@ def peer_hair(tussock, strands):
     extra = {"strands": n}
     if moved is not None:  # JSON has no NaN: a path that blew up gives null
         extra["max_point_moved_mm"] = round(moved * 1e3, 1) if np.isfinite(moved) else None
-    emit_inside(what, inside, len(points.reshape(-1, 3)), at_rest, extra, peer=peer)
+    emit_inside(prefix, what, inside, len(points.reshape(-1, 3)), at_rest, extra, peer=peer)
 
 
 def hair_peer(strands=2000, segments=15, frames=24):
@@ -339,14 +365,33 @@ def hair_peer(strands=2000, segments=15, frames=24):
 # run 7-10 minutes); TSK_PEER_STRANDS=2048 takes every 10th blade for a quicker look
 PEER_STRANDS = int(os.environ.get("TSK_PEER_STRANDS", "20480"))
 
-if wanted("blade_playback"):
-    tussock = playback("blade_playback", 4.5, check=True)
-    emit("blade_playback_strand_frame", round(tussock[0] / tussock[1] * 1e6, 3),
+
+def log_of(length):
+    # from frame 49 on the tiles the log passed over are still recovering and those under it
+    # still pressed; 4.5 m long, it keeps 20,480 blades simulated (the issue's 20,000)
+    return lambda scene: add_log(scene, length)
+
+
+def tussock_line(prefix, tussock):
+    emit(f"{prefix}_strand_frame", round(tussock[0] / tussock[1] * 1e6, 3),
          "µs per strand-frame", {"blades": tussock[1],
                                  "frame_ms_median": round(tussock[0] * 1e3, 1),
                                  "what": "Tussock, every simulated blade shown"})
-    peer_hair(tussock, PEER_STRANDS)
-    playback("blade_playback_display01", 4.5, display=0.1)
-    playback("blade_playback_22528", 5.0, display=0.1)
+
+
+if wanted("blade_playback") and not NAMES_ONLY_CHARACTER:
+    tussock = playback("blade_playback", log_of(4.5), check=True, params={"log_m": 4.5})
+    tussock_line("blade_playback", tussock)
+    peer_hair(tussock, PEER_STRANDS, log_of(4.5))
+    playback("blade_playback_display01", log_of(4.5), display=0.1, params={"log_m": 4.5})
+    playback("blade_playback_22528", log_of(5.0), display=0.1, params={"log_m": 5.0})
+if wanted("blade_playback_character"):
+    # the walking character in the blade_playback meadow; beside it, in Blender 5.x, the
+    # Geometry Nodes Hair Dynamics asset colliding with the same character
+    tussock = playback("blade_playback_character", add_character, check=True,
+                       params={"character": "tools/walker.py, 1.2 m/s"})
+    tussock_line("blade_playback_character", tussock)
+    peer_hair(tussock, PEER_STRANDS, add_character, prefix="blade_playback_character",
+              gn_only=True)
 if wanted("blade_sim_1M") or wanted("blade_hair"):
     hair_peer()

@@ -3,9 +3,11 @@ recording it captures the blades, refines them to 16 knots, grows a meadow of ov
 million blades from them, rolls a rigid-body ball through it (every touched blade
 simulated), grows a Weber-Penn tree beside it that sways in the same wind, bakes, saves
 the .blend and renders a short Cycles animation (frames and an MP4) into out/; then it
-brings the sample picture to life through the compositor into a second clip. Each step
+brings the sample picture to life through the compositor into a second clip, and walks a
+character through a simulated meadow into a third (each bone pushes the grass). Each step
 prints what it made and how long it took, as "[demo k/STEPS] ...", and the frames it
-renders or encodes next as "[demo] rendering N frames ..." (for tools/demo_run.py)."""
+renders or encodes next as "[demo] rendering N frames ..." (for tools/demo_run.py).
+TSK_DEMO_CLIP=walk renders the third clip alone."""
 
 import math
 import os
@@ -24,8 +26,9 @@ import addon_utils  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import picture_sample_scene  # noqa: E402
+import walker  # noqa: E402
 
-STEPS = 13  # the step() calls of a run (tests/test_demo_run.py counts them)
+STEPS = 16  # the step() calls of a run (tests/test_demo_run.py counts them)
 _t0 = time.time()
 _start = _t0
 _done = 0
@@ -175,6 +178,7 @@ def main():
     encode_video(os.path.join(OUT, "frames"), "demo_", FRAMES, mp4, scene.render.fps, (480, 270))
     step(f"wrote {mp4}")
     picture_clip()
+    walk_clip()
     print(f"[demo] outputs in {OUT}; total {time.time() - _start:.0f} s", flush=True)
 
 
@@ -197,6 +201,55 @@ def picture_clip():
     mp4 = os.path.join(OUT, "picture.mp4")
     encode_video(os.path.join(OUT, "picture_frames"), "picture_", frames, mp4, scene.render.fps,
                  (scene.render.resolution_x, scene.render.resolution_y))
+    step(f"wrote {mp4}")
+
+
+def walk_clip():
+    """A character (tools/walker.py: an armature deforming a mesh) walks through a simulated
+    meadow with every blade shown; its legs push the grass aside and leave a track."""
+    reset_scene()
+    scene = bpy.context.scene
+    frames = max(FRAMES, 36)
+    scene.render.fps = 24
+    scene.frame_start, scene.frame_end = 1, frames
+    scene.tussock_wind.base_speed = 1.0
+    ground, meadow, rig, body = walker.through_meadow(
+        scene, (5.0, 2.5), start=(-1.7, 0.0, 0.0), speed=1.2, frames=(1, frames))
+    for obj, name, colour in ((ground, "Soil", (0.09, 0.06, 0.035, 1)),
+                              (body, "Body", (0.15, 0.25, 0.55, 1))):
+        mat = bpy.data.materials.new(name)
+        mat.use_nodes = True
+        mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = colour
+        obj.data.materials.append(mat)
+    step(f"a character walks through a meadow of {meadow['tussock_blades']:,} blades, every "
+         f"one shown; {len(walker.BONES)} bones push the grass")
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = (-0.6, -3.2, 2.1), (math.radians(66), 0.0, 0.0)
+    cam.data.lens = 24.0
+    scene.camera = cam
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = 3.5
+    sun.rotation_euler = (math.radians(50), 0.0, math.radians(-30))
+    scene.collection.objects.link(sun)
+    world = bpy.data.worlds.new("Sky")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.55, 0.7, 0.95, 1)
+    scene.world = world
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 8
+    scene.cycles.use_denoising = False
+    scene.render.resolution_x, scene.render.resolution_y = 480, 270
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = os.path.join(OUT, "walk_frames", "walk_")
+    frames_next("rendering", frames)
+    bpy.ops.render.render(animation=True)
+    step(f"rendered {frames} frames of the walk into {os.path.join(OUT, 'walk_frames')}")
+    mp4 = os.path.join(OUT, "walk.mp4")
+    encode_video(os.path.join(OUT, "walk_frames"), "walk_", frames, mp4, scene.render.fps,
+                 (480, 270))
     step(f"wrote {mp4}")
 
 
@@ -224,4 +277,7 @@ def encode_video(folder, prefix, frames, path, fps, size):
     bpy.ops.render.render(animation=True, scene=vscene.name)
 
 
-main()
+if os.environ.get("TSK_DEMO_CLIP") == "walk":  # (the third clip alone)
+    walk_clip()
+else:
+    main()

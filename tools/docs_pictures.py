@@ -1,7 +1,7 @@
 """Renders the pictures of docs/ with Tussock itself, in background Blender:
   blender_run.py tools/docs_pictures.py -- OUT_DIR [FEATURE...]
-Features: capture, refine, meadow, trees, picture, wind, simulation, farm, farm_meadow,
-farm_picture, reliability. Each writes PNGs named <feature>_<view>.png
+Features: capture, refine, meadow, trees, picture, wind, simulation, walk, farm,
+farm_meadow, farm_picture, reliability. Each writes PNGs named <feature>_<view>.png
 into OUT_DIR."""
 
 import math
@@ -13,6 +13,7 @@ import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import picture_sample_scene  # noqa: E402
+import walker  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 OUT = os.path.abspath(ARGS[0] if ARGS else "docs/images")
@@ -347,6 +348,30 @@ def simulation():
     render("simulation_ball", res=(560, 315), samples=16)
 
 
+def walk():
+    """A character walking through a simulated meadow, seen from behind and above: each bone
+    pushes the grass with its own capsule, and the legs leave a track."""
+    reset()
+    scene = bpy.context.scene
+    scene.render.fps = 24
+    scene.frame_start, scene.frame_end = 1, 40
+    scene.tussock_wind.base_speed = 0.5
+    ground, meadow, rig, body = walker.through_meadow(
+        scene, (4.0, 2.0), start=(-1.6, 0.0, 0.0), speed=1.2, frames=(1, 40),
+        blades_per_tile=96)
+    soil(ground)
+    blue = bpy.data.materials.new("Body")
+    blue.use_nodes = True
+    blue.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (
+        0.15, 0.25, 0.55, 1)
+    body.data.materials.append(blue)
+    for f in range(1, 41):
+        scene.frame_set(f)
+    sky_and_sun(sun_angle=(0.8, 0.2, -0.6))
+    camera((1.3, -1.2, 1.3), (math.radians(58), 0, math.radians(40)), lens=35.0)
+    render("simulation_walk", res=(560, 315), samples=16)
+
+
 def split_bake_with_without(frame, name):
     """Saves the scene (frames 1-24), bakes it in two halves by two background Blenders as
     two farm workers would, renders `frame` by a Blender with Tussock and by one without it,
@@ -533,9 +558,9 @@ def reliability():
 
 
 FEATURES = {"capture": capture, "refine": refine, "meadow": meadow, "trees": trees,
-            "wind": wind, "simulation": simulation, "farm": farm, "farm_picture": farm_picture,
-            "farm_meadow": farm_meadow, "reliability": reliability,
-            "picture": picture}
+            "wind": wind, "simulation": simulation, "walk": walk, "farm": farm,
+            "farm_picture": farm_picture, "farm_meadow": farm_meadow,
+            "reliability": reliability, "picture": picture}
 
 os.makedirs(OUT, exist_ok=True)
 for name, fn in FEATURES.items():

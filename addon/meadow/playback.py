@@ -7,12 +7,12 @@ when those frames were played. Snapshots are taken every SNAPSHOT_EVERY frames w
 playing, within SNAPSHOT_BUDGET bytes per meadow: when that is full, every other snapshot
 is dropped and they are taken half as often, so they keep covering the whole timeline."""
 
-import bpy
 import numpy as np
 
 from .. import compat, native
 from ..wind import runtime as wind_runtime
 from . import build, identity, solver
+from . import colliders as collider_shapes
 
 SNAPSHOT_EVERY = 10  # frames between snapshots of the solver state (counted from frame_start)
 SNAPSHOT_BUDGET = 256 << 20  # bytes of snapshots kept per meadow
@@ -48,20 +48,10 @@ def check_animation(obj):
 
 
 def colliders(scene, coll, depsgraph=None):
-    """float32 (n, 8) collider rows (kind, radius, a xyz, b xyz) fitted to the evaluated
-    bounds of the objects in `coll` (solver.fit_collider: sphere rigid bodies are spheres).
-    Objects without extent (empties, cameras, lights) are skipped."""
-    if coll is None:
-        return np.zeros((0, 8), np.float32)
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
-    rows = []
-    for obj in coll.all_objects:  # one row per collider object
-        ev = obj.evaluated_get(depsgraph)
-        rb = obj.rigid_body
-        rows.append(solver.fit_collider(np.array(ev.matrix_world, np.float64),
-                                        np.array(ev.bound_box, np.float64),
-                                        rb is not None and rb.collision_shape == "SPHERE"))
-    return solver.collider_rows(rows)
+    """float32 (n, 8) collider rows (kind, radius, a xyz, b xyz) of the objects in `coll`,
+    fitted to their true shapes (collider_shapes.rows). Objects without extent (empties,
+    cameras, lights) are skipped."""
+    return collider_shapes.rows(scene, coll, depsgraph)
 
 
 class Playback:

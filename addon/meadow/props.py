@@ -111,8 +111,9 @@ class TussockMeadowSettings(bpy.types.PropertyGroup):
                                            "pushed aside and recover (seed 000)")
     colliders: bpy.props.PointerProperty(name="Colliders", type=bpy.types.Collection,
                                          update=_reset_simulation,
-                                         description="Objects that push blades aside (spheres "
-                                         "or capsules fitted to their bounds; rigid bodies too)")
+                                         description="Objects that push blades aside: each "
+                                         "gets shapes fitted every frame (the Collider panel "
+                                         "of the Tussock sidebar; rigid bodies too)")
     sim_iterations: bpy.props.IntProperty(name="Iterations", default=4, min=1, max=64,
                                           update=_reset_simulation,
                                           description=TIPS["sim_iterations"])

@@ -16,6 +16,7 @@ import bpy
 
 from .. import compat, handlers, native
 from . import baked, blade_objects, build, identity, playback, writer
+from . import colliders as collider_shapes
 
 # what tests and tools read of the live simulation
 playback_of = playback.playback_of
@@ -96,6 +97,7 @@ def _on_frame_change(scene, depsgraph=None):
 @bpy.app.handlers.persistent
 def _on_load(*_args):
     forget()
+    collider_shapes.forget()
 
 
 SYNC_EVERY = 0.5  # seconds between looks for meadows gone without an update (see _sync_later)

@@ -5,6 +5,7 @@ import bpy
 
 from .. import compat
 from ..ui import SubPanel
+from . import colliders
 
 
 def _meadow(context):
@@ -117,5 +118,54 @@ class TUSSOCK_PT_meadow_simulation(MeadowSubPanel, bpy.types.Panel):
                               f"{obj.get('tussock_active_blades', 0):,} blades active")
 
 
+def collider_of(obj):
+    """The meadows whose Colliders collection holds `obj` (not a meadow itself)."""
+    if obj is None or _is_meadow(obj):
+        return []
+    return [m for m in bpy.data.objects  # one look per object of the file
+            if _is_meadow(m) and m.tussock_meadow.colliders is not None
+            and obj.name in m.tussock_meadow.colliders.all_objects]
+
+
+def _is_meadow(obj):
+    s = compat.settings_of(obj, "tussock_meadow")
+    return s is not None and s.is_meadow
+
+
+_SHAPE_NAMES = {"BONES": "bone capsules", "SPHERES": "spheres", "BOUNDS": "bounds shape"}
+
+
+class TUSSOCK_PT_collider(SubPanel, bpy.types.Panel):
+    """How the active object pushes the blades of the meadows it collides with."""
+    bl_label = "Collider"
+    bl_idname = "TUSSOCK_PT_collider"
+
+    @classmethod
+    def poll(cls, context):
+        return bool(collider_of(context.active_object))
+
+    def draw(self, context):
+        layout = self.layout
+        obj = context.active_object
+        s = obj.tussock_collider
+        _split(layout)
+        layout.prop(s, "shape", text="Shape")
+        col = layout.column()
+        col.active = s.shape in ("AUTO", "BONES")
+        col.prop(s, "min_bone_size")
+        col = layout.column()
+        col.active = s.shape in ("AUTO", "SPHERES")
+        col.prop(s, "max_spheres")
+        layout.prop(s, "show_shapes")
+        got = colliders.shown(obj)
+        if got is not None:
+            shape, rows = got
+            capsules = int((rows[:, 0] == 1).sum())
+            layout.label(text=f"{_SHAPE_NAMES[shape]}: {capsules} capsules, "
+                              f"{len(rows) - capsules} spheres")
+        names = ", ".join(m.name for m in collider_of(obj))
+        layout.label(text=f"Pushes: {names}")
+
+
 classes = (TUSSOCK_PT_meadow, TUSSOCK_PT_meadow_density, TUSSOCK_PT_meadow_performance,
-           TUSSOCK_PT_meadow_simulation)
+           TUSSOCK_PT_meadow_simulation, TUSSOCK_PT_collider)
