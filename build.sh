@@ -794,8 +794,12 @@ run_soak_checks() { # major...
   for m in "$@"; do
     seed="$(($(date +%s) % 1000000))"
     say "soak in Blender $m: seed $seed (./build.sh soak --blender $m --seed $seed replays it)"
+    # the memory bound is looser than the long soak's 6000 MB: one 3.4 run (seed 507596) reached
+    # 6.1 GB with several leafy trees, a smooth-level-3 oak and undo steps, not yet known to be
+    # a leak (docs/reliability.md); here the short soak looks for crashes and Python errors
     if out="$(with_blender "$m" "$ROOT/tools/soak.py" --minutes "${TSK_SOAK_MINUTES:-3}" \
-        --seed "$seed" --max-failures 1 --shrink-minutes 5 2>&1)"; then
+        --seed "$seed" --max-failures 1 --shrink-minutes 5 \
+        --max-rss-mb "${TSK_SOAK_MAX_RSS_MB:-12000}" 2>&1)"; then
       line="$(printf '%s\n' "$out" | grep -E '^soak: [0-9]+ steps in' | tail -n 1 || true)"
       printf '%-8s %-28s 1 passed, 0 failed  (%s)\n' "blender$m" soak "${line#soak: }"
       PASSED=$((PASSED + 1))

@@ -6,7 +6,7 @@ as Hypothesis does, by replaying parts of it in new Blenders.
 
 usage: soak.py [--minutes M | --steps N] [--seed S] [--window] [--gdb] [--debug-memory]
                [--only STEP,...] [--skip STEP,...] [--max-failures F] [--shrink-minutes M]
-               [--step-timeout SECONDS] [--out DIR]
+               [--step-timeout SECONDS] [--out DIR] [--max-rss-mb MB]
        soak.py --replay FILE [--shrink] [--window] [--gdb]   (a shrunk sequence, or a journal)
 
 Environment: BLENDER (the Blender to run), TSK_ADDON (tools/blender_env.py),
@@ -294,6 +294,8 @@ def main(argv=None):
     p.add_argument("--shrink-minutes", type=float, default=10.0)
     p.add_argument("--step-timeout", type=float, default=300.0)
     p.add_argument("--out", help="folder for journals and shrunk sequences")
+    p.add_argument("--max-rss-mb", type=float, default=6000.0,
+                   help="resident memory above which a step fails (soak_blender.py)")
     args = p.parse_args(argv)
     if not (args.minutes or args.steps or args.replay):
         args.minutes = 3.0
@@ -303,7 +305,7 @@ def main(argv=None):
     print(f"soak: seed {seed}, {'window' if args.window else 'background'}, "
           f"{args.minutes or '-'} minutes, {args.steps or '-'} steps; files in {out_dir}",
           flush=True)
-    common = []
+    common = ["--max-rss-mb", str(args.max_rss_mb)]
     if args.only:
         common += ["--only", args.only]
     if args.skip:
