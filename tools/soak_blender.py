@@ -841,7 +841,10 @@ class render:
         if s.camera is None:
             raise Skip("no camera")
         r = s.render
-        r.engine = a["engine"]
+        try:
+            r.engine = a["engine"]
+        except TypeError:  # EEVEE is BLENDER_EEVEE_NEXT in Blender 4.2-4.4
+            r.engine = a["engine"] + "_NEXT"
         r.resolution_x, r.resolution_y, r.resolution_percentage = 32, 24, 100
         s.cycles.samples = 1
         s.eevee.taa_render_samples = 1
