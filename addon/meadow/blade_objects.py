@@ -211,12 +211,15 @@ def tidy_owned(live):
 _followed = {}  # meadow key -> the name its objects were last renamed after
 
 
-def follow_renames(depsgraph):
+def follow_renames(changed):
     """The simulated-blade objects and patch collections of renamed meadows take the new
-    names (a rename updates the depsgraph, so this runs right after it)."""
-    for update in depsgraph.updates:  # the data-blocks changed: a handful
-        obj = update.id.original if hasattr(update.id, "original") else update.id
-        if not isinstance(obj, bpy.types.Object) or obj.library is not None:
+    names (a rename updates the depsgraph, so this runs right after it; `changed`: (original
+    data-block, geometry updated) of each of its updates)."""
+    for obj, _geometry in changed:
+        try:
+            if not isinstance(obj, bpy.types.Object) or obj.library is not None:
+                continue
+        except ReferenceError:  # removed since the update
             continue
         s = compat.settings_of(obj, "tussock_meadow")
         if s is None or not s.is_meadow or obj.get(identity.ID) is None:

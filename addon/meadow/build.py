@@ -108,14 +108,18 @@ def models_digest(collection):
     return digest
 
 
-def models_edited(depsgraph):
-    """Forgets the digests of blade models whose meshes this depsgraph update changed."""
+def models_edited(changed):
+    """Forgets the digests of blade models whose meshes a depsgraph update changed (`changed`:
+    (original data-block, geometry updated) of each of its updates)."""
     if not _model_meshes:
         return
-    for update in depsgraph.updates:  # the data-blocks changed: a handful
-        idblock = update.id
-        if isinstance(idblock, bpy.types.Mesh) and update.is_updated_geometry \
-                and _uid(idblock.original) in _model_meshes:
+    for idblock, geometry in changed:
+        try:
+            edited = (isinstance(idblock, bpy.types.Mesh) and geometry
+                      and _uid(idblock) in _model_meshes)
+        except ReferenceError:  # removed since the update
+            continue
+        if edited:
             _digests.clear()
             _model_meshes.clear()
             return

@@ -117,12 +117,17 @@ def _sync_later():
 def _on_depsgraph_update(scene, depsgraph=None):
     if playback.suspended:
         return
-    if _release_joined():  # the depsgraph's list of updates is stale once an object changed
+    # what changed, read before anything here changes objects: after that depsgraph.updates
+    # reads stale items (Blender 5.2 gave an Object where an update was; soak seed 511632)
+    changed = [] if depsgraph is None else [
+        (u.id.original if hasattr(u.id, "original") else u.id, u.is_updated_geometry)
+        for u in depsgraph.updates]  # the data-blocks changed: a handful
+    if _release_joined():
         return
     sync()
-    if depsgraph is not None:
-        build.models_edited(depsgraph)
-        blade_objects.follow_renames(depsgraph)
+    if changed:
+        build.models_edited(changed)
+        blade_objects.follow_renames(changed)
 
 
 classes = ()
