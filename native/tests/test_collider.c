@@ -378,31 +378,19 @@ TEST(test_bad_fit_inputs_are_refused) {
     identity(world);
     int32_t count;
     g.parent[0] = 2; /* 0 -> 2 -> 1 -> 0 */
-    CHECK_STATUS(tsk_collider_fit_bones(g.pts, LEG_POINTS, to_arm, g.heads, g.tails, g.rest,
-                                        g.parent, g.deforms, 4, 0.0f, out, NULL),
-                 TSK_ERR_ARGUMENT, "its own ancestor");
+    CHECK_STATUS(fit_leg(&g, 0.0f, out, NULL), TSK_ERR_ARGUMENT, "its own ancestor");
     g.parent[0] = 0;
-    CHECK_STATUS(tsk_collider_fit_bones(g.pts, LEG_POINTS, to_arm, g.heads, g.tails, g.rest,
-                                        g.parent, g.deforms, 4, 0.0f, out, NULL),
-                 TSK_ERR_ARGUMENT, "parent");
+    CHECK_STATUS(fit_leg(&g, 0.0f, out, NULL), TSK_ERR_ARGUMENT, "parent");
     g.parent[0] = -1;
     g.rest[16 + 5] = 0, g.rest[16 + 0] = 0; /* bone 1's rest matrix flattened */
-    CHECK_STATUS(tsk_collider_fit_bones(g.pts, LEG_POINTS, to_arm, g.heads, g.tails, g.rest,
-                                        g.parent, g.deforms, 4, 0.0f, out, NULL),
-                 TSK_ERR_ARGUMENT, "singular");
+    CHECK_STATUS(fit_leg(&g, 0.0f, out, NULL), TSK_ERR_ARGUMENT, "singular");
     make_leg(&g);
     g.pts[7] = NAN;
-    CHECK_STATUS(tsk_collider_fit_bones(g.pts, LEG_POINTS, to_arm, g.heads, g.tails, g.rest,
-                                        g.parent, g.deforms, 4, 0.0f, out, NULL),
-                 TSK_ERR_ARGUMENT, "points");
+    CHECK_STATUS(fit_leg(&g, 0.0f, out, NULL), TSK_ERR_ARGUMENT, "points");
     g.pts[7] = 3e38f;
-    CHECK_STATUS(tsk_collider_fit_bones(g.pts, LEG_POINTS, to_arm, g.heads, g.tails, g.rest,
-                                        g.parent, g.deforms, 4, 0.0f, out, NULL),
-                 TSK_ERR_ARGUMENT, "within");
+    CHECK_STATUS(fit_leg(&g, 0.0f, out, NULL), TSK_ERR_ARGUMENT, "within");
     make_leg(&g);
-    CHECK_STATUS(tsk_collider_fit_bones(g.pts, LEG_POINTS, to_arm, g.heads, g.tails, g.rest,
-                                        g.parent, g.deforms, 4, -1.0f, out, NULL),
-                 TSK_ERR_ARGUMENT, "min_size");
+    CHECK_STATUS(fit_leg(&g, -1.0f, out, NULL), TSK_ERR_ARGUMENT, "min_size");
     CHECK_STATUS(
         tsk_collider_fit_bones(g.pts, LEG_POINTS, to_arm, g.heads, g.tails, g.rest, g.parent,
                                g.deforms, TSK_COLLIDER_FIT_MAX_SHAPES + 1, 0.0f, out, NULL),
@@ -411,8 +399,7 @@ TEST(test_bad_fit_inputs_are_refused) {
                                         g.deforms, 4, 0.0f, out, NULL),
                  TSK_ERR_ARGUMENT, "NULL");
     int32_t group[LEG_POINTS];
-    CHECK(tsk_collider_fit_bones(g.pts, LEG_POINTS, to_arm, g.heads, g.tails, g.rest, g.parent,
-                                 g.deforms, 4, 0.0f, out, group) == TSK_OK);
+    CHECK(fit_leg(&g, 0.0f, out, group) == TSK_OK);
     group[5] = 4; /* no such bone */
     CHECK_STATUS(
         tsk_collider_fit_groups(g.pts, LEG_POINTS, NULL, 0, group, world, world, g.rest, 4, rows),
