@@ -48,6 +48,44 @@ def frames_next(what, frames):
     print(f"[demo] {what} {frames} frames ...", flush=True)
 
 
+def paint(obj, name, rgba):
+    """A new material `name` of base colour `rgba` on `obj`."""
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = rgba
+    obj.data.materials.append(mat)
+
+
+def camera_sun_sky(scene, location, rotation, sun_rotation):
+    """The shot's camera (24 mm), a sun and a blue sky."""
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = location, rotation
+    cam.data.lens = 24.0
+    cam.data.clip_end = 300.0
+    scene.camera = cam
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = 3.5
+    sun.rotation_euler = sun_rotation
+    scene.collection.objects.link(sun)
+    world = bpy.data.worlds.new("Sky")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.55, 0.7, 0.95, 1)
+    scene.world = world
+
+
+def cycles_frames(scene, folder, prefix):
+    """Cycles on the CPU, 8 samples, 480x270 PNG frames into OUT/folder/prefix####.png."""
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 8
+    scene.cycles.use_denoising = False  # Debian's Blender has no OpenImageDenoise
+    scene.render.resolution_x, scene.render.resolution_y = 480, 270
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = os.path.join(OUT, folder, prefix)
+
+
 def reset_scene():
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon_utils.enable("tussock", default_set=True)
@@ -79,11 +117,7 @@ def main():
     bpy.ops.mesh.primitive_plane_add(size=46.0)
     ground = bpy.context.active_object
     bpy.ops.rigidbody.object_add(type="PASSIVE")
-    soil = bpy.data.materials.new("Soil")
-    soil.use_nodes = True
-    bsdf = soil.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (0.09, 0.06, 0.035, 1)
-    ground.data.materials.append(soil)
+    paint(ground, "Soil", (0.09, 0.06, 0.035, 1))
     bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=64, chunk_blades=16,
                                scale_min=1.2, scale_max=2.4, noise_scale=9.0,
                                noise_threshold=0.05, seed=3, display=0.1)
@@ -96,10 +130,7 @@ def main():
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.3, location=(-4.8, -8.0, 0.3))
     ball = bpy.context.active_object
     bpy.ops.object.shade_smooth()
-    red = bpy.data.materials.new("Ball")
-    red.use_nodes = True
-    red.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.6, 0.05, 0.03, 1)
-    ball.data.materials.append(red)
+    paint(ball, "Ball", (0.6, 0.05, 0.03, 1))
     bpy.ops.rigidbody.object_add(type="ACTIVE")
     ball.rigid_body.collision_shape = "SPHERE"
     scene.gravity = (5.0, 0.6, -9.81)  # as on a gentle slope
@@ -123,22 +154,8 @@ def main():
     step(f"grew a Weber-Penn black tupelo: {tree['tussock_branches']:,} branches, "
          f"{tree['tussock_leaves']:,} leaves")
 
-    # camera, sun and sky
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    cam.location = (-5.0, -12.0, 1.5)
-    cam.rotation_euler = (math.radians(86), 0.0, math.radians(-24))
-    cam.data.lens = 24.0
-    cam.data.clip_end = 300.0
-    scene.camera = cam
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 3.5
-    sun.rotation_euler = (math.radians(50), 0.0, math.radians(30))
-    scene.collection.objects.link(sun)
-    world = bpy.data.worlds.new("Sky")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.55, 0.7, 0.95, 1)
-    scene.world = world
+    camera_sun_sky(scene, (-5.0, -12.0, 1.5), (math.radians(86), 0.0, math.radians(-24)),
+                   (math.radians(50), 0.0, math.radians(30)))
 
     scene.frame_start, scene.frame_end = 1, FRAMES
     scene.render.fps = 12
@@ -151,14 +168,7 @@ def main():
     #    Blender's own video output
     bpy.ops.tussock.bake(save=True)
     step(f"baked the tree into {os.path.join(OUT, 'tussock_cache')} (Mesh Cache .pc2)")
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = 8
-    scene.cycles.use_denoising = False  # Debian's Blender has no OpenImageDenoise
-    scene.render.resolution_x, scene.render.resolution_y = 480, 270
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "PNG"
-    scene.render.filepath = os.path.join(OUT, "frames", "demo_")
+    cycles_frames(scene, "frames", "demo_")
     # play the frames once: Blender's rigid-body world fills its cache (the render reads
     # it) and the blade simulation records where the ball is in every frame
     for f in range(scene.frame_start, scene.frame_end + 1):
@@ -215,35 +225,13 @@ def walk_clip():
     scene.tussock_wind.base_speed = 1.0
     ground, meadow, rig, body = walker.through_meadow(
         scene, (5.0, 2.5), start=(-1.7, 0.0, 0.0), speed=1.2, frames=(1, frames))
-    for obj, name, colour in ((ground, "Soil", (0.09, 0.06, 0.035, 1)),
-                              (body, "Body", (0.15, 0.25, 0.55, 1))):
-        mat = bpy.data.materials.new(name)
-        mat.use_nodes = True
-        mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = colour
-        obj.data.materials.append(mat)
+    paint(ground, "Soil", (0.09, 0.06, 0.035, 1))
+    paint(body, "Body", (0.15, 0.25, 0.55, 1))
     step(f"a character walks through a meadow of {meadow['tussock_blades']:,} blades, every "
          f"one shown; {len(walker.BONES)} bones push the grass")
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    cam.location, cam.rotation_euler = (-0.6, -3.2, 2.1), (math.radians(66), 0.0, 0.0)
-    cam.data.lens = 24.0
-    scene.camera = cam
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 3.5
-    sun.rotation_euler = (math.radians(50), 0.0, math.radians(-30))
-    scene.collection.objects.link(sun)
-    world = bpy.data.worlds.new("Sky")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.55, 0.7, 0.95, 1)
-    scene.world = world
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = 8
-    scene.cycles.use_denoising = False
-    scene.render.resolution_x, scene.render.resolution_y = 480, 270
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "PNG"
-    scene.render.filepath = os.path.join(OUT, "walk_frames", "walk_")
+    camera_sun_sky(scene, (-0.6, -3.2, 2.1), (math.radians(66), 0.0, 0.0),
+                   (math.radians(50), 0.0, math.radians(-30)))
+    cycles_frames(scene, "walk_frames", "walk_")
     frames_next("rendering", frames)
     bpy.ops.render.render(animation=True)
     step(f"rendered {frames} frames of the walk into {os.path.join(OUT, 'walk_frames')}")
