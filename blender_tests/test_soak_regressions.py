@@ -38,6 +38,17 @@ def animate_sample_picture(scene):
     return p, layer
 
 
+def meadow_and_leafy_tree(size):
+    """A 4-frame scene with a small meadow of `size` and a quaking aspen with leaves: (scene,
+    meadow, tree)."""
+    scene = harness.empty_scene(4)
+    assert bpy.ops.tussock.add_meadow(size=size, blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=True) == {"FINISHED"}
+    return scene, meadow, bpy.context.active_object
+
+
 def record_and_disk(folder):
     """(paths tussock_written.json lists, names in the cache folder)"""
     root = os.path.join(folder, "tussock_cache")
@@ -167,12 +178,7 @@ def test_a_meadow_joined_with_a_leafy_tree_grows_no_blades_on_the_tree():
     # meadow active; Join (Ctrl+J). The meadow's modifier put a chunk of blades on each of
     # the tree's vertices: millions of blades, and each frame took 42 s to draw in a window.
     # The joined object is the plain mesh Join made, no longer a meadow.
-    scene = harness.empty_scene(4)
-    assert bpy.ops.tussock.add_meadow(size=(2.0, 2.0), blades_per_tile=16, patch_blades=256,
-                                      chunk_blades=16) == {"FINISHED"}
-    meadow = bpy.context.active_object
-    assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=True) == {"FINISHED"}
-    tree = bpy.context.active_object
+    scene, meadow, tree = meadow_and_leafy_tree((2.0, 2.0))
     points, tree_vertices = len(meadow.data.vertices), len(tree.data.vertices)
     assert tree_vertices > 10000, tree_vertices
     harness.select_objects([meadow, tree])
@@ -246,12 +252,7 @@ OWN = {"meadow": "tussock_meadow", "tree": "tussock_tree", "source": "tussock_wi
 def _limits_scene():
     """A meadow, a leafy tree, a wind source on the fluid wind with 2 waves, an animated
     picture: every kind of Tussock setting is read at a frame."""
-    scene = harness.empty_scene(4)
-    assert bpy.ops.tussock.add_meadow(size=(1.0, 1.0), blades_per_tile=16, patch_blades=256,
-                                      chunk_blades=16) == {"FINISHED"}
-    meadow = bpy.context.active_object
-    assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=True) == {"FINISHED"}
-    tree = bpy.context.active_object
+    scene, meadow, tree = meadow_and_leafy_tree((1.0, 1.0))
     assert bpy.ops.tussock.add_wind_source() == {"FINISHED"}
     source = bpy.context.active_object
     w = scene.tussock_wind
