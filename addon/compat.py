@@ -215,6 +215,22 @@ def get_modifier_input(modifier, name):
     return modifier[key] if container is modifier else getattr(container, key)
 
 
+# Blender cuts a longer data-block name to this many bytes (MAX_ID_NAME - 2: 63 until 4.5,
+# 255 since 5.0), at a character boundary.
+ID_NAME_BYTES = 255 if VERSION >= (5, 0, 0) else 63
+
+
+def id_name(base, suffix=""):
+    """`base` + `suffix` as Blender stores it: `base` cut so that the whole fits a data-block
+    name. A name made of a long object name and a suffix would otherwise lose its suffix
+    when Blender cuts it, and never be found again by the name it was made with."""
+    room = max(0, ID_NAME_BYTES - len(suffix.encode()))
+    raw = base.encode()
+    if len(raw) > room:
+        base = raw[:room].decode("utf-8", "ignore")
+    return base + suffix
+
+
 def settings_of(idblock, name):
     """The Tussock property group `name` of a datablock if it was ever set, else None.
     Reading `obj.<group>` would create an empty group on every object looked at (and so

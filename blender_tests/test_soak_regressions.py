@@ -144,6 +144,41 @@ def test_a_preset_that_cannot_be_posed_leaves_the_tree_as_it_was():
 
 
 @test
+def test_a_meadow_renamed_to_a_long_name_makes_its_objects_once():
+    # soak seed 363587 in Blender 3.4, shrunk to 4 steps: two simulated meadows; rename one
+    # to a name of 62 characters; play frames 2-4. Each frame left 6 objects and meshes more:
+    # Blender cut "<name> blades 2" to its 63-byte limit, so the chunk was never found by
+    # the name it was made with and was made again. Names made from a meadow's name now
+    # cut the meadow's part, not the suffix.
+    scene = harness.empty_scene(6)
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    meadows = []
+    for size in ((3.8, 0.9), (2.4, 0.6)):
+        harness.select_objects([])
+        assert bpy.ops.tussock.add_meadow(size=size, blades_per_tile=16, patch_blades=256,
+                                          chunk_blades=16) == {"FINISHED"}
+        meadows.append(bpy.context.active_object)
+        meadows[-1].tussock_meadow.colliders = coll
+        meadows[-1].tussock_meadow.use_simulation = True
+    long = "a" * 60 + " 2"
+    meadows[1].name = long
+    assert meadows[1].name == long
+    counts = []
+    for f in (2, 3, 4, 5):
+        scene.frame_set(f)
+        counts.append((len(bpy.data.objects), len(bpy.data.meshes)))
+    assert len(set(counts)) == 1, counts
+    blades = [o.name for o in bpy.data.objects if " blades" in o.name and "a" * 20 in o.name]
+    assert len(blades) == 8 and all(len(n.encode()) <= 255 for n in blades), blades
+    patch = [c.name for c in bpy.data.collections if c.name.endswith(" patch")]
+    assert len(patch) == 2, patch
+    chunk_names = [o.name for o in bpy.data.objects if " chunk 0" in o.name]
+    assert len(chunk_names) == len(set(chunk_names))
+    assert all(n.rpartition(" chunk ")[2].isdigit() for n in chunk_names), chunk_names
+
+
+@test
 def test_a_frame_played_and_put_back_is_no_change_in_the_soak_fingerprint():
     # soak seed 5 in Blender 5.2, shrunk to: animate a picture; keyframe a layer's lambda_x;
     # set it by hand and keyframe it at another frame; bake (with a simulated meadow) and

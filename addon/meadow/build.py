@@ -213,6 +213,10 @@ def compute_layout(settings, origin, size):
 PATCH_SUFFIX = " patch"
 
 
+def patch_name(obj):
+    return compat.id_name(obj.name, PATCH_SUFFIX)
+
+
 def _owned_patch(obj):
     """The meadow's patch collection if it has one (owned by its key: a duplicated meadow's
     modifier still instances its original's), else None."""
@@ -224,7 +228,7 @@ def _owned_patch(obj):
         except KeyError:  # not Tussock's node group
             coll = None
     if coll is None:
-        coll = bpy.data.collections.get(obj.name + PATCH_SUFFIX)
+        coll = bpy.data.collections.get(patch_name(obj))
     if coll is None:
         return None
     old = coll.name[:-len(PATCH_SUFFIX)] if coll.name.endswith(PATCH_SUFFIX) else None
@@ -235,7 +239,7 @@ def follow_name(obj):
     """Renames the meadow's patch collection and its chunk objects after the meadow if it
     was renamed; returns the collection, or None if the meadow has none."""
     coll = _owned_patch(obj)
-    name = obj.name + PATCH_SUFFIX
+    name = patch_name(obj)
     if coll is None or coll.name == name or bpy.data.collections.get(name) is not None:
         return coll  # (a name someone else's collection has: kept as it is)
     coll.name = name
@@ -252,7 +256,7 @@ def patch_collection(obj):
     """The meadow's patch collection (see follow_name), made if it has none."""
     coll = follow_name(obj)
     if coll is None:
-        coll = bpy.data.collections.new(obj.name + PATCH_SUFFIX)
+        coll = bpy.data.collections.new(patch_name(obj))
         coll[identity.OWNER] = identity.key(obj)
     return coll
 

@@ -10,7 +10,7 @@ from .. import compat, meshes
 
 def chunk_object_name(meadow_name, index):
     # zero-padded so the collection's name order is the chunk order (Pick Instance)
-    return f"{meadow_name} chunk {index:05d}"
+    return compat.id_name(meadow_name, f" chunk {index:05d}")
 
 
 def _mesh_from_arrays(name, positions, tris, uvs, blade_rand, normals=None):

@@ -157,5 +157,5 @@ def chunk_name(obj, key):
     """Name of the meadow's chunk object `key`: i (0 the first, which a bake writes) for the
     chunks shown in the viewport, ("render", i) for the render chunks."""
     if isinstance(key, tuple):
-        return f"{base_name(obj)} blades render {key[1] + 1}"
-    return f"{base_name(obj)} blades" + (f" {key + 1}" if key else "")
+        return compat.id_name(base_name(obj), f" blades render {key[1] + 1}")
+    return compat.id_name(base_name(obj), " blades" + (f" {key + 1}" if key else ""))
