@@ -144,6 +144,41 @@ def test_a_preset_that_cannot_be_posed_leaves_the_tree_as_it_was():
 
 
 @test
+def test_a_renamed_blades_chunk_is_tidied_in_the_frame_change_that_replaces_it():
+    # soak seed 515889 in Blender 3.4, shrunk to 14 steps, of which these matter: a simulated
+    # meadow; a tree; a fluid wind the tree cannot be posed in; rename the meadow's second
+    # blades chunk; a frame change (which makes that chunk again); Apply Preset, which
+    # cancelled with the wind's message. The depsgraph update inside the operator was the
+    # first to tidy the renamed chunk into a plain mesh, so the cancelled operator seemed to
+    # have changed the scene. The frame change that makes a chunk now tidies it itself.
+    scene = harness.empty_scene(6)
+    assert bpy.ops.tussock.add_meadow(size=(2.0, 1.5), blades_per_tile=32, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    s = meadow.tussock_meadow
+    s.colliders, s.use_simulation = coll, True
+    scene.frame_set(1)
+    second = bpy.data.objects[f"{meadow.name} blades 2"]
+    assert second.get("tussock_blades_chunk") == 1
+    assert bpy.ops.tussock.add_tree(preset="european_larch", seed=3,
+                                    leaves=False) == {"FINISHED"}
+    w = scene.tussock_wind
+    w.use_fluid = True
+    w.keyframe_insert("fluid_speed", frame=1)  # a keyframed fluid wind: trees cannot pose
+    second.name = "Wind Source 2"
+    scene.frame_set(2)
+    again = bpy.data.objects.get(f"{meadow.name} blades 2")
+    assert again is not None and again != second and again.get("tussock_blades_chunk") == 1
+    owned = [k for k in second.keys() if k.startswith("tussock_")]
+    assert owned == [], f"the renamed chunk keeps {owned} after the frame that replaced it"
+    harness.select_objects([bpy.data.objects["European Larch"]])
+    bpy.context.view_layer.objects.active = bpy.data.objects["European Larch"]
+    expect_cancel(bpy.ops.tussock.tree_apply_preset, "keyframed", preset="ca_black_oak")
+
+
+@test
 def test_a_meadow_renamed_to_a_long_name_makes_its_objects_once():
     # soak seed 363587 in Blender 3.4, shrunk to 4 steps: two simulated meadows; rename one
     # to a name of 62 characters; play frames 2-4. Each frame left 6 objects and meshes more:

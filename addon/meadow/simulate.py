@@ -44,6 +44,10 @@ def on_frame(scene, depsgraph=None):
             s.last_error = ""
         except (native.Error, ValueError) as exc:
             s.last_error = str(exc)
+    # blade objects made just now (a chunk the artist renamed away is made again) are tidied
+    # in this frame change, not by whatever operator next updates the depsgraph (soak seed
+    # 515889: a cancelled Apply Preset then seemed to have changed the renamed chunk)
+    sync()
 
 
 def forget(obj=None):
