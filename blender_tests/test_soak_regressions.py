@@ -214,6 +214,56 @@ def test_a_meadow_renamed_to_a_long_name_makes_its_objects_once():
 
 
 @test
+def test_a_deleted_blade_model_rebuilds_the_meadows_growing_it_at_once():
+    # soak seed 363588 in Blender 3.4, shrunk to 19 steps, of which these matter: capture
+    # blades; a simulated meadow (it grows the captured blades); delete one of them; then
+    # a bake that cancelled (a tree too large for the memory budget). The meadow was rebuilt
+    # for its new models only when the bake asked for its simulation, so the cancelled bake
+    # had remade its chunk objects. A meadow is now rebuilt when its models change.
+    from tussock.meadow import build
+    scene = harness.empty_scene(6)
+    sample = os.path.join(harness.REPO, "samples", "blades", "depth_####.png")
+    assert bpy.ops.tussock.capture_blades(source="FILES", filepath=sample) == {"FINISHED"}
+    models = list(bpy.data.collections["Tussock Blades"].objects)
+    assert len(models) >= 3, len(models)
+    harness.select_objects([])
+    assert bpy.ops.tussock.add_meadow(size=(1.4, 0.8), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    meadow.tussock_meadow.colliders, meadow.tussock_meadow.use_simulation = coll, True
+    scene.frame_set(2)
+    built = meadow["tussock_patch_key"]
+    harness.select_objects([models[-1]])
+    assert bpy.ops.object.delete() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    s = meadow.tussock_meadow
+    assert meadow["tussock_patch_key"] != built  # rebuilt for the models left
+    assert meadow["tussock_patch_key"] == build.patch_key(s) and s.last_error == ""
+    # and another model moved out of the models' collection, as the outliner does
+    bpy.data.collections["Tussock Blades"].objects.unlink(models[0])
+    scene.collection.objects.link(models[0])
+    bpy.context.view_layer.update()
+    assert meadow["tussock_patch_key"] == build.patch_key(s)
+    chunks = sorted(o.name_full + str(o.as_pointer()) for o in bpy.data.objects
+                    if " chunk " in o.name)
+    scene.frame_set(3)  # the simulation now finds its patch up to date: nothing remade
+    assert chunks == sorted(o.name_full + str(o.as_pointer()) for o in bpy.data.objects
+                            if " chunk " in o.name)
+    # (soak seed 415376) a model in Edit Mode: the meadow says so, and is rebuilt after it
+    model = models[1]
+    harness.select_objects([model])
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.transform.translate(value=(0.0, 0.0, 0.01))
+    bpy.context.view_layer.update()
+    assert "Edit Mode" in s.last_error, s.last_error
+    bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.context.view_layer.update()
+    assert s.last_error == "" and meadow["tussock_patch_key"] == build.patch_key(s)
+
+
+@test
 def test_a_frame_played_and_put_back_is_no_change_in_the_soak_fingerprint():
     # soak seed 5 in Blender 5.2, shrunk to: animate a picture; keyframe a layer's lambda_x;
     # set it by hand and keyframe it at another frame; bake (with a simulated meadow) and

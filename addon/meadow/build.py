@@ -94,6 +94,9 @@ def models_digest(collection):
     which = tuple((_uid(o), _uid(o.data) if o.data is not None else 0) for o in coll.objects)
     digest = _digests.get(which)
     if digest is None:
+        # watched before they are read: a model that cannot be read now (in Edit Mode) is
+        # read again when its mesh changes (leaving Edit Mode writes it)
+        _model_meshes.update(m for _, m in which)
         models = blade_models(coll)
         if models is None:
             return None
@@ -104,15 +107,15 @@ def models_digest(collection):
         if len(_digests) > 64:  # (one entry per set of models seen: they seldom change)
             _digests.clear()
         _digests[which] = digest
-        _model_meshes.update(m for _, m in which)
     return digest
 
 
 def models_edited(changed):
     """Forgets the digests of blade models whose meshes a depsgraph update changed (`changed`:
-    (original data-block, geometry updated) of each of its updates)."""
+    (original data-block, geometry updated) of each of its updates); True when there was
+    one."""
     if not _model_meshes:
-        return
+        return False
     for idblock, geometry in changed:
         try:
             edited = (isinstance(idblock, bpy.types.Mesh) and geometry
@@ -122,7 +125,8 @@ def models_edited(changed):
         if edited:
             _digests.clear()
             _model_meshes.clear()
-            return
+            return True
+    return False
 
 
 def patch_key(settings):
@@ -377,6 +381,29 @@ def release_joined(obj):
             "meadow back; to place objects on a meadow, keep them separate objects")
     print(text, file=sys.stderr)
     return text
+
+
+def rebuild_stale():
+    """Rebuilds the local meadows whose blade models are no longer the ones they were built
+    from (a model deleted, added, moved to another collection or edited), at once: a meadow
+    left stale would be rebuilt by whatever next asked for its patch (a frame of its
+    simulation, a bake), which then changed the scene as a side effect, even when it
+    failed (soak seed 363588). Runs when objects were made or removed, a collection
+    changed, or a model's mesh was edited; a meadow still being made has no patch key yet."""
+    for obj in identity.meadows():  # one check per meadow (its models' digest is kept)
+        key = obj.get("tussock_patch_key")
+        if obj.library is not None or key is None:
+            continue
+        s = obj.tussock_meadow
+        try:
+            if key == patch_key(s):  # (raises while a model is in Edit Mode)
+                continue
+            rebuild(obj)
+            error = ""
+        except (native.Error, ValueError) as exc:
+            error = str(exc)
+        if s.last_error != error:  # (each write is one more depsgraph update)
+            s.last_error = error
 
 
 def rebuild_growing(blades):

@@ -83,13 +83,14 @@ def _report(texts):
 def sync(force=False):
     """After objects were made or removed: gives duplicated meadows their own ids (and so
     their own simulation and blades objects), and frees the simulations of meadows that are
-    gone (deleted, or their file closed)."""
+    gone (deleted, or their file closed); True when objects were made or removed."""
     live = identity.scan(force)
     if live is None:
-        return
+        return False
     playback.keep_only(live)
     writer.keep_only(live)
     blade_objects.tidy_owned(live)
+    return True
 
 
 @bpy.app.handlers.persistent
@@ -128,10 +129,13 @@ def _on_depsgraph_update(scene, depsgraph=None):
         for u in depsgraph.updates]  # the data-blocks changed: a handful
     if _release_joined():
         return
-    sync()
+    made_or_removed = sync()
     if changed:
-        build.models_edited(changed)
+        edited = build.models_edited(changed)
         blade_objects.follow_renames(changed)
+        if made_or_removed or edited or any(isinstance(idb, bpy.types.Collection)
+                                            for idb, _ in changed):
+            build.rebuild_stale()  # a blade model deleted, moved or edited
 
 
 classes = ()
