@@ -4,8 +4,10 @@ go, and nowhere else. Checked against the character's evaluated mesh, not agains
 shapes: the blades that moved lie near the surface its legs swept (at quarter frames), blades
 far from its path never move, and no blade knot is inside the mesh after any frame. The one
 bounds capsule Tussock fitted before fails the first check. A tumbling rigid-body box gets
-spheres over its surface and no knot gets inside it; a bake of the walk split over two
-processes has the bytes of a single bake."""
+spheres over its surface and no knot off the ground gets inside it (a knot held at the ground
+under it is as deep inside as Bullet sank the box into the ground, no deeper). No blade
+crosses a cloth-like sheet (a baked, deforming open mesh) that drops onto the grass. A bake of
+the walk split over two processes has the bytes of a single bake."""
 
 import math
 import os
@@ -152,24 +154,31 @@ def triangle_distance(points, verts, tris):
 GRASS = 0.45  # metres: no blade of the meadow reaches higher
 
 
-def deepest_inside(meadow, obj):
-    """How deep the deepest simulated knot lies inside obj's evaluated mesh (0: none is). The
-    winding number needs the whole closed mesh, but only its triangles below the grass's top
-    can hold a knot: the knots near their box are tried."""
+def inside_depths(meadow, obj):
+    """(knots inside obj's evaluated mesh (n, 3), how deep each lies). The winding number
+    needs the whole closed mesh, but only its triangles below the grass's top can hold a
+    knot: the knots near their box are tried."""
+    none = np.zeros((0, 3)), np.zeros(0)
     knots, _ = knots_and_rest(meadow)
     if not len(knots):
-        return 0.0
+        return none
     verts, tris = evaluated_world(obj)
     k = knots.reshape(-1, 3)
     low = verts[tris].min(axis=1)[:, 2] < GRASS
     if not low.any():
-        return 0.0
+        return none
     lo, hi = verts[tris[low]].reshape(-1, 3).min(0), verts[tris[low]].reshape(-1, 3).max(0)
     near = k[((k >= lo) & (k <= hi)).all(1)]
     if not len(near):
-        return 0.0
+        return none
     inside = near[winding(near, verts, tris) > 0.5]
-    return float(triangle_distance(inside, verts, tris).max()) if len(inside) else 0.0
+    return inside, triangle_distance(inside, verts, tris)
+
+
+def deepest_inside(meadow, obj):
+    """How deep the deepest simulated knot lies inside obj's evaluated mesh (0: none is)."""
+    _, depth = inside_depths(meadow, obj)
+    return float(depth.max()) if len(depth) else 0.0
 
 
 def footprints(shape, inside=True):
@@ -241,20 +250,142 @@ def test_a_tumbling_rigid_body_box_gets_spheres_and_knots_stay_near_its_surface(
     coll.objects.link(box)
     meadow.tussock_meadow.colliders = coll
     meadow.tussock_meadow.use_simulation = True
-    deepest, start = 0.0, None
+    deepest, deepest_off_ground, sunk, start = 0.0, 0.0, 0.0, None
     for f in range(1, FRAMES + 1):
         scene.frame_set(f)
         start = start if start is not None else box.matrix_world.translation.copy()
-        deepest = max(deepest, deepest_inside(meadow, box))
+        knots, depth = inside_depths(meadow, box)
+        if not len(depth):
+            continue
+        # Bullet lets the box sink into the ground plane (up to 23 mm here); a knot under it
+        # there is held at the ground, inside the box: the ground and the box overlap. Such
+        # a knot lies no deeper than the box sank; every other knot keeps to the margin.
+        below = -min(0.0, float(evaluated_world(box)[0][:, 2].min()))
+        sunk = max(sunk, below)
+        deepest = max(deepest, float(depth.max()))
+        assert depth.max() <= MARGIN + below + 1e-4, (f, depth.max(), below)
+        off = knots[:, 2] > 1e-3  # (the ground is z = 0)
+        if off.any():
+            deepest_off_ground = max(deepest_off_ground, float(depth[off].max()))
     shape, rows = colliders.shown(box)
     assert shape == "SPHERES" and 8 <= len(rows) <= 32, (shape, len(rows))
     travelled = (box.matrix_world.translation - start).length
     assert travelled > 0.5, travelled  # it went through the grass
     knots, rest = knots_and_rest(meadow)
     assert (np.linalg.norm(knots - rest, axis=2) > 0.02).any()
-    print(f"  box: {len(rows)} spheres, deepest knot inside it {deepest * 1e3:.2f} mm")
-    # Not yet the collision margin (docs/simulation.md: measured 12 mm, cause not yet found)
-    assert deepest <= 0.02, deepest
+    print(f"  box: {len(rows)} spheres, deepest knot inside it {deepest * 1e3:.2f} mm (the box "
+          f"sank {sunk * 1e3:.1f} mm into the ground), off the ground "
+          f"{deepest_off_ground * 1e3:.2f} mm")
+    assert deepest_off_ground <= MARGIN, deepest_off_ground
+
+
+def sheet_cache(path, grid, frames):
+    """A cloth-like sheet's vertex positions for frames 1..frames, written as a .pc2 (what a
+    baked cloth simulation gives Blender's Mesh Cache modifier): the grid's vertices drop
+    from 0.6 m to 0.12 m over the first two thirds of the shot while a wave of 4 cm runs
+    across it. (Dragged sideways into standing grass, a sheet's edge can fold blades over
+    itself: a sphere set has no sides; docs/simulation.md.)"""
+    xy = grid[:, :2].astype(np.float64)
+    out = np.empty((frames, len(grid), 3), np.float32)
+    for i in range(frames):
+        t = i / 24.0
+        fall = min(1.0, i / (frames * 2 / 3))
+        z0 = 0.6 - (0.6 - 0.12) * (3 * fall ** 2 - 2 * fall ** 3)  # eased, as cloth settles
+        out[i, :, 0] = xy[:, 0]
+        out[i, :, 1] = xy[:, 1] + 0.01 * np.sin(5.0 * xy[:, 0])
+        out[i, :, 2] = z0 + 0.04 * np.sin(2 * math.pi * (xy[:, 0] / 0.6 - 1.5 * t)) \
+            * np.cos(math.pi * xy[:, 1] / 1.2)
+    with open(path, "wb") as f:
+        f.write(b"POINTCACHE2\0" + np.array([1, len(grid)], "<i4").tobytes()
+                + np.array([1.0, 1.0], "<f4").tobytes() + np.array([frames], "<i4").tobytes())
+        f.write(out.astype("<f4").tobytes())
+
+
+def above_sheet(knots, verts, tris):
+    """For each knot, how far above the sheet it lies where the sheet is over it (its height
+    minus the sheet's at its x, y, from the triangle under it), or -inf where no triangle
+    is over it (no part of the sheet)."""
+    out = np.full(len(knots), -np.inf)
+    a, b, c = verts[tris[:, 0]], verts[tris[:, 1]], verts[tris[:, 2]]
+    lo, hi = verts[:, :2].min(0), verts[:, :2].max(0)
+    idx = np.nonzero(((knots[:, :2] >= lo) & (knots[:, :2] <= hi)).all(1))[0]
+    for i in range(0, len(idx), 512):  # chunks of knots against every triangle, in x, y
+        k = knots[idx[i:i + 512]]
+        p = k[:, None, :2]
+        v0, v1, v2 = (b - a)[None, :, :2], (c - a)[None, :, :2], p - a[None, :, :2]
+        d = v0[..., 0] * v1[..., 1] - v0[..., 1] * v1[..., 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = (v2[..., 0] * v1[..., 1] - v2[..., 1] * v1[..., 0]) / d
+            w = (v0[..., 0] * v2[..., 1] - v0[..., 1] * v2[..., 0]) / d
+        under = (u >= 0) & (w >= 0) & (u + w <= 1) & (np.abs(d) > 1e-12)
+        z = a[None, :, 2] + u * (b - a)[None, :, 2] + w * (c - a)[None, :, 2]
+        z = np.where(under, z, np.nan)
+        with np.errstate(invalid="ignore"):
+            top = np.nanmax(z, axis=1)
+        got = ~np.isnan(top)
+        out[idx[i:i + 512][got]] = k[got, 2] - top[got]
+    return out
+
+
+@test
+def test_a_cloth_like_sheet_pressing_the_grass_is_never_crossed_by_a_blade():
+    """An open sheet has no inside: the check is that no blade crosses it, on every frame as
+    it drops onto the meadow and ripples there."""
+    frames = 18
+    scene = harness.empty_scene(frames)
+    scene.tussock_wind.base_speed = 0.0
+    bpy.ops.mesh.primitive_plane_add(size=1.0)
+    bpy.context.active_object.scale = (3.0, 2.0, 1.0)
+    assert bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=64, density="UNIFORM",
+                                      display=1.0) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=31, y_subdivisions=31, size=1.2)
+    sheet = bpy.context.active_object
+    grid = np.empty(len(sheet.data.vertices) * 3, np.float32)
+    sheet.data.vertices.foreach_get("co", grid)
+    path = os.path.join(TMP, "sheet.pc2")
+    sheet_cache(path, grid.reshape(-1, 3), frames)
+    mod = sheet.modifiers.new("Cloth cache", "MESH_CACHE")
+    mod.cache_format, mod.filepath, mod.frame_start = "PC2", path, 1.0
+    sheet.tussock_collider.max_spheres = 256
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    coll.objects.link(sheet)
+    meadow.tussock_meadow.colliders = coll
+    meadow.tussock_meadow.use_simulation = True
+    worst, crossings, gaps = -np.inf, 0, []
+    for f in range(1, frames + 1):
+        scene.frame_set(f)
+        verts, tris = evaluated_world(sheet)
+        knots, _ = knots_and_rest(meadow)
+        if not len(knots):
+            continue
+        h = above_sheet(knots.reshape(-1, 3), verts, tris).reshape(len(knots), -1)
+        # no blade's segment goes from under the sheet to above it. A blade pressed out past
+        # an edge may rise there and lean back over the sheet (round the edge, not through
+        # it); one rooted further in than a blade's length stays under it
+        lo, hi = verts[:, :2].min(0) + GRASS, verts[:, :2].max(0) - GRASS
+        under = ((knots[:, 0, :2] > lo) & (knots[:, 0, :2] < hi)).all(1)
+        if under.any():
+            worst = max(worst, float(h[under].max()))
+        a, b = h[:, :-1], h[:, 1:]
+        crossings += int(((np.isfinite(a) & np.isfinite(b)) & ((a < 0) != (b < 0))).sum())
+        if f == frames:  # how far under the sheet the tips it holds down lie
+            gaps = -h[under, -1][np.isfinite(h[under, -1])]
+    assert abs(float(verts[:, 2].mean()) - 0.12) < 0.01, verts[:, 2].mean()  # it settled
+    shape, rows = colliders.shown(sheet)
+    assert shape == "SPHERES" and len(rows) > 32, (shape, len(rows))
+    radius = max(r[1] for r in rows)
+    print(f"  sheet: {len(rows)} spheres (largest {radius * 1e3:.0f} mm); highest knot of a "
+          f"blade rooted a blade's length inside its edges {worst * 1e3:+.2f} mm from it; "
+          f"{crossings} segments cross it; tips under it {np.median(gaps) * 1e3:.0f} mm below "
+          f"it (median, {len(gaps)})")
+    assert len(gaps) > 50, len(gaps)  # the blades under the sheet were held down
+    assert crossings == 0, crossings
+    assert worst < 0.0, worst
+    # the spheres bulge below the sheet: the blades it holds lie at most a sphere's radius
+    # below it
+    assert np.median(gaps) <= radius + 0.01, (np.median(gaps), radius)
 
 
 @test
