@@ -328,6 +328,51 @@ def sidebar_shot(shot, path):
     shutil.move(out, path)
 
 
+def viewport_pixels(path):
+    """The 3D view's main region of a screenshot, without what may overlap it (the sidebar
+    and toolbar drawn over it with region overlap, the headers along its top): (H, W, 3)."""
+    area = area_of("VIEW_3D")
+    main = region_of(area, "WINDOW")
+    img = bpy.data.images.load(path)
+    w, h, c = img.size[0], img.size[1], img.channels
+    px = np.empty(w * h * c, np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    x0, x1 = main.x - area.x, main.x - area.x + main.width
+    for r in area.regions:
+        if r.type in ("UI", "TOOLS") and r.width > 1:
+            if r.x - area.x > (x0 + x1) / 2:
+                x1 = min(x1, r.x - area.x)
+            else:
+                x0 = max(x0, r.x - area.x + r.width)
+    y0 = max(0, main.y - area.y)
+    y1 = y0 + main.height - 80  # (the headers)
+    return px.reshape(h, w, c)[y0:y1, max(0, x0):x1, :3]
+
+
+def shapes_are_drawn(objs):
+    """Show Shapes draws over the viewport: the main region's pixels with the shapes shown
+    differ from those without them, and two frames drawn without them do not differ (so the
+    difference is the overlay, not something else moving)."""
+    shots = []
+    for show in (True, False, False):
+        for o in objs:
+            o.tussock_collider.show_shapes = show
+        yield 0.4
+        shots.append(os.path.join(TMP, f"overlay_{len(shots)}.png"))
+        screenshot(shots[-1])
+    on, off, again = (viewport_pixels(p) for p in shots)
+    drawn = int((np.abs(on - off).max(-1) > 0.05).sum())
+    still = int((np.abs(off - again).max(-1) > 0.05).sum())
+    expect("Show Shapes draws the fitted shapes over the viewport", drawn > 1000,
+           f"{drawn} pixels differ with the shapes shown")
+    expect("without Show Shapes, the viewport draws the same twice", still == 0,
+           f"{still} pixels differ")
+    print(f"overlay: {drawn} pixels of the viewport drawn by Show Shapes, {still} unstable")
+    for o in objs:
+        o.tussock_collider.show_shapes = True
+
+
 class States:
     """Counts and screenshots of the states drawn so far."""
 
@@ -506,6 +551,7 @@ def scenario(package):
     expect("the character is fitted a capsule per bone", shape == "BONES" and len(rows) > 8,
            f"{shape}, {len(rows)} shapes")
     yield from states.draw("collider_character")
+    yield from shapes_are_drawn([ball, body])
 
     # an interactive bake: in slices on the main thread under a modal timer (a bake needs a
     # saved file); in 3.4 too, where a worker thread once crashed Blender
