@@ -335,7 +335,7 @@ def test_a_cloth_like_sheet_pressing_the_grass_is_never_crossed_by_a_blade():
     scene = harness.empty_scene(frames)
     scene.tussock_wind.base_speed = 0.0
     bpy.ops.mesh.primitive_plane_add(size=1.0)
-    bpy.context.active_object.scale = (3.0, 2.0, 1.0)
+    bpy.context.active_object.scale = (1.8, 1.8, 1.0)  # the sheet and a blade beyond its edges
     assert bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=64, density="UNIFORM",
                                       display=1.0) == {"FINISHED"}
     meadow = bpy.context.active_object
