@@ -57,6 +57,9 @@ def register():
     for module in _MODULES:
         if hasattr(module, "register_extra"):
             module.register_extra()
+    # meadows whose models changed while the add-on was disabled (Blender's data cannot be
+    # read inside register: on a timer, right after it)
+    meadow_simulate.rebuild_stale()
 
 
 def unregister():

@@ -264,6 +264,39 @@ def test_a_deleted_blade_model_rebuilds_the_meadows_growing_it_at_once():
 
 
 @test
+def test_models_changed_while_the_addon_was_off_rebuild_the_meadow_when_it_is_on_again():
+    # soak seed 72045 in Blender 5.2 (111 steps): captured blades and a meadow growing them;
+    # the add-on disabled, a model deleted, the add-on enabled; then Add Tree, which
+    # cancelled (a keyframed fluid wind), but the object it made had set off the meadow's
+    # rebuild inside it. Enabling the add-on now rebuilds such a meadow, on a timer right
+    # after register (Blender's data cannot be read inside register).
+    scene = harness.empty_scene(6)
+    sample = os.path.join(harness.REPO, "samples", "blades", "depth_####.png")
+    assert bpy.ops.tussock.capture_blades(source="FILES", filepath=sample) == {"FINISHED"}
+    models = list(bpy.data.collections["Tussock Blades"].objects)
+    harness.select_objects([])
+    assert bpy.ops.tussock.add_meadow(size=(1.4, 0.8), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    built = meadow["tussock_patch_key"]
+    harness.disable_addon()
+    bpy.data.objects.remove(models[-1])
+    harness.enable_addon()
+    from tussock.meadow import build, simulate
+    w = scene.tussock_wind
+    w.use_fluid = True
+    w.keyframe_insert("fluid_speed", frame=1)
+    # enabling left a timer that rebuilds it (a window runs it at once; a background script
+    # never returns to Blender's event loop, so here it is called by hand)
+    assert bpy.app.timers.is_registered(simulate.rebuild_stale)
+    simulate.rebuild_stale()
+    assert meadow["tussock_patch_key"] != built
+    assert meadow["tussock_patch_key"] == build.patch_key(meadow.tussock_meadow)
+    harness.select_objects([])
+    expect_cancel(bpy.ops.tussock.add_tree, "keyframed", preset="quaking_aspen")
+
+
+@test
 def test_a_frame_played_and_put_back_is_no_change_in_the_soak_fingerprint():
     # soak seed 5 in Blender 5.2, shrunk to: animate a picture; keyframe a layer's lambda_x;
     # set it by hand and keyframe it at another frame; bake (with a simulated meadow) and

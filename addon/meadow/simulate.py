@@ -146,6 +146,18 @@ def _on_undo(*_args):
     writer.forget()  # undo may bring back an older tsk_hidden with the same serial
 
 
+def rebuild_stale():
+    """Meadows whose blade models changed while nothing watched them (the add-on disabled)
+    are rebuilt when it is enabled again, not inside whatever operator next makes an object
+    (soak seed 72045 in 5.2: a cancelled Add Tree had rebuilt such a meadow)."""
+    if not native.available():
+        return
+    try:
+        build.rebuild_stale()
+    except AttributeError:  # during register: Blender's data is not readable there
+        bpy.app.timers.register(rebuild_stale, first_interval=0.0)
+
+
 def register_extra():
     handlers.add("frame_change_post", _on_frame_change)
     handlers.add("load_post", _on_load)
