@@ -49,6 +49,21 @@ def meadow_and_leafy_tree(size):
     return scene, meadow, bpy.context.active_object
 
 
+def meadow_of_captured_blades():
+    """A 6-frame scene with the sample's captured blades (the Tussock Blades collection) and
+    a small meadow that grows them (Models empty: it grows that collection): (scene, the
+    blade objects, meadow)."""
+    scene = harness.empty_scene(6)
+    sample = os.path.join(harness.REPO, "samples", "blades", "depth_####.png")
+    assert bpy.ops.tussock.capture_blades(source="FILES", filepath=sample) == {"FINISHED"}
+    models = list(bpy.data.collections["Tussock Blades"].objects)
+    assert len(models) >= 3, len(models)
+    harness.select_objects([])
+    assert bpy.ops.tussock.add_meadow(size=(1.4, 0.8), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    return scene, models, bpy.context.active_object
+
+
 def record_and_disk(folder):
     """(paths tussock_written.json lists, names in the cache folder)"""
     root = os.path.join(folder, "tussock_cache")
@@ -221,15 +236,7 @@ def test_a_deleted_blade_model_rebuilds_the_meadows_growing_it_at_once():
     # for its new models only when the bake asked for its simulation, so the cancelled bake
     # had remade its chunk objects. A meadow is now rebuilt when its models change.
     from tussock.meadow import build
-    scene = harness.empty_scene(6)
-    sample = os.path.join(harness.REPO, "samples", "blades", "depth_####.png")
-    assert bpy.ops.tussock.capture_blades(source="FILES", filepath=sample) == {"FINISHED"}
-    models = list(bpy.data.collections["Tussock Blades"].objects)
-    assert len(models) >= 3, len(models)
-    harness.select_objects([])
-    assert bpy.ops.tussock.add_meadow(size=(1.4, 0.8), blades_per_tile=16, patch_blades=256,
-                                      chunk_blades=16) == {"FINISHED"}
-    meadow = bpy.context.active_object
+    scene, models, meadow = meadow_of_captured_blades()
     coll = bpy.data.collections.new("Colliders")
     scene.collection.children.link(coll)
     meadow.tussock_meadow.colliders, meadow.tussock_meadow.use_simulation = coll, True
@@ -246,11 +253,13 @@ def test_a_deleted_blade_model_rebuilds_the_meadows_growing_it_at_once():
     scene.collection.objects.link(models[0])
     bpy.context.view_layer.update()
     assert meadow["tussock_patch_key"] == build.patch_key(s)
-    chunks = sorted(o.name_full + str(o.as_pointer()) for o in bpy.data.objects
-                    if " chunk " in o.name)
+
+    def chunks():  # (an object made again has another address)
+        return sorted((o.name_full, o.as_pointer()) for o in bpy.data.objects
+                      if " chunk " in o.name)
+    before = chunks()
     scene.frame_set(3)  # the simulation now finds its patch up to date: nothing remade
-    assert chunks == sorted(o.name_full + str(o.as_pointer()) for o in bpy.data.objects
-                            if " chunk " in o.name)
+    assert chunks() == before
     # (soak seed 415376) a model in Edit Mode: the meadow says so, and is rebuilt after it
     model = models[1]
     harness.select_objects([model])
@@ -270,14 +279,7 @@ def test_models_changed_while_the_addon_was_off_rebuild_the_meadow_when_it_is_on
     # cancelled (a keyframed fluid wind), but the object it made had set off the meadow's
     # rebuild inside it. Enabling the add-on now rebuilds such a meadow, on a timer right
     # after register (Blender's data cannot be read inside register).
-    scene = harness.empty_scene(6)
-    sample = os.path.join(harness.REPO, "samples", "blades", "depth_####.png")
-    assert bpy.ops.tussock.capture_blades(source="FILES", filepath=sample) == {"FINISHED"}
-    models = list(bpy.data.collections["Tussock Blades"].objects)
-    harness.select_objects([])
-    assert bpy.ops.tussock.add_meadow(size=(1.4, 0.8), blades_per_tile=16, patch_blades=256,
-                                      chunk_blades=16) == {"FINISHED"}
-    meadow = bpy.context.active_object
+    scene, models, meadow = meadow_of_captured_blades()
     built = meadow["tussock_patch_key"]
     harness.disable_addon()
     bpy.data.objects.remove(models[-1])

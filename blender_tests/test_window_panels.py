@@ -287,18 +287,24 @@ def grab_from_x(x, y, width, height):
         x11.XCloseDisplay(display)
 
 
+def png_pixels(path):
+    """An image file's pixels as Blender reads them: (H, W, channels) floats, bottom row
+    first."""
+    img = bpy.data.images.load(path)
+    w, h, c = img.size[0], img.size[1], img.channels
+    px = np.empty(w * h * c, np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px.reshape(h, w, c)
+
+
 def screenshot(path):
     """Saves the 3D view (its sidebar included) as a PNG: Blender's own screenshot_area,
     or, where that reads a black front buffer (4.x and 5.x on Xvfb's llvmpipe), the
     same rectangle read from the X server."""
     with override("VIEW_3D", "UI"):
         bpy.ops.screen.screenshot_area(filepath=path)
-    img = bpy.data.images.load(path)
-    channels = img.channels
-    px = np.empty(img.size[0] * img.size[1] * channels, np.float32)
-    img.pixels.foreach_get(px)
-    bpy.data.images.remove(img)
-    if px.reshape(-1, channels)[:, :3].max() > 0:
+    if png_pixels(path)[..., :3].max() > 0:
         return "Blender"
     win, area = window(), area_of("VIEW_3D")
     top = win.height - area.y - area.height  # Blender counts from the bottom, X from the top
@@ -314,13 +320,10 @@ def sidebar_shot(shot, path):
     of the panels)."""
     area = area_of("VIEW_3D")
     region = region_of(area, "UI")
-    img = bpy.data.images.load(shot)
-    w, h, c = img.size[0], img.size[1], img.channels
-    px = np.empty(w * h * c, np.float32)
-    img.pixels.foreach_get(px)
-    bpy.data.images.remove(img)
+    px = png_pixels(shot)
+    h, w, c = px.shape
     left = max(0, min(w - 1, region.x - area.x))
-    crop = px.reshape(h, w, c)[:, left:left + region.width]
+    crop = px[:, left:left + region.width]
     rgba = np.ones(crop.shape[:2] + (4,), np.float32)
     rgba[..., :min(c, 4)] = crop[..., :4]
     os.makedirs(os.path.dirname(path), exist_ok=True)
@@ -333,11 +336,7 @@ def viewport_pixels(path):
     and toolbar drawn over it with region overlap, the headers along its top): (H, W, 3)."""
     area = area_of("VIEW_3D")
     main = region_of(area, "WINDOW")
-    img = bpy.data.images.load(path)
-    w, h, c = img.size[0], img.size[1], img.channels
-    px = np.empty(w * h * c, np.float32)
-    img.pixels.foreach_get(px)
-    bpy.data.images.remove(img)
+    px = png_pixels(path)
     x0, x1 = main.x - area.x, main.x - area.x + main.width
     for r in area.regions:
         if r.type in ("UI", "TOOLS") and r.width > 1:
@@ -347,7 +346,7 @@ def viewport_pixels(path):
                 x0 = max(x0, r.x - area.x + r.width)
     y0 = max(0, main.y - area.y)
     y1 = y0 + main.height - 80  # (the headers)
-    return px.reshape(h, w, c)[y0:y1, max(0, x0):x1, :3]
+    return px[y0:y1, max(0, x0):x1, :3]
 
 
 def shapes_are_drawn(objs):
