@@ -59,7 +59,7 @@ def register():
             module.register_extra()
     # meadows whose models changed while the add-on was disabled (Blender's data cannot be
     # read inside register: on a timer, right after it)
-    meadow_simulate.rebuild_stale()
+    meadow_simulate.rebuild_stale_models()
 
 
 def unregister():

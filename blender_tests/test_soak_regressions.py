@@ -290,8 +290,8 @@ def test_models_changed_while_the_addon_was_off_rebuild_the_meadow_when_it_is_on
     w.keyframe_insert("fluid_speed", frame=1)
     # enabling left a timer that rebuilds it (a window runs it at once; a background script
     # never returns to Blender's event loop, so here it is called by hand)
-    assert bpy.app.timers.is_registered(simulate.rebuild_stale)
-    simulate.rebuild_stale()
+    assert bpy.app.timers.is_registered(simulate.rebuild_stale_models)
+    simulate.rebuild_stale_models()
     assert meadow["tussock_patch_key"] != built
     assert meadow["tussock_patch_key"] == build.patch_key(meadow.tussock_meadow)
     harness.select_objects([])

@@ -146,7 +146,7 @@ def _on_undo(*_args):
     writer.forget()  # undo may bring back an older tsk_hidden with the same serial
 
 
-def rebuild_stale():
+def rebuild_stale_models():
     """Meadows whose blade models changed while nothing watched them (the add-on disabled)
     are rebuilt when it is enabled again, not inside whatever operator next makes an object
     (soak seed 72045 in 5.2: a cancelled Add Tree had rebuilt such a meadow)."""
@@ -155,7 +155,7 @@ def rebuild_stale():
     try:
         build.rebuild_stale()
     except AttributeError:  # during register: Blender's data is not readable there
-        bpy.app.timers.register(rebuild_stale, first_interval=0.0)
+        bpy.app.timers.register(rebuild_stale_models, first_interval=0.0)
 
 
 def register_extra():
