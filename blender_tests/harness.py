@@ -41,6 +41,14 @@ def _raise(exc):
     raise exc
 
 
+def vertices_of(obj):
+    """obj's mesh vertex positions, float32, 3 per vertex."""
+    import numpy as np
+    co = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    return co
+
+
 def check_near(a, b, tol, what=""):
     if not abs(a - b) <= tol:
         raise AssertionError(f"{what} |{a} - {b}| = {abs(a - b)} > {tol}")

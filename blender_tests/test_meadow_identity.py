@@ -12,7 +12,7 @@ import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import harness  # noqa: E402
-from harness import test  # noqa: E402
+from harness import test, vertices_of  # noqa: E402
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
@@ -215,12 +215,6 @@ def select(objs):
     for o in objs:
         o.select_set(True)
     bpy.context.view_layer.objects.active = objs[0]
-
-
-def vertices_of(obj):
-    v = np.empty(len(obj.data.vertices) * 3, np.float32)
-    obj.data.vertices.foreach_get("co", v)
-    return v
 
 
 @test

@@ -273,6 +273,63 @@ def test_a_deleted_blade_model_rebuilds_the_meadows_growing_it_at_once():
 
 
 @test
+def test_a_blades_chunk_in_edit_mode_is_left_alone_and_rebuilt_after_it():
+    # soak seed 536053 in Blender 4.3 (the CI run of 7cde0d4), shrunk to 3 steps: a
+    # simulated meadow; Tab into Edit Mode on its first blades chunk; a frame change. The
+    # writer made the chunk's ribbons there, where Blender cannot add vertices: an error in
+    # every frame handler, which stopped there. A chunk in Edit Mode is now left as the
+    # artist has it, and made whole again after Edit Mode.
+    import bmesh
+    scene = harness.empty_scene(6)
+    meadow, _ball = harness.meadow_crossed_by_ball(6)
+
+    def frame(n, meadow):  # the frame's handler ran to its end: it sets the meadow's stats
+        meadow["tussock_active_blades"] = -1
+        scene.frame_set(n)
+        assert meadow["tussock_active_blades"] >= 0, f"frame {n}: the handler stopped"
+        assert meadow.tussock_meadow.last_error == "", meadow.tussock_meadow.last_error
+
+    # the soak's steps: Edit Mode on a chunk the writer has not made yet
+    first = bpy.data.objects[f"{meadow.name} blades"]
+    harness.select_objects([first])
+    bpy.ops.object.mode_set(mode="EDIT")
+    frame(1, meadow)
+    frame(2, meadow)  # (the ball's first blades)
+    assert meadow["tussock_active_blades"] > 0
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+    # a made chunk, edited: 20 faces deleted in Edit Mode, its vertices kept (a count of
+    # vertices the writer would take for its own), the frame played again meanwhile
+    frame(3, meadow)
+    harness.select_objects([first])
+    bpy.ops.object.mode_set(mode="EDIT")
+    bm = bmesh.from_edit_mesh(first.data)
+    made = len(bm.faces)
+    assert made > 100, made
+    bmesh.ops.delete(bm, geom=list(bm.faces)[:20], context="FACES_ONLY")
+    bmesh.update_edit_mesh(first.data)
+    frame(3, meadow)
+    assert len(bmesh.from_edit_mesh(first.data).faces) == made - 20  # left as edited
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert len(first.data.polygons) == made - 20
+    frame(3, meadow)  # (the same frame: the same room for blades)
+    mesh = first.data
+    capacity, nv = mesh["tussock_capacity"], len(mesh.vertices)
+    k = nv // (2 * capacity)
+    assert mesh.get("tussock_layout") == "live" and nv == capacity * 2 * k and k >= 3, \
+        (mesh.get("tussock_layout"), nv, capacity)
+    assert len(mesh.polygons) == capacity * (k - 1), (len(mesh.polygons), capacity, k)
+    rebuilt = harness.vertices_of(first)
+    assert rebuilt.any()
+    frame(1, meadow)
+    for n in range(2, 4):
+        frame(n, meadow)  # played again from the start: the same blades
+    again = harness.vertices_of(first)
+    assert len(again) == len(rebuilt) and abs(again - rebuilt).max() < 1e-5, \
+        abs(again - rebuilt).max()
+
+
+@test
 def test_models_changed_while_the_addon_was_off_rebuild_the_meadow_when_it_is_on_again():
     # soak seed 72045 in Blender 5.2 (111 steps): captured blades and a meadow growing them;
     # the add-on disabled, a model deleted, the add-on enabled; then Add Tree, which

@@ -92,7 +92,9 @@ def restore_layout(child, scene, meadow=None):
     digest = child.get("tussock_bake_layout")
     tiles = np.array(child.get("tussock_baked_tiles", []), np.int32)
     pb = playback.playback(meadow, scene)
-    if child.data.get("tussock_layout") != "baked:" + str(digest):
+    if writer.left_in_edit_mode(child):
+        pass  # the baked layout is put back after Edit Mode
+    elif child.data.get("tussock_layout") != "baked:" + str(digest):
         layout = rest_layout(pb.runner, tiles)
         apply_layout(meadow, child, tiles, layout, pb.runner.K, pb.instance_tile, digest)
         writer.layout_replaced(pb)  # the live frames' layout is gone

@@ -125,12 +125,28 @@ def set_hidden(obj, hidden):
 _COLLAPSED = "collapsed"  # Output.held[i] of a chunk whose blades are all collapsed
 
 
+def left_in_edit_mode(child, out=None, i=None):
+    """True when the artist has put chunk `child` (out.held key i) in Edit Mode: it is left
+    as it is (vertices cannot be added there, and leaving Edit Mode writes Blender's edit
+    copy back over whatever was written meanwhile), and marked so that the first write
+    after Edit Mode rebuilds it whole, whatever was done to it there."""
+    if not meshes.in_edit_mode(child):
+        return False
+    if child.data.get("tussock_layout") != "edited":
+        child.data["tussock_layout"] = "edited"
+    if out is not None:
+        out.held.pop(i, None)
+    return True
+
+
 def _collapse(child, out=None, i=None):
     """Shows no blade in a chunk: every vertex at the origin (zero-area quads, which render
     nothing). Its topology stays: clearing a mesh to no vertices mid-playback makes
     Blender's rigid-body world take another path (test_sim's snapshot test)."""
     if out is not None and out.held.get(i) == _COLLAPSED:
         return  # already collapsed by this playback
+    if left_in_edit_mode(child, out, i):
+        return
     mesh = child.data
     n = len(mesh.vertices) * 3
     if n:
@@ -250,6 +266,8 @@ def chunk_capacity(capacity, nb, fit=False):
 def _write_chunk(child, pb, out, i, part, k, layout_changed, fit=False):
     """Writes the active blades of `part` (make_plan) into chunk `child` (out.held key i);
     `fit`: see chunk_capacity."""
+    if left_in_edit_mode(child, out, i):
+        return
     mesh = child.data
     nb = len(part.index) if part is not None else 0
     if nb == 0 and mesh.get("tussock_layout") == "live":
