@@ -330,6 +330,47 @@ def test_a_blades_chunk_in_edit_mode_is_left_alone_and_rebuilt_after_it():
 
 
 @test
+def test_a_bake_with_a_tree_it_cannot_grow_cancels_before_it_plays_a_frame():
+    # soak seed 536054 in Blender 4.3, shrunk to 14 steps, of which these matter: a pruned
+    # tree whose prune width is set to 0 (the panel says why it cannot grow); a simulated
+    # meadow; bake. The bake played every frame to read the meadow's colliders before it
+    # grew the tree, which failed: cancelled, with the meadow's blades written by those
+    # frames. Every tree is grown when the bake starts, before a frame is played.
+    scene, folder = saved_scene("ungrowable_tree")
+    assert bpy.ops.tussock.add_meadow(size=(1.2, 1.6), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    meadow.tussock_meadow.colliders, meadow.tussock_meadow.use_simulation = coll, True
+    assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=False) == {"FINISHED"}
+    tree = bpy.context.active_object
+    s = tree.tussock_tree
+    s.params.prune_ratio = 0.5
+    assert s.last_error == ""
+    s.params.prune_width = 0.0
+    assert "when pruning" in s.last_error, s.last_error
+    chunks = [o for o in bpy.data.objects if " blades" in o.name]
+    assert chunks and all(len(o.data.vertices) == 0 for o in chunks)  # no frame played yet
+    played = []
+
+    def count(scene_, *_args):
+        played.append(scene_.frame_current)
+    bpy.app.handlers.frame_change_pre.append(count)
+    try:
+        expect_cancel(bpy.ops.tussock.bake, f"{tree.name}: prune_width: must be > 0")
+    finally:
+        bpy.app.handlers.frame_change_pre.remove(count)
+    assert played == [], played
+    assert all(len(o.data.vertices) == 0 for o in chunks)
+    assert record_and_disk(folder) == (set(), set())
+    s.params.prune_width = 0.3  # grown again: the same bake now finishes
+    assert s.last_error == ""
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    assert tree.modifiers.get("Tussock Cache") is not None
+
+
+@test
 def test_models_changed_while_the_addon_was_off_rebuild_the_meadow_when_it_is_on_again():
     # soak seed 72045 in Blender 5.2 (111 steps): captured blades and a meadow growing them;
     # the add-on disabled, a model deleted, the add-on enabled; then Add Tree, which

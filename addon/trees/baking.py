@@ -25,6 +25,13 @@ class TreeJob(cache.Job):
         self.points = len(obj.data.vertices)
         self.definition = build.definition(s)
         self.smooth = s.smooth_levels
+        # the tree is grown now, not when its frames are baked: invalid settings or a tree
+        # too big cancel the bake before it reads any meadow's frames (which takes minutes
+        # and shows each frame; soak seed 536054)
+        try:
+            self.tree = build.native_tree(self.definition, self.smooth)
+        except (native.Error, ValueError) as exc:
+            raise ValueError(f"{obj.name}: {exc}") from exc
         self.matrix = np.array(obj.matrix_world, np.float64)
         # the wind response of every frame (it may be keyframed), as the live pose reads it
         self.strength = {f: wind_runtime.keyed_value(obj.animation_data,
@@ -65,7 +72,8 @@ class TreeJob(cache.Job):
         if not todo:
             return
         yield
-        data = build.compute_from(self.definition, self.smooth, rest=False)
+        data = build.compute_from(self.definition, self.smooth, rest=False, tree=self.tree)
+        self.tree = None  # data holds it now, and frees it with data
         wind = wind_runtime.Stepper(self.wind_kwargs, self.range[0], self.fps,
                                     lambda f: self.sources.get(f, np.zeros((0, 8), np.float32)),
                                     settings_at=self.wind_settings.__getitem__)

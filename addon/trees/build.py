@@ -37,15 +37,27 @@ def compute(settings):
     return compute_from(d, settings.smooth_levels, _key(d, settings), rest=False)
 
 
-def compute_from(d, smooth_levels, key="", rest=True):
-    """compute() from plain values (usable off the main thread); `rest`: deform the rest
-    pose into data["positions"] now (else on demand, rest_positions())."""
+def native_tree(d, smooth_levels):
+    """The native tree of definition `d`, its mesh checked against the memory budget: what
+    makes compute_from fail for `d` fails here, before a mesh or OpenSubdiv is made."""
     lib = native.require()
     tree = lib.tree_create(d)
+    nv, nq = lib.tree_mesh_count(tree, leaves=True)
+    cage_v, cage_q = lib.tree_mesh_count(tree, leaves=False) if smooth_levels > 0 else (nv, nq)
+    budget.check_tree(nv, nq, cage_v, cage_q, smooth_levels)
+    return tree
+
+
+def compute_from(d, smooth_levels, key="", rest=True, tree=None):
+    """compute() from plain values (usable off the main thread); `rest`: deform the rest
+    pose into data["positions"] now (else on demand, rest_positions()); `tree`: d's tree
+    from native_tree(), else made here."""
+    lib = native.require()
+    if tree is None:
+        tree = native_tree(d, smooth_levels)
     counts = lib.tree_counts(tree)
     nv, nq = lib.tree_mesh_count(tree, leaves=True)
     cage_v, cage_q = lib.tree_mesh_count(tree, leaves=False) if smooth_levels > 0 else (nv, nq)
-    budget.check_tree(nv, nq, cage_v, cage_q, smooth_levels)  # before the mesh and OpenSubdiv
     faces = np.empty(nq * 4, np.int32)
     uvs = np.empty(nq * 8, np.float32)
     lib.tree_mesh_topology(tree, faces, uvs, leaves=True)
