@@ -70,6 +70,7 @@ class TreeJob(cache.Job):
             else:
                 todo.append(f)
         if not todo:
+            self.tree = None  # (the job lives as long as the operator)
             return
         yield
         data = build.compute_from(self.definition, self.smooth, rest=False, tree=self.tree)
