@@ -110,6 +110,11 @@ def models_digest(collection):
     return digest
 
 
+def forget_model_digests():
+    _digests.clear()
+    _model_meshes.clear()
+
+
 def models_edited(changed):
     """Forgets the digests of blade models whose meshes a depsgraph update changed (`changed`:
     (original data-block, geometry updated) of each of its updates); True when there was
@@ -123,8 +128,7 @@ def models_edited(changed):
         except ReferenceError:  # removed since the update
             continue
         if edited:
-            _digests.clear()
-            _model_meshes.clear()
+            forget_model_digests()
             return True
     return False
 

@@ -124,7 +124,13 @@ def _on_depsgraph_update(scene, depsgraph=None):
         return
     # what changed, read before anything here changes objects: after that depsgraph.updates
     # reads stale items (Blender 5.2 gave an Object where an update was; soak seed 511632)
-    changed = [] if depsgraph is None else [
+    global _undone
+    # the first update after an undo or redo can list data-blocks of the file state undo
+    # replaced: touching them crashed Blender 4.3 (soak seed 583604). Undo restores meadows
+    # with their models, so nothing is rebuilt for that update; objects made or removed
+    # are still found by sync()
+    stale, _undone = _undone, False
+    changed = [] if depsgraph is None or stale else [
         (u.id.original if hasattr(u.id, "original") else u.id, u.is_updated_geometry)
         for u in depsgraph.updates]  # the data-blocks changed: a handful
     if _release_joined():
@@ -141,9 +147,15 @@ def _on_depsgraph_update(scene, depsgraph=None):
 classes = ()
 
 
+_undone = False  # an undo or redo ran since the last depsgraph update
+
+
 @bpy.app.handlers.persistent
 def _on_undo(*_args):
+    global _undone
+    _undone = True
     writer.forget()  # undo may bring back an older tsk_hidden with the same serial
+    build.forget_model_digests()  # the model meshes may be other data-blocks now
 
 
 def rebuild_stale_models():
