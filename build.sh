@@ -819,6 +819,7 @@ run_soak_checks() { # major...
   for m in "$@"; do
     # the failures it found that only a replay of their steps shows (a crash inside Blender)
     for f in "$ROOT"/tests/soak_replays/*.json; do
+      [ -e "$f" ] || continue
       if out="$(with_blender "$m" "$ROOT/tools/soak.py" --replay "$f" 2>&1)"; then
         printf '%-8s %-28s 1 passed, 0 failed\n' "blender$m" "replay $(basename "$f" .json | cut -c1-21)"
         PASSED=$((PASSED + 1))
