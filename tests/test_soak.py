@@ -1,7 +1,8 @@
 """The soak tester's own test (issue 42), with the machine's Blender: a planted operator that
 raises in 1 call of 50 is found, shrunk to at most 5 steps and reported with its seed; a
-planted frame handler that leaks a mesh per frame is found; a short clean soak of the add-on
-passes. Run by ./build.sh test, or alone: /usr/bin/python3 tests/test_soak.py [NAME...]"""
+planted frame handler that leaks a mesh per frame is found; memory that no data-block holds
+is told from a large scene; a short clean soak of the add-on passes. Run by ./build.sh test,
+or alone: /usr/bin/python3 tests/test_soak.py [NAME...]"""
 
 import os
 import re
@@ -61,6 +62,31 @@ def test_planted_leak_is_found():
     assert re.search(r"^soak: FAILURE with seed 3: leak: .*'meshes'", text, re.M), text[-3000:]
     count, _ = shrunk_steps(text)
     assert count <= 5, count
+
+
+def test_memory_that_the_scene_does_not_explain_is_found():
+    code, text = soak("--seed", "5", "--steps", "40", "--only", "add_tree,play,scrub,rename",
+                      "--max-rss-mb", "700", "--shrink-minutes", "2", plant="hoard")
+    assert code == 1, (code, text[-3000:])
+    m = re.search(r"^soak: FAILURE with seed 5: memory: more memory than the scene explains: "
+                  r"(\d+) MB before, (\d+) MB with the file opened again, a fresh Blender "
+                  r"(\d+) MB", text, re.M)
+    assert m, text[-3000:]
+    before, here, fresh = (int(x) for x in m.groups())
+    assert before > 700 and here > fresh + 400, m.group(0)
+
+
+def test_a_scene_that_needs_the_memory_is_measured_and_replaced_by_a_new_file():
+    # a bound below what Blender itself needs: every step is measured, none is a leak
+    code, text = soak("--seed", "9", "--steps", "12", "--only", "add_tree,add_meadow,play",
+                      "--max-rss-mb", "1")
+    steps, _, _, failures = summary(text)
+    assert code == 0 and failures == 0, (code, text[-5000:])
+    found = re.findall(r"NEW FILE \((\d+) MB before, (\d+) MB with the file opened again, a "
+                       r"fresh Blender (\d+) MB", text)
+    assert len(found) >= 4, text[-3000:]
+    for before, here, fresh in found:
+        assert 0 < int(fresh) and int(here) <= 1.25 * int(fresh) + 400, found
 
 
 def test_a_short_clean_soak_passes():

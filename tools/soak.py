@@ -6,10 +6,12 @@ as Hypothesis does, by replaying parts of it in new Blenders.
 
 usage: soak.py [--minutes M | --steps N] [--seed S] [--window] [--gdb] [--debug-memory]
                [--only STEP,...] [--skip STEP,...] [--max-failures F] [--shrink-minutes M]
-               [--step-timeout SECONDS] [--out DIR] [--max-rss-mb MB]
+               [--step-timeout SECONDS] [--out DIR] [--max-rss-mb MB] [--hard-rss-mb MB]
        soak.py --replay FILE [--shrink] [--window] [--gdb]   (a shrunk sequence, or a journal)
 
 Environment: BLENDER (the Blender to run), TSK_ADDON (tools/blender_env.py),
+TSK_SOAK_PRELOAD with TSK_SOAK_ASAN_OPTIONS and TSK_SOAK_UBSAN_OPTIONS (a sanitizer runtime
+preloaded into Blender alone: ./build.sh soak --asan),
 TSK_SOAK_PLANT=raise|leak (a planted fault, for the tester's own test). Prints the seed
 first; for each failure the seed, the shrunk steps, the Python traceback (faulthandler, and
 whatever the add-on printed) and with --gdb the native backtrace; last the line
@@ -106,6 +108,10 @@ def run_blender(args, soak_args, journal, timeout, step_timeout, window=False, g
     with blender_env.BlenderUser() as user:
         env = dict(user.env)
         env["PYTHONFAULTHANDLER"] = "1"
+        if os.environ.get("TSK_SOAK_PRELOAD"):  # ./build.sh soak --asan: Blender alone
+            env["LD_PRELOAD"] = os.environ["TSK_SOAK_PRELOAD"]
+            env["ASAN_OPTIONS"] = os.environ.get("TSK_SOAK_ASAN_OPTIONS", "")
+            env["UBSAN_OPTIONS"] = os.environ.get("TSK_SOAK_UBSAN_OPTIONS", "")
         cmd = blender_command(args, soak_args + ["--journal", journal], window, gdb,
                               debug_memory)
         with open(out_path, "w") as out:
@@ -295,7 +301,10 @@ def main(argv=None):
     p.add_argument("--step-timeout", type=float, default=300.0)
     p.add_argument("--out", help="folder for journals and shrunk sequences")
     p.add_argument("--max-rss-mb", type=float, default=6000.0,
-                   help="resident memory above which a step fails (soak_blender.py)")
+                   help="resident memory above which the scene is measured in a fresh "
+                        "Blender: a leak fails, a large scene is replaced by a new file")
+    p.add_argument("--hard-rss-mb", type=float, default=16000.0,
+                   help="resident memory above which a step fails, whatever the scene")
     args = p.parse_args(argv)
     if not (args.minutes or args.steps or args.replay):
         args.minutes = 3.0
@@ -305,7 +314,7 @@ def main(argv=None):
     print(f"soak: seed {seed}, {'window' if args.window else 'background'}, "
           f"{args.minutes or '-'} minutes, {args.steps or '-'} steps; files in {out_dir}",
           flush=True)
-    common = ["--max-rss-mb", str(args.max_rss_mb)]
+    common = ["--max-rss-mb", str(args.max_rss_mb), "--hard-rss-mb", str(args.hard_rss_mb)]
     if args.only:
         common += ["--only", args.only]
     if args.skip:
@@ -369,6 +378,9 @@ def main(argv=None):
                   f"(seed {run_seed})")
             for line in [x for x in outcome.log.splitlines() if " len: " in x][:20]:
                 print("  " + line)
+        for step, rec in zip(outcome.steps, outcome.results):
+            if step.get("op") == "memory" and rec.get("result") != "fail":
+                print(f"soak: memory at step {rec['i']}: {rec.get('result')}")
         print(f"soak: seed {run_seed}: {len(outcome.steps)} steps in {outcome.secs:.0f} s, "
               f"{outcome.kind or 'ok'}", flush=True)
         if outcome.failed:
