@@ -2,16 +2,20 @@
 tree the way an artist does (the operator), plays two frames, deletes it with the ground Add
 Meadow made (the Delete operator; Tussock tidies what the meadow owned), and purges orphan
 data as saving and reopening the file would. After cycle 100 and after the last it prints
-the process's resident memory (VmRSS), Tussock's native bytes in use and the counts of
-objects, meshes and collections; a leak shows as growth between the two.
+the process's resident memory (VmRSS, after the C allocator gave its free pages back:
+tools/memory_probe.py), the bytes that allocator has in use, Tussock's native bytes in use
+and the counts of objects, meshes and collections; a leak shows as growth between the two.
 
     blender -b --factory-startup --python tools/leak_cycles.py -- KIND [CYCLES]
-    KIND: meadow (a simulated 3 m meadow with a ball in its grass) | tree (a leafy aspen)
+    KIND: meadow (a simulated 3 m meadow with a ball in its grass) | tree (a leafy aspen) |
+          objects (the control: no Tussock, as many plain mesh objects as a meadow makes,
+          made with bpy.data in a collection of the scene, played and deleted the same way)
 
 (with the add-on enabled as tools/blender_env.py sets it up; ./build.sh leaks runs it in each
 Blender). Prints `LEAKS kind=... cycles=... rss100=... rssN=... growth=...%`, then a `LEAK:` line
 for each bound broken (exit status 1): resident memory more than 5 % above cycle 100's, or
-native bytes or data-block counts other than cycle 100's."""
+native bytes or data-block counts other than cycle 100's. The control's broken bounds are
+Blender's own: `CONTROL:` lines, exit status 0."""
 
 import gc
 import os
@@ -20,23 +24,8 @@ import time
 
 import bpy
 
-
-def trim():
-    """Returns the C heap's free memory to the system (glibc's malloc_trim), so that resident
-    memory counts what is in use, not what the allocator keeps for later."""
-    import ctypes
-    try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):  # not glibc
-        pass
-
-
-def rss_bytes():
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) * 1024
-    return 0
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from memory_probe import ALLOCATOR, heap_in_use, rss_bytes, trim  # noqa: E402
 
 
 def counts():
@@ -59,6 +48,77 @@ def setup(kind):
     return scene
 
 
+def plain_objects(scene):
+    """The control's cycle, made with bpy.data alone: what a meadow makes, without Tussock.
+    64 small meshes of triangles with a UV layer and a float attribute in a collection of the
+    scene, a ground, and a point cloud whose geometry nodes (Collection Info, Instance on
+    Points) instance them."""
+    import numpy as np
+    coll = bpy.data.collections.new("Plain")
+    scene.collection.children.link(coll)
+    co = np.linspace(0.0, 1.0, 96 * 3, dtype=np.float32)
+    tris = np.arange(96, dtype=np.int32)
+    for i in range(65):
+        mesh = bpy.data.meshes.new(f"Plain {i:05d}")
+        mesh.vertices.add(96)
+        mesh.vertices.foreach_set("co", co)
+        mesh.loops.add(96)
+        mesh.loops.foreach_set("vertex_index", tris)
+        mesh.polygons.add(32)
+        mesh.polygons.foreach_set("loop_start", tris[::3].copy())
+        mesh.polygons.foreach_set("loop_total", np.full(32, 3, np.int32))
+        mesh.uv_layers.new(name="UVMap")
+        mesh.attributes.new("rand", "FLOAT", "POINT")
+        mesh.update()
+        obj = bpy.data.objects.new(mesh.name, mesh)
+        (coll if i < 64 else scene.collection).objects.link(obj)
+    group, collection_input = _plain_group()
+    obj = bpy.data.objects.new("Plain points", bpy.data.meshes.new("Plain points"))
+    obj.data.vertices.add(96)
+    obj.data.vertices.foreach_set("co", co)
+    scene.collection.objects.link(obj)
+    mod = obj.modifiers.new("Instances", "NODES")
+    mod.node_group = group
+    mod[collection_input] = coll
+    return obj
+
+
+def _plain_group():
+    """The control's node group and the identifier of its collection input."""
+    group = bpy.data.node_groups.get("Plain")
+    fresh = group is None
+    if fresh:
+        group = bpy.data.node_groups.new("Plain", "GeometryNodeTree")
+    if hasattr(group, "interface"):  # Blender 4.0 on
+        if fresh:
+            group.interface.new_socket("Geometry", in_out="INPUT",
+                                       socket_type="NodeSocketGeometry")
+            group.interface.new_socket("Collection", in_out="INPUT",
+                                       socket_type="NodeSocketCollection")
+            group.interface.new_socket("Geometry", in_out="OUTPUT",
+                                       socket_type="NodeSocketGeometry")
+        ident = [i.identifier for i in group.interface.items_tree
+                 if getattr(i, "socket_type", "") == "NodeSocketCollection"][0]
+    else:
+        if fresh:
+            group.inputs.new("NodeSocketGeometry", "Geometry")
+            group.inputs.new("NodeSocketCollection", "Collection")
+            group.outputs.new("NodeSocketGeometry", "Geometry")
+        ident = group.inputs[1].identifier
+    if not fresh:
+        return group, ident
+    gin, gout = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    info = group.nodes.new("GeometryNodeCollectionInfo")
+    info.inputs["Separate Children"].default_value = True
+    inst = group.nodes.new("GeometryNodeInstanceOnPoints")
+    inst.inputs["Pick Instance"].default_value = True
+    group.links.new(gin.outputs[1], info.inputs["Collection"])
+    group.links.new(gin.outputs[0], inst.inputs["Points"])
+    group.links.new(info.outputs[0], inst.inputs["Instance"])
+    group.links.new(inst.outputs[0], gout.inputs[0])
+    return group, ident
+
+
 def cycle(kind, scene):
     bpy.ops.object.select_all(action="DESELECT")
     if kind == "meadow":
@@ -67,9 +127,11 @@ def cycle(kind, scene):
         obj = bpy.context.active_object
         obj.tussock_meadow.colliders = bpy.data.collections["Colliders"]
         obj.tussock_meadow.use_simulation = True
-    else:
+    elif kind == "tree":
         assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=True) == {"FINISHED"}
         obj = bpy.context.active_object
+    else:
+        obj = plain_objects(scene)
     for f in (2, 3):
         scene.frame_set(f)
     bpy.ops.object.select_all(action="DESELECT")
@@ -77,6 +139,8 @@ def cycle(kind, scene):
         o.select_set(o.name != "Sphere")
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.object.delete() == {"FINISHED"}
+    if kind == "objects":
+        bpy.data.collections.remove(bpy.data.collections["Plain"])
     scene.frame_set(1)  # a frame change: Tussock tidies what the meadow owned
     bpy.ops.outliner.orphans_purge(do_local_ids=True, do_linked_ids=True, do_recursive=True)
 
@@ -85,8 +149,8 @@ def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     kind = argv[0] if argv else "meadow"
     total = int(argv[1]) if len(argv) > 1 else 1000
-    if kind not in ("meadow", "tree") or total < 100:
-        raise SystemExit("usage: leak_cycles.py -- meadow|tree [CYCLES >= 100]")
+    if kind not in ("meadow", "tree", "objects") or total < 100:
+        raise SystemExit("usage: leak_cycles.py -- meadow|tree|objects [CYCLES >= 100]")
     scene = setup(kind)
     from tussock import native
     lib = native.require()
@@ -97,14 +161,17 @@ def main():
         if i in (100, total) or i % 250 == 0:
             gc.collect()
             trim()
-            marks[i] = (rss_bytes(), lib.allocated_bytes(), counts())
-            print(f"cycle {i}: resident {marks[i][0] / 2**20:.1f} MiB, native "
-                  f"{marks[i][1] / 2**20:.2f} MiB, objects/meshes/collections {marks[i][2]}, "
-                  f"{time.monotonic() - t0:.0f} s", flush=True)
+            marks[i] = (rss_bytes(), lib.allocated_bytes(), counts(), heap_in_use() or 0)
+            print(f"cycle {i}: resident {marks[i][0] / 2**20:.1f} MiB, {ALLOCATOR} heap in use "
+                  f"{marks[i][3] / 2**20:.1f} MiB, native {marks[i][1] / 2**20:.2f} MiB, "
+                  f"objects/meshes/collections {marks[i][2]}, {time.monotonic() - t0:.0f} s",
+                  flush=True)
     r100, rn = marks[100][0], marks[total][0]
     print(f"LEAKS kind={kind} cycles={total} blender={bpy.app.version_string} "
           f"rss100={r100 / 2**20:.1f}MiB rss{total}={rn / 2**20:.1f}MiB "
-          f"growth={(rn - r100) / r100 * 100:+.2f}% native100={marks[100][1]} "
+          f"growth={(rn - r100) / r100 * 100:+.2f}% allocator={ALLOCATOR} "
+          f"heap100={marks[100][3] / 2**20:.1f}MiB heap{total}={marks[total][3] / 2**20:.1f}MiB "
+          f"native100={marks[100][1]} "
           f"native{total}={marks[total][1]} counts100={marks[100][2]} "
           f"counts{total}={marks[total][2]} secs={time.monotonic() - t0:.0f}", flush=True)
     # issue 42's bound: within 5 % of the resident memory after 100 cycles; and what Tussock
@@ -117,8 +184,8 @@ def main():
     if marks[total][2] != marks[100][2]:
         bad.append(f"objects/meshes/collections {marks[100][2]} -> {marks[total][2]}")
     for b in bad:
-        print(f"LEAK: {kind}: {b}", flush=True)
-    return 1 if bad else 0
+        print(f"{'CONTROL' if kind == 'objects' else 'LEAK'}: {kind}: {b}", flush=True)
+    return 1 if bad and kind != "objects" else 0
 
 
 status = main()
