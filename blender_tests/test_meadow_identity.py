@@ -3,8 +3,9 @@ its blades keeps one set of blade objects and one simulation; a deleted meadow's
 is freed with its blades objects; blades objects duplicated with their meadow go to the
 copy, and duplicated alone become plain meshes; a meadow linked from another file beside a
 local meadow of the same name (and the same id) simulates on its own and leaves the local
-one's blades as they are without it; and re-refined blade models reach both the instances
-and the simulation."""
+one's blades as they are without it; re-refined blade models reach both the instances
+and the simulation; and a deleted meadow is forgotten once its things are tidied, while an
+undo still brings it back whole."""
 
 import os
 import sys
@@ -164,6 +165,47 @@ def test_deleting_a_simulated_meadow_frees_its_simulation():
     play()
     assert simulate.live_count() == 1
     assert abs(held - lib.allocated_bytes() - per_meadow) < 0.01 * per_meadow
+
+
+@test
+def test_deleted_meadows_are_forgotten_once_tidied_and_undo_still_brings_one_back():
+    fresh()
+    meadow = meadow_with_ball()
+    play(range(1, 4))
+    k = identity.key(meadow)
+    count = len(blade_objects())
+    assert count == 2 * sim_objects.CHUNKS, count
+    bpy.ops.ed.undo_push(message="played")
+    harness.select_objects([meadow])
+    assert bpy.ops.object.delete() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    assert not blade_objects() and "Meadow patch" not in bpy.data.collections
+    # tidied: nothing of it is left to look for, so its key is not kept
+    assert k not in identity.gone and k not in sim_objects._followed, \
+        (identity.gone, sim_objects._followed)
+    bpy.ops.ed.undo_push(message="deleted")
+    assert bpy.ops.ed.undo() == {"FINISHED"}
+    meadow = bpy.data.objects["Meadow"]
+    assert identity.key(meadow) == k
+    play(range(4, 7))
+    assert simulate.live_count() == 1 and len(blade_objects()) == count, \
+        (simulate.live_count(), len(blade_objects()))
+    harness.select_objects([meadow])
+    assert bpy.ops.object.delete() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    assert not blade_objects() and "Meadow patch" not in bpy.data.collections
+    assert simulate.live_count() == 0
+    # an afternoon of adding and deleting meadows keeps nothing per meadow
+    for _ in range(12):
+        meadow = meadow_with_ball(name="Again")
+        play(range(1, 3))
+        harness.select_objects([o for o in bpy.context.scene.objects
+                                if o.name.startswith("Again")])
+        assert bpy.ops.object.delete() == {"FINISHED"}
+        bpy.context.view_layer.update()
+    assert not blade_objects()
+    assert len(identity.gone) == 0 and len(sim_objects._followed) == 0, \
+        (identity.gone, sim_objects._followed)
 
 
 def _knots(meadow):

@@ -199,6 +199,7 @@ def tidy_owned(live):
                 for tag in OWN_TAGS:
                     if tag in o:
                         del o[tag]
+    held = set()
     for coll in list(bpy.data.collections):
         k = coll.get(identity.OWNER)
         if k in identity.gone and coll.users == 0 and coll.library is None:
@@ -206,6 +207,14 @@ def tidy_owned(live):
                 if len(o.users_collection) == 1:
                     meshes.remove_object(o)
             bpy.data.collections.remove(coll)
+        elif k is not None:
+            held.add(k)
+    # a deleted meadow whose things are all removed needs no remembering (an undo that
+    # brings it back brings its key back to the next scan); an artist who adds and deletes
+    # meadows all day would otherwise grow this set without end
+    identity.gone.intersection_update(held)
+    for k in [k for k in _followed if k not in live]:
+        del _followed[k]
 
 
 _followed = {}  # meadow key -> the name its objects were last renamed after
