@@ -79,7 +79,11 @@ def plain_objects(scene):
     scene.collection.objects.link(obj)
     mod = obj.modifiers.new("Instances", "NODES")
     mod.node_group = group
-    mod[collection_input] = coll
+    inputs = getattr(getattr(mod, "properties", None), "inputs", None)
+    if inputs is not None:  # Blender 5.2 on: inputs are RNA structs
+        getattr(inputs, collection_input).value = coll
+    else:
+        mod[collection_input] = coll
     return obj
 
 
@@ -145,6 +149,10 @@ def cycle(kind, scene):
     bpy.ops.outliner.orphans_purge(do_local_ids=True, do_linked_ids=True, do_recursive=True)
 
 
+def mib(n):
+    return "n/a" if n is None else f"{n / 2**20:.1f} MiB"
+
+
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     kind = argv[0] if argv else "meadow"
@@ -161,16 +169,16 @@ def main():
         if i in (100, total) or i % 250 == 0:
             gc.collect()
             trim()
-            marks[i] = (rss_bytes(), lib.allocated_bytes(), counts(), heap_in_use() or 0)
+            marks[i] = (rss_bytes(), lib.allocated_bytes(), counts(), heap_in_use())
             print(f"cycle {i}: resident {marks[i][0] / 2**20:.1f} MiB, {ALLOCATOR} heap in use "
-                  f"{marks[i][3] / 2**20:.1f} MiB, native {marks[i][1] / 2**20:.2f} MiB, "
+                  f"{mib(marks[i][3])}, native {marks[i][1] / 2**20:.2f} MiB, "
                   f"objects/meshes/collections {marks[i][2]}, {time.monotonic() - t0:.0f} s",
                   flush=True)
     r100, rn = marks[100][0], marks[total][0]
     print(f"LEAKS kind={kind} cycles={total} blender={bpy.app.version_string} "
           f"rss100={r100 / 2**20:.1f}MiB rss{total}={rn / 2**20:.1f}MiB "
           f"growth={(rn - r100) / r100 * 100:+.2f}% allocator={ALLOCATOR} "
-          f"heap100={marks[100][3] / 2**20:.1f}MiB heap{total}={marks[total][3] / 2**20:.1f}MiB "
+          f"heap100={mib(marks[100][3])} heap{total}={mib(marks[total][3])} "
           f"native100={marks[100][1]} "
           f"native{total}={marks[total][1]} counts100={marks[100][2]} "
           f"counts{total}={marks[total][2]} secs={time.monotonic() - t0:.0f}", flush=True)
