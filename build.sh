@@ -266,26 +266,53 @@ VALGRIND_SKIP="test_fluid_open_boundary,test_no_blowup_over_10000_steps,test_sam
 VALGRIND_SKIP+=",test_continuum_pulse_travels,test_tree_random_parameters_never_crash"
 VALGRIND_SKIP+=",test_refine_heap_matches_naive_bitwise,test_refine_simulated_blade_end_to_end"
 run_valgrind_tests() { # dir
-  local dir="$1" t out line p f rc
-  for t in "$dir"/test_*; do
+  local dir="$1" t name out line p f rc tmp running q pids=() order=()
+  tmp="$(mktemp -d)"
+  # Two programs at a time (valgrind runs a program's threads one at a time, so each takes a
+  # core), the longest first so that it does not start last: test_sim takes 5-9 minutes.
+  for t in "$dir"/test_sim "$dir"/test_*; do
     [ -x "$t" ] || continue
-    rc=0
-    out="$(cd "$dir" && TSK_TEST_SKIP="$VALGRIND_SKIP" OMP_WAIT_POLICY=PASSIVE \
-      timeout "${TSK_VALGRIND_TIMEOUT:-600}" valgrind --tool=memcheck --leak-check=full \
-      --errors-for-leak-kinds=definite,indirect --error-exitcode=99 --num-callers=30 \
-      --suppressions="$ROOT/native/tests/valgrind.supp" "$t" 2>&1)" || rc=$?
+    case " ${order[*]-} " in *" $t "*) continue ;; esac
+    order+=("$t")
+  done
+  for t in ${order[@]+"${order[@]}"}; do
+    while :; do
+      running=0
+      for q in ${pids[@]+"${pids[@]}"}; do
+        if kill -0 "$q" 2>/dev/null; then running=$((running + 1)); fi
+      done
+      [ "$running" -lt "${TSK_VALGRIND_JOBS:-2}" ] && break
+      sleep 1
+    done
+    name="$(basename "$t")"
+    (
+      rc=0
+      cd "$dir" && TSK_TEST_SKIP="$VALGRIND_SKIP" OMP_WAIT_POLICY=PASSIVE \
+        timeout "${TSK_VALGRIND_TIMEOUT:-1200}" valgrind --tool=memcheck --leak-check=full \
+        --errors-for-leak-kinds=definite,indirect --error-exitcode=99 --num-callers=30 \
+        --suppressions="$ROOT/native/tests/valgrind.supp" "$t" >"$tmp/$name.out" 2>&1 || rc=$?
+      echo "$rc" >"$tmp/$name.rc"
+    ) &
+    pids+=("$!")
+  done
+  for q in ${pids[@]+"${pids[@]}"}; do wait "$q" || true; done
+  for t in ${order[@]+"${order[@]}"}; do
+    name="$(basename "$t")"
+    out="$(cat "$tmp/$name.out" 2>/dev/null || true)"
+    rc="$(cat "$tmp/$name.rc" 2>/dev/null || echo 1)"
     line="$(printf '%s\n' "$out" | grep -E '^[0-9]+ passed, [0-9]+ failed' | tail -n 1 || true)"
     if [ -z "$line" ]; then p=0; f=1; else
       p="${line%% passed*}"; f="${line#*passed, }"; f="${f%% failed*}"
     fi
     if [ "$rc" -ne 0 ]; then
       printf '%s\n' "$out" | grep -E '==[0-9]+== (Invalid|Conditional|Use of|.*definitely lost|.*indirectly lost|ERROR SUMMARY)|FAIL|TIMEOUT' | head -n 20 >&2 || true
-      [ "$rc" -eq 124 ] && say "valgrind: $(basename "$t") timed out"
+      [ "$rc" -eq 124 ] && say "valgrind: $name timed out"
       [ "$f" -eq 0 ] && f=1
     fi
-    printf '%-8s %-28s %s passed, %s failed\n' valgrind "$(basename "$t")" "$p" "$f"
+    printf '%-8s %-28s %s passed, %s failed\n' valgrind "$name" "$p" "$f"
     PASSED=$((PASSED + p)); FAILED=$((FAILED + f))
   done
+  rm -rf "$tmp"
 }
 
 # The Blender suite (blender_tests/run.py) in Blender `major`; adds to PASSED/FAILED.
