@@ -919,12 +919,13 @@ if engines and s.camera is None:
     s.camera = bpy.data.objects.new("memory camera", bpy.data.cameras.new("memory camera"))
     s.collection.objects.link(s.camera)
 for e in engines:  # what the soaking Blender's renders keep (an engine's shaders, buffers)
-    s.render.engine = e
-    s.render.resolution_x, s.render.resolution_y, s.render.resolution_percentage = 32, 24, 100
-    s.cycles.samples, s.cycles.use_denoising, s.eevee.taa_render_samples = 1, False, 1
-    try:
+    try:  # (a setting or an engine this Blender lacks: the render is left out)
+        s.render.engine = e
+        s.render.resolution_x, s.render.resolution_y = 32, 24
+        s.render.resolution_percentage = 100
+        s.cycles.samples, s.cycles.use_denoising, s.eevee.taa_render_samples = 1, False, 1
         bpy.ops.render.render()
-    except RuntimeError:
+    except (RuntimeError, AttributeError, TypeError):
         pass
 trim()
 with open("/proc/self/statm") as f:
