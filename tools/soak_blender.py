@@ -945,7 +945,7 @@ def fresh_rss_mb(path):
     proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                           errors="replace", timeout=600)
     m = re.search(r"FRESH-RSS-PAGES (\d+)", proc.stdout)
-    if proc.returncode != 0 or not m:
+    if not m:  # (its exit status alone says little: a refused render sets Blender's to 1)
         raise Broken("tester-error", f"the fresh Blender could not open {path}: "
                                      f"{proc.stdout[-2000:]}")
     return int(m.group(1)) * os.sysconf("SC_PAGE_SIZE") / 2 ** 20
