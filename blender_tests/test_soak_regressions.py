@@ -49,6 +49,23 @@ def meadow_and_leafy_tree(size):
     return scene, meadow, bpy.context.active_object
 
 
+def simulated_meadows(*sizes):
+    """A 6-frame scene with a simulated meadow of each size (16 blades a tile, a patch of
+    256, chunks of 16), all with one empty Colliders collection: (scene, the meadows)."""
+    scene = harness.empty_scene(6)
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    meadows = []
+    for size in sizes:
+        harness.select_objects([])
+        assert bpy.ops.tussock.add_meadow(size=size, blades_per_tile=16, patch_blades=256,
+                                          chunk_blades=16) == {"FINISHED"}
+        meadows.append(bpy.context.active_object)
+        meadows[-1].tussock_meadow.colliders = coll
+        meadows[-1].tussock_meadow.use_simulation = True
+    return scene, meadows
+
+
 def meadow_of_captured_blades():
     """A 6-frame scene with the sample's captured blades (the Tussock Blades collection) and
     a small meadow that grows them (Models empty: it grows that collection): (scene, the
@@ -200,18 +217,7 @@ def test_an_update_that_removes_objects_and_lists_a_rename_raises_nothing():
     # and which also lists a renamed meadow. The rename follower read depsgraph.updates after
     # the removal and got an Object where an update was: a Python error in the handler. It
     # now reads what changed before it changes anything.
-    scene = harness.empty_scene(6)
-    coll = bpy.data.collections.new("Colliders")
-    scene.collection.children.link(coll)
-    meadows = []
-    for size in ((2.0, 1.5), (1.5, 1.0)):
-        harness.select_objects([])
-        assert bpy.ops.tussock.add_meadow(size=size, blades_per_tile=16, patch_blades=256,
-                                          chunk_blades=16) == {"FINISHED"}
-        meadows.append(bpy.context.active_object)
-        meadows[-1].tussock_meadow.colliders = coll
-        meadows[-1].tussock_meadow.use_simulation = True
-    kept, deleted = meadows
+    scene, (kept, deleted) = simulated_meadows((2.0, 1.5), (1.5, 1.0))
     kept.name, deleted.name = "Kept", "Deleted"
     for f in (1, 2, 3):
         scene.frame_set(f)
@@ -234,8 +240,6 @@ def test_an_update_that_removes_objects_and_lists_a_rename_raises_nothing():
             blades = sorted(o.name for o in bpy.data.objects if "tussock_meadow_name" in o
                             and o.name.startswith("Kept"))
             assert blades and all(n.startswith(f"Kept {round_} blades") for n in blades), blades
-            if dup is None:
-                break
             deleted = dup
             scene.frame_set(round_ + 4)
     finally:
@@ -250,17 +254,7 @@ def test_a_meadow_renamed_to_a_long_name_makes_its_objects_once():
     # Blender cut "<name> blades 2" to its 63-byte limit, so the chunk was never found by
     # the name it was made with and was made again. Names made from a meadow's name now
     # cut the meadow's part, not the suffix.
-    scene = harness.empty_scene(6)
-    coll = bpy.data.collections.new("Colliders")
-    scene.collection.children.link(coll)
-    meadows = []
-    for size in ((3.8, 0.9), (2.4, 0.6)):
-        harness.select_objects([])
-        assert bpy.ops.tussock.add_meadow(size=size, blades_per_tile=16, patch_blades=256,
-                                          chunk_blades=16) == {"FINISHED"}
-        meadows.append(bpy.context.active_object)
-        meadows[-1].tussock_meadow.colliders = coll
-        meadows[-1].tussock_meadow.use_simulation = True
+    scene, meadows = simulated_meadows((3.8, 0.9), (2.4, 0.6))
     long = "a" * 60 + " 2"
     meadows[1].name = long
     assert meadows[1].name == long

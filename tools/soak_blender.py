@@ -38,7 +38,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "blender_tests"))
 sys.path.insert(0, os.path.join(REPO, "tools"))
 import harness  # noqa: E402
-from memory_probe import trim  # noqa: E402
+from memory_probe import rss_bytes, trim  # noqa: E402
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
@@ -909,7 +909,7 @@ MEMORY_SLACK_MB = {False: 400.0, True: 800.0}
 FRESH = """
 import addon_utils, bpy, sys
 sys.path.insert(0, sys.argv[-2])
-from memory_probe import trim
+from memory_probe import rss_bytes, trim
 addon_utils.enable("tussock", default_set=True)
 bpy.ops.wm.open_mainfile(filepath=sys.argv[-1])
 s = bpy.context.scene
@@ -928,8 +928,7 @@ for e in engines:  # what the soaking Blender's renders keep (an engine's shader
     except (RuntimeError, AttributeError, TypeError):
         pass
 trim()
-with open("/proc/self/statm") as f:
-    print("FRESH-RSS-PAGES", f.read().split()[1])
+print("FRESH-RSS-BYTES", rss_bytes())
 """
 
 
@@ -944,11 +943,11 @@ def fresh_rss_mb(path):
            os.path.join(REPO, "tools"), path]
     proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                           errors="replace", timeout=600)
-    m = re.search(r"FRESH-RSS-PAGES (\d+)", proc.stdout)
+    m = re.search(r"FRESH-RSS-BYTES (\d+)", proc.stdout)
     if not m:  # (its exit status alone says little: a refused render sets Blender's to 1)
         raise Broken("tester-error", f"the fresh Blender could not open {path}: "
                                      f"{proc.stdout[-2000:]}")
-    return int(m.group(1)) * os.sysconf("SC_PAGE_SIZE") / 2 ** 20
+    return int(m.group(1)) / 2 ** 20
 
 
 @step(0)
@@ -1109,8 +1108,7 @@ def check_finite():
 
 
 def rss_mb():
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2 ** 20
+    return rss_bytes() / 2 ** 20
 
 
 def check_memory(limit):
