@@ -317,6 +317,38 @@ def test_a_deleted_blade_model_rebuilds_the_meadows_growing_it_at_once():
 
 
 @test
+def test_a_blade_model_joined_into_a_meadow_rebuilds_the_meadows_growing_it_at_once():
+    # soak seed 720005 in Blender 5.2, 77 steps of which these matter: captured blades and
+    # meadows growing them; Join (Ctrl+J) of another meadow, active, with one of the captured
+    # blades; then Add Tree, which cancelled (a fluid wind too fast for its grid), but every
+    # meadow growing the captured blades took a new patch key inside it. The update after
+    # Join turned the joined meadow into a plain mesh and returned before it looked for
+    # meadows whose models had changed: Join had removed one.
+    from tussock.meadow import build
+    scene, models, meadow = meadow_of_captured_blades()
+    built = meadow["tussock_patch_key"]
+    harness.select_objects([])
+    assert bpy.ops.tussock.add_meadow(size=(0.6, 0.6), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    other = bpy.context.active_object
+    joined_model = models[-1]
+    harness.select_objects([other, joined_model])
+    bpy.context.view_layer.objects.active = other
+    assert bpy.ops.object.join() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    assert len(bpy.data.collections["Tussock Blades"].objects) == len(models) - 1
+    assert not other.tussock_meadow.is_meadow
+    s = meadow.tussock_meadow
+    assert meadow["tussock_patch_key"] != built  # rebuilt for the models left
+    assert meadow["tussock_patch_key"] == build.patch_key(s) and s.last_error == ""
+    w = scene.tussock_wind
+    w.use_fluid = True
+    w.keyframe_insert("fluid_speed", frame=1)
+    harness.select_objects([])
+    expect_cancel(bpy.ops.tussock.add_tree, "keyframed", preset="quaking_aspen")
+
+
+@test
 def test_a_blades_chunk_in_edit_mode_is_left_alone_and_rebuilt_after_it():
     # soak seed 536053 in Blender 4.3 (the CI run of 7cde0d4), shrunk to 3 steps: a
     # simulated meadow; Tab into Edit Mode on its first blades chunk; a frame change. The

@@ -111,10 +111,12 @@ SYNC_EVERY = 0.5  # seconds between looks for meadows gone without an update (se
 def _sync_later():
     """Delete in a window frees the object after the last depsgraph update it causes, and a
     script may remove one with none at all: this look, twice a second, finds such a meadow
-    gone and frees what it owned (it costs a count of the file's objects while none is made
-    or removed)."""
-    if native.available() and not playback.suspended and not _release_joined():
-        sync()
+    gone and frees what it owned, and rebuilds the meadows whose blade models were removed
+    (it costs a count of the file's objects while none is made or removed)."""
+    if native.available() and not playback.suspended:
+        joined = _release_joined()
+        if sync() or joined:
+            build.rebuild_stale()  # a blade model among the objects removed
     return SYNC_EVERY
 
 
@@ -133,9 +135,11 @@ def _on_depsgraph_update(scene, depsgraph=None):
     changed = [] if depsgraph is None or stale else [
         (u.id.original if hasattr(u.id, "original") else u.id, u.is_updated_geometry)
         for u in depsgraph.updates]  # the data-blocks changed: a handful
-    if _release_joined():
-        return
-    made_or_removed = sync()
+    # Join removes the objects it joined, and one may be a blade model of another meadow:
+    # the look for changed models follows (soak seed 720005: that meadow was left stale,
+    # then rebuilt inside a cancelled Add Tree)
+    joined = _release_joined()
+    made_or_removed = sync() or joined
     if changed:
         edited = build.models_edited(changed)
         blade_objects.follow_renames(changed)
