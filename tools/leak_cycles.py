@@ -3,8 +3,9 @@ tree the way an artist does (the operator), plays two frames, deletes it with th
 Meadow made (the Delete operator; Tussock tidies what the meadow owned), and purges orphan
 data as saving and reopening the file would. After cycle 100 and after the last it prints
 the process's resident memory (VmRSS, after the C allocator gave its free pages back:
-tools/memory_probe.py), the bytes that allocator has in use, Tussock's native bytes in use
-and the counts of objects, meshes and collections; a leak shows as growth between the two.
+tools/memory_probe.py), the bytes that allocator has in use, Tussock's native bytes in use,
+the blocks Python has allocated and the length of every bpy.data collection; a leak shows
+as growth between the two.
 
     blender -b --factory-startup --python tools/leak_cycles.py -- KIND [CYCLES]
     KIND: meadow (a simulated 3 m meadow with a ball in its grass) | tree (a leafy aspen) |
@@ -29,7 +30,14 @@ from memory_probe import ALLOCATOR, heap_in_use, rss_bytes, trim  # noqa: E402
 
 
 def counts():
-    return len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections)
+    """The length of every bpy.data collection (objects, meshes, materials, node groups,
+    images, actions, ...): a data-block a cycle leaves behind shows in one of them."""
+    return {name: len(c) for name in dir(bpy.data)
+            if isinstance(c := getattr(bpy.data, name, None), bpy.types.bpy_prop_collection)}
+
+
+def differing(a, b):
+    return {name: (a[name], b.get(name)) for name in a if a[name] != b.get(name)}
 
 
 def setup(kind):
@@ -169,10 +177,13 @@ def main():
         if i in (100, total) or i % 250 == 0:
             gc.collect()
             trim()
-            marks[i] = (rss_bytes(), lib.allocated_bytes(), counts(), heap_in_use())
+            marks[i] = (rss_bytes(), lib.allocated_bytes(), counts(), heap_in_use(),
+                        sys.getallocatedblocks())
+            c = marks[i][2]
             print(f"cycle {i}: resident {marks[i][0] / 2**20:.1f} MiB, {ALLOCATOR} heap in use "
-                  f"{mib(marks[i][3])}, native {marks[i][1] / 2**20:.2f} MiB, "
-                  f"objects/meshes/collections {marks[i][2]}, {time.monotonic() - t0:.0f} s",
+                  f"{mib(marks[i][3])}, native {marks[i][1] / 2**20:.2f} MiB, Python blocks "
+                  f"{marks[i][4]}, objects/meshes/collections "
+                  f"{(c['objects'], c['meshes'], c['collections'])}, {time.monotonic() - t0:.0f} s",
                   flush=True)
     r100, rn = marks[100][0], marks[total][0]
     print(f"LEAKS kind={kind} cycles={total} blender={bpy.app.version_string} "
@@ -180,8 +191,10 @@ def main():
           f"growth={(rn - r100) / r100 * 100:+.2f}% allocator={ALLOCATOR} "
           f"heap100={mib(marks[100][3])} heap{total}={mib(marks[total][3])} "
           f"native100={marks[100][1]} "
-          f"native{total}={marks[total][1]} counts100={marks[100][2]} "
-          f"counts{total}={marks[total][2]} secs={time.monotonic() - t0:.0f}", flush=True)
+          f"native{total}={marks[total][1]} pyblocks100={marks[100][4]} "
+          f"pyblocks{total}={marks[total][4]} "
+          f"counts_changed={differing(marks[100][2], marks[total][2]) or 'none'} "
+          f"secs={time.monotonic() - t0:.0f}", flush=True)
     # issue 42's bound: within 5 % of the resident memory after 100 cycles; and what Tussock
     # itself holds (native bytes, data-blocks) exactly as it was
     bad = []
@@ -190,7 +203,7 @@ def main():
     if marks[total][1] != marks[100][1]:
         bad.append(f"native bytes in use {marks[100][1]} -> {marks[total][1]}")
     if marks[total][2] != marks[100][2]:
-        bad.append(f"objects/meshes/collections {marks[100][2]} -> {marks[total][2]}")
+        bad.append(f"data-blocks (cycle 100, last) {differing(marks[100][2], marks[total][2])}")
     for b in bad:
         print(f"{'CONTROL' if kind == 'objects' else 'LEAK'}: {kind}: {b}", flush=True)
     return 1 if bad and kind != "objects" else 0
