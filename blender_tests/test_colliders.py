@@ -4,8 +4,8 @@ go, and nowhere else. Checked against the character's evaluated mesh, not agains
 shapes: the blades that moved lie near the surface its legs swept (at quarter frames), blades
 far from its path never move, and no blade knot is inside the mesh after any frame. The one
 bounds capsule Tussock fitted before fails the first check. A tumbling rigid-body box gets
-spheres over its surface and no knot off the ground gets inside it (a knot held at the ground
-under it is as deep inside as Bullet sank the box into the ground, no deeper). No blade
+spheres over its surface and no knot gets inside it by more than the margin (its contact set
+for a close shot, so that Bullet keeps it on the ground). No blade
 crosses a cloth-like sheet (a baked, deforming open mesh) that drops onto the grass. A bake of
 the walk split over two processes has the bytes of a single bake."""
 
@@ -235,6 +235,7 @@ def test_a_tumbling_rigid_body_box_gets_spheres_and_knots_stay_near_its_surface(
     scene = harness.empty_scene(FRAMES)
     scene.tussock_wind.base_speed = 0.0
     bpy.ops.mesh.primitive_plane_add(size=3.0)
+    ground = bpy.context.active_object
     bpy.ops.rigidbody.object_add(type="PASSIVE")
     assert bpy.ops.tussock.add_meadow(tile_size=0.25, blades_per_tile=96, density="UNIFORM",
                                       display=1.0) == {"FINISHED"}
@@ -244,6 +245,14 @@ def test_a_tumbling_rigid_body_box_gets_spheres_and_knots_stay_near_its_surface(
     box = bpy.context.active_object
     bpy.ops.rigidbody.object_add(type="ACTIVE")
     box.rigid_body.collision_shape = "BOX"
+    # Contact set up as for a close shot (Rigid Body > Collisions > Margin 1 mm, the world's
+    # Substeps 30 and Iterations 20): with Blender's defaults (4 cm margins, 10 and 10)
+    # Bullet sinks the box 17-23 mm into the ground, and a blade root under it, held at the
+    # ground, is then inside it by as much; with these it stays on the ground
+    for body in (ground, box):
+        body.rigid_body.use_margin, body.rigid_body.collision_margin = True, 0.001
+    scene.rigidbody_world.substeps_per_frame = 30
+    scene.rigidbody_world.solver_iterations = 20
     scene.gravity = (6.0, 0.0, -9.81)  # a slope's pull: Bullet tumbles the box along +x
     coll = bpy.data.collections.new("Colliders")
     scene.collection.children.link(coll)
@@ -254,19 +263,16 @@ def test_a_tumbling_rigid_body_box_gets_spheres_and_knots_stay_near_its_surface(
     for f in range(1, FRAMES + 1):
         scene.frame_set(f)
         start = start if start is not None else box.matrix_world.translation.copy()
+        sunk = max(sunk, -min(0.0, float(evaluated_world(box)[0][:, 2].min())))
         knots, depth = inside_depths(meadow, box)
         if not len(depth):
             continue
-        # Bullet lets the box sink into the ground plane (up to 23 mm here); a knot under it
-        # there is held at the ground, inside the box: the ground and the box overlap. Such
-        # a knot lies no deeper than the box sank; every other knot keeps to the margin.
-        below = -min(0.0, float(evaluated_world(box)[0][:, 2].min()))
-        sunk = max(sunk, below)
         deepest = max(deepest, float(depth.max()))
-        assert depth.max() <= MARGIN + below + 1e-4, (f, depth.max(), below)
+        assert depth.max() <= MARGIN + 1e-4, (f, depth.max(), sunk)
         off = knots[:, 2] > 1e-3  # (the ground is z = 0)
         if off.any():
             deepest_off_ground = max(deepest_off_ground, float(depth[off].max()))
+    assert sunk <= 1e-3, sunk  # (the premise: Bullet kept the box on the ground)
     shape, rows = colliders.shown(box)
     assert shape == "SPHERES" and 8 <= len(rows) <= 32, (shape, len(rows))
     travelled = (box.matrix_world.translation - start).length
