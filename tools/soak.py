@@ -331,9 +331,10 @@ def main(argv=None):
         path = os.path.join(work, "steps.json")
         with open(path, "w") as f:
             json.dump(steps, f)
+        # (with the run's --debug-memory: the guarded allocator changes what memory holds)
         return run_blender(args, common + ["--replay", path, "--workdir", work],
                            os.path.join(work, "journal.jsonl"), 600 + 120 * len(steps),
-                           replay_timeout[0], window, gdb)
+                           replay_timeout[0], window, gdb, args.debug_memory)
 
     t0 = time.monotonic()
     total = failures = 0

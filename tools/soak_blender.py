@@ -941,6 +941,8 @@ def fresh_rss_mb(path):
     cmd = [bpy.app.binary_path, "-b", "--factory-startup", "-noaudio", "--python-exit-code",
            "1", "--python-expr", FRESH, "--", ",".join(sorted(RENDERED)),
            os.path.join(REPO, "tools"), path]
+    if "--debug-memory" in sys.argv:  # the same allocator as this Blender's
+        cmd.insert(1, "--debug-memory")
     proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                           errors="replace", timeout=600)
     m = re.search(r"FRESH-RSS-BYTES (\d+)", proc.stdout)
