@@ -23,8 +23,10 @@ PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ cla
 # The native library is built inside each root against that root's OpenCV, OpenNI2 and
 # OpenSubdiv (their sonames differ between releases).
 ROOTS="${TSK_ROOTS:-/var/cache/tussock/roots}"
+# (libjemalloc2: the soak replays a memory failure of Blender 5's TBB allocator with it,
+# which counts the bytes it has handed out; tools/soak.py)
 ROOT_PACKAGES=(blender python3-numpy python3-dev cmake ninja-build pkg-config g++ clang
-               libopencv-dev libopenni2-dev libosd-dev xvfb xauth libgl1-mesa-dri)
+               libopencv-dev libopenni2-dev libosd-dev xvfb xauth libgl1-mesa-dri libjemalloc2)
 suite_of() { # blender major -> Debian suite ("" for the machine's own)
   case "$1" in
     3) echo "" ;;

@@ -38,7 +38,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "blender_tests"))
 sys.path.insert(0, os.path.join(REPO, "tools"))
 import harness  # noqa: E402
-from memory_probe import rss_bytes, trim  # noqa: E402
+from memory_probe import heap_in_use, rss_bytes, trim  # noqa: E402
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
@@ -909,7 +909,7 @@ MEMORY_SLACK_MB = {False: 400.0, True: 800.0}
 FRESH = """
 import addon_utils, bpy, sys
 sys.path.insert(0, sys.argv[-2])
-from memory_probe import rss_bytes, trim
+from memory_probe import heap_in_use, rss_bytes, trim
 addon_utils.enable("tussock", default_set=True)
 bpy.ops.wm.open_mainfile(filepath=sys.argv[-1])
 s = bpy.context.scene
@@ -928,12 +928,13 @@ for e in engines:  # what the soaking Blender's renders keep (an engine's shader
     except (RuntimeError, AttributeError, TypeError):
         pass
 trim()
-print("FRESH-RSS-BYTES", rss_bytes())
+print("FRESH-RSS-BYTES", rss_bytes(), heap_in_use() or 0)
 """
 
 
 def fresh_rss_mb(path):
-    """Resident memory of a fresh background Blender (this binary, the add-on enabled) that
+    """Resident memory and the C allocator's bytes in use (0 where it keeps no count), in MB,
+    of a fresh background Blender (this binary, the add-on enabled) that
     opens `path`, plays its current frame and renders it with each engine this session has
     rendered with (a render's shaders and buffers stay for the session: soak seed 720004,
     an EEVEE render in 4.3, kept 540 MB that opening a file does not give back)."""
@@ -945,11 +946,11 @@ def fresh_rss_mb(path):
         cmd.insert(1, "--debug-memory")
     proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                           errors="replace", timeout=600)
-    m = re.search(r"FRESH-RSS-BYTES (\d+)", proc.stdout)
+    m = re.search(r"FRESH-RSS-BYTES (\d+) (\d+)", proc.stdout)
     if not m:  # (its exit status alone says little: a refused render sets Blender's to 1)
         raise Broken("tester-error", f"the fresh Blender could not open {path}: "
                                      f"{proc.stdout[-2000:]}")
-    return int(m.group(1)) / 2 ** 20
+    return int(m.group(1)) / 2 ** 20, int(m.group(2)) / 2 ** 20
 
 
 @step(0)
@@ -980,11 +981,13 @@ class memory:
             yield 0.5  # the viewport draws the opened scene (its batches count)
         scene().frame_set(scene().frame_current)
         trim()
-        here = rss_mb()
-        fresh = fresh_rss_mb(path)
+        here, heap = rss_mb(), (heap_in_use() or 0) / 2 ** 20
+        fresh, fresh_heap = fresh_rss_mb(path)
         bound = MEMORY_FACTOR[CTX.window] * fresh + MEMORY_SLACK_MB[CTX.window]
         say = (f"{before:.0f} MB before, {here:.0f} MB with the file opened again, a fresh "
                f"Blender {fresh:.0f} MB, so at most {bound:.0f} MB")
+        if heap and fresh_heap:  # (what the allocator has handed out, against what it holds)
+            say += f"; allocated {heap:.0f} MB here, {fresh_heap:.0f} MB in the fresh Blender"
         if here > bound:
             raise Broken("memory", f"more memory than the scene explains: {say}")
         stock(bpy.ops.wm.read_homefile, use_empty=False)
