@@ -918,6 +918,11 @@ engines = [e for e in sys.argv[-3].split(",") if e]
 if engines and s.camera is None:
     s.camera = bpy.data.objects.new("memory camera", bpy.data.cameras.new("memory camera"))
     s.collection.objects.link(s.camera)
+# the engines render the scene itself: with compositing on, a file whose compositor has no
+# Render Layers node (an animated picture's) renders the compositor alone, and the engine's
+# shaders and buffers that the soaking Blender keeps from a render before would be missing
+# (CI's soak in 4.3, seed 632996: an EEVEE render, then Animate Picture)
+s.render.use_compositing = s.render.use_sequencer = False
 for e in engines:  # what the soaking Blender's renders keep (an engine's shaders, buffers)
     try:  # (a setting or an engine this Blender lacks: the render is left out)
         s.render.engine = e
