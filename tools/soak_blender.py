@@ -937,7 +937,7 @@ print("FRESH-RSS-BYTES", rss_bytes(), heap_in_use() or 0)
 """
 
 
-def fresh_rss_mb(path):
+def fresh_memory_mb(path):
     """Resident memory and the C allocator's bytes in use (0 where it keeps no count), in MB,
     of a fresh background Blender (this binary, the add-on enabled) that
     opens `path`, plays its current frame and renders it with each engine this session has
@@ -987,7 +987,7 @@ class memory:
         scene().frame_set(scene().frame_current)
         trim()
         here, heap = rss_mb(), (heap_in_use() or 0) / 2 ** 20
-        fresh, fresh_heap = fresh_rss_mb(path)
+        fresh, fresh_heap = fresh_memory_mb(path)
         bound = MEMORY_FACTOR[CTX.window] * fresh + MEMORY_SLACK_MB[CTX.window]
         say = (f"{before:.0f} MB before, {here:.0f} MB with the file opened again, a fresh "
                f"Blender {fresh:.0f} MB, so at most {bound:.0f} MB")

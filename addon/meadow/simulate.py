@@ -113,10 +113,9 @@ def _sync_later():
     script may remove one with none at all: this look, twice a second, finds such a meadow
     gone and frees what it owned, and rebuilds the meadows whose blade models were removed
     (it costs a count of the file's objects while none is made or removed)."""
-    if native.available() and not playback.suspended:
-        joined = _release_joined()
-        if sync() or joined:
-            build.rebuild_stale()  # a blade model among the objects removed
+    # (_release_joined syncs itself when it releases a meadow)
+    if native.available() and not playback.suspended and (_release_joined() or sync()):
+        build.rebuild_stale()  # a blade model among the objects removed
     return SYNC_EVERY
 
 
@@ -138,8 +137,7 @@ def _on_depsgraph_update(scene, depsgraph=None):
     # Join removes the objects it joined, and one may be a blade model of another meadow:
     # the look for changed models follows (soak seed 720005: that meadow was left stale,
     # then rebuilt inside a cancelled Add Tree)
-    joined = _release_joined()
-    made_or_removed = sync() or joined
+    made_or_removed = _release_joined() or sync()
     if changed:
         edited = build.models_edited(changed)
         blade_objects.follow_renames(changed)
