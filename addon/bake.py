@@ -101,9 +101,12 @@ def forget_outputs(scene, root):
 
 
 def prune_record(scene, root):
-    """After a failed bake: the folders it made but wrote nothing into are removed, and the
-    record keeps only the paths that hold something. Best effort: the bake's own failure is
-    what the artist must read, not a second one from a read-only or full disk."""
+    """After a bake ended (failed, cancelled or finished): the folders it made but wrote
+    nothing into are removed, and the record keeps only the paths that hold something. A
+    bake removes files of earlier ones too (a tree's stale frames and .pc2 when its inputs
+    changed, a job whose object was deleted meanwhile), so the record is made true again
+    each time, whoever removed them. Best effort: a failed bake's own error is what the
+    artist must read, not a second one from a read-only or full disk."""
     try:
         data = _read_record(root)
         for p in data.get(scene.name, []):
@@ -209,6 +212,7 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
                 remove_outputs(job.outputs())
                 continue
             done += job.assemble()
+        prune_record(context.scene, cache.cache_root())
         if self.save:
             bpy.ops.wm.save_mainfile()
         frames = sum(len(j.frames(self._part(context.scene))) for j in jobs)
@@ -283,6 +287,7 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
     def modal(self, context, event):
         if event.type == "ESC" and event.value == "PRESS":
             self._end(context)
+            prune_record(context.scene, cache.cache_root())
             self.report({"INFO"}, f"Bake cancelled after {self._frames} frames "
                                   "(they are kept; bake again to resume)")
             return {"CANCELLED"}

@@ -17,6 +17,9 @@ An interactive bake of a tree and a simulated meadow that a keyframed ball cross
   cache modifier.
 - The tree renamed and the meadow deleted while it bakes: the bake ends without an error,
   the renamed tree plays its cache, the deleted meadow's frames are removed.
+- The record of what bakes wrote (tussock_written.json, Free Bake's list) names only files
+  on disk: after the deleted meadow's frames went, and after a bake of the tree with new
+  wind is cancelled before it assembled its .pc2.
 - Free Bake then leaves no file in the cache folder."""
 
 import os
@@ -69,6 +72,15 @@ def cache_files():
     for dirpath, _, files in os.walk(root):
         out += [os.path.relpath(os.path.join(dirpath, f), root) for f in files]
     return sorted(out)
+
+
+def record_missing():
+    """What tussock_written.json lists that is not on disk (Free Bake's list of the files to
+    remove must be true; soak seed 71302 found it listing removed ones)."""
+    from tussock import bake
+    root = os.path.join(TMP, "tussock_cache")
+    listed = bake.recorded_outputs(bpy.context.scene, root)
+    return sorted(os.path.relpath(p, root) for p in listed if not os.path.exists(p))
 
 
 def cancel_with_esc(what):
@@ -212,6 +224,19 @@ def scenario():
            str(tree and tree.modifiers.keys()))
     left = [f for f in cache_files() if f.startswith(cache.safe_name(meadow_name))]
     expect("the deleted meadow's frames were removed", not left, str(left[:5]))
+    expect("and are not listed as written any more", not record_missing(),
+           str(record_missing()))
+
+    # 3b. the tree's wind changed, and its new bake cancelled after it wrote some frames:
+    # the record, made before anything is written, listed the .pc2 it never assembled
+    tree.tussock_tree.wind_strength *= 0.5
+    expect("bake runs modal a fourth time", start_bake() == {"RUNNING_MODAL"})
+    ok = yield from wait_until(lambda: baking() and STATE["done"] >= 2, 60, 0.02)
+    expect("the fourth bake writes frames", ok, str(STATE))
+    yield from cancel_with_esc("Esc cancels the fourth bake")
+    expect("the record lists only what the cancelled bake left on disk",
+           not record_missing() and any(f.endswith(".tskf") for f in cache_files()),
+           f"{record_missing()} {cache_files()[-3:]}")
 
     # 4. Free Bake leaves no file of Tussock's behind
     with override():

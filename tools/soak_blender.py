@@ -795,6 +795,11 @@ class bake_cancel:
         return dict(after=rnd_float(rng, 0.05, 2.0)) if bpy.data.filepath else None
 
     def run(a):
+        if not CTX.window:
+            # a window's sequence replayed in background (to be shrunk there): no modal
+            # operator runs without a window, and where Esc would land is the window's
+            # timing; a cancelled bake leaves only frames a later bake resumes from
+            raise Skip("a cancelled bake needs a window")
         with CTX():
             try:
                 r = bpy.ops.tussock.bake("INVOKE_DEFAULT")
@@ -815,6 +820,13 @@ class capture_cancel:
     def run(a):
         s = scene().tussock_capture
         s.source, s.filepath, s.frames = "FILES", DEPTH.replace("{:04d}", "####"), a["frames"]
+        if not CTX.window:
+            # replayed in background: the capture runs to its end, as it does in the window
+            # whenever it reads its frames before Esc arrives
+            return tussock("capture_blades", source=s.source, filepath=s.filepath,
+                           frames=s.frames, near=0.0 if s.auto_band else s.near,
+                           far=0.0 if s.auto_band else s.far, min_area=s.min_area,
+                           frame=s.frame)
         with CTX():
             r = bpy.ops.tussock.capture_blades("INVOKE_DEFAULT")
         if r == {"RUNNING_MODAL"}:
