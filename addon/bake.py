@@ -28,20 +28,16 @@ from .meadow import baking as meadow_baking
 from .picture import baking as picture_baking
 from .trees import baking as tree_baking
 from .ui import SubPanel
+from .wind import runtime as wind_runtime
 
 SOURCES = (tree_baking, meadow_baking, picture_baking)  # job sources (see addon/cache.py)
 
 
-def jobs_for(scene, prepare=True):
-    """The scene's bake jobs, of every source. With prepare=False the caller runs each
-    job's prepare() (in slices, with progress), else it is run here."""
+def jobs_for(scene):
+    """The scene's bake jobs, of every source, not yet prepared (the caller runs each
+    job's prepare(): at once, or in slices with progress)."""
     root = cache.cache_root()
-    jobs = [job for source in SOURCES for job in source.jobs(scene, root)]
-    if prepare:
-        for job in jobs:
-            for _ in job.prepare():
-                pass
-    return jobs
+    return [job for source in SOURCES for job in source.jobs(scene, root)]
 
 
 def cache_key(obj, scene):
@@ -190,10 +186,18 @@ class TUSSOCK_OT_bake(bpy.types.Operator):
         if part[1] < scene.frame_start or part[0] > scene.frame_end:
             raise ValueError(f"frames {part[0]}-{part[1]} hold no frame of the scene's range "
                              f"{scene.frame_start}-{scene.frame_end}")
-        jobs = jobs_for(scene, prepare)
+        jobs = jobs_for(scene)
         if not jobs:
             raise ValueError("nothing to bake: add a Tussock tree or a simulated meadow, or "
                              "animate a picture first")
+        # every job steps the wind, and meadows play the range's frames before their wind
+        # is made: wind settings it cannot step must cancel the bake before that (soak seed
+        # 889006: an unstable continuum)
+        wind_runtime.check_settings(scene)
+        if prepare:
+            for job in jobs:
+                for _ in job.prepare():
+                    pass
         os.makedirs(cache.cache_root(), exist_ok=True)
         return jobs, part
 

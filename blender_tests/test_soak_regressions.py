@@ -447,6 +447,43 @@ def test_a_bake_with_a_tree_it_cannot_grow_cancels_before_it_plays_a_frame():
 
 
 @test
+def test_a_bake_in_a_wind_it_cannot_step_cancels_before_it_plays_a_frame():
+    # soak seed 889006 in Blender 4.3, in a window: the wave continuum's speed set far above
+    # what its grid can step (the panel says so), a simulated meadow and a tree; bake. The
+    # bake played every frame to read the meadow's colliders, then made the wind and
+    # failed: cancelled, with the meadow's blades written by those frames. The wind is now
+    # made once when the bake starts, before a frame is played.
+    scene, folder = saved_scene("unstable_wind")
+    assert bpy.ops.tussock.add_meadow(size=(1.2, 1.6), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    coll = bpy.data.collections.new("Colliders")
+    scene.collection.children.link(coll)
+    meadow.tussock_meadow.colliders, meadow.tussock_meadow.use_simulation = coll, True
+    assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=False) == {"FINISHED"}
+    tree = bpy.context.active_object
+    w = scene.tussock_wind
+    w.use_fluid, w.use_continuum, w.continuum_c = True, True, 1e4
+    chunks = [o for o in bpy.data.objects if " blades" in o.name]
+    assert chunks and all(len(o.data.vertices) == 0 for o in chunks)  # no frame played yet
+    played = []
+
+    def count(scene_, *_args):
+        played.append(scene_.frame_current)
+    bpy.app.handlers.frame_change_pre.append(count)
+    try:
+        expect_cancel(bpy.ops.tussock.bake, "unstable (CFL)")
+    finally:
+        bpy.app.handlers.frame_change_pre.remove(count)
+    assert played == [], played
+    assert all(len(o.data.vertices) == 0 for o in chunks)
+    assert record_and_disk(folder) == (set(), set())
+    w.continuum_c = 0.5  # a speed its grid steps: the same bake now finishes
+    assert bpy.ops.tussock.bake() == {"FINISHED"}
+    assert tree.modifiers.get("Tussock Cache") is not None
+
+
+@test
 def test_models_changed_while_the_addon_was_off_rebuild_the_meadow_when_it_is_on_again():
     # soak seed 72045 in Blender 5.2 (111 steps): captured blades and a meadow growing them;
     # the add-on disabled, a model deleted, the add-on enabled; then Add Tree, which

@@ -183,6 +183,14 @@ def wind_kwargs(scene, frame=None):
     return kw
 
 
+def check_settings(scene):
+    """Raises the native wind's own error for the scene's wind settings (an unstable fluid
+    or continuum, a grid too large) without stepping it: a bake asks before it plays any
+    frame, since the frames it plays change what a simulated meadow shows."""
+    lib = native.require()
+    lib.wind_destroy(lib.wind_create(**wind_kwargs(scene)))
+
+
 def frame_settings(scene, frames):
     """{frame: sines keyword arguments} for `frames`, read now on the main thread (F-curves
     need bpy), for a bake worker's Stepper. Refuses what a bake cannot read per frame."""
