@@ -718,7 +718,7 @@ run_artist_checks() { # suite...
         "$w/$suite-apt/work" "$ROOT/samples" "$oni" >"$w/$suite-apt.log" 2>&1 || rc=$?
     fi
     # trixie's and sid's OpenCV (4.10) is not the zip's (Debian 12's 4.6): the picture's
-    # inpainted background is compared by its size only (tools/artist_compare.py)
+    # inpainted background is compared within a bound (tools/artist_compare.py)
     if [ "$rc" -eq 0 ] && "$PY" "$ROOT/tools/artist_compare.py" --opencv-differs \
         "$w/$suite-portable/out.json" "$w/$suite-apt/out.json" >"$w/$suite-compare.txt" 2>&1; then
       printf '%-8s %-28s 1 passed, 0 failed\n' artist "linux_x64 zip in $suite"

@@ -1,7 +1,7 @@
 """tools/artist_compare.py, which decides whether the portable zip on an artist's machine
 computed what the apt build computed: every difference that matters fails it, and only an
 EXR written in other bytes with equal pixels, or (with --opencv-differs) the picture's
-inpainted background, passes. Run by ./build.sh test, or alone:
+inpainted background within its bound, passes. Run by ./build.sh test, or alone:
 /usr/bin/python3 tests/test_artist_compare.py [NAME...]"""
 
 import copy
@@ -64,14 +64,42 @@ def test_a_cache_with_other_bytes_fails_unless_its_pixels_are_equal():
     assert len(artist_compare.compare(repainted, RESULT, opencv_differs=True)) == 2
 
 
-def test_only_the_inpainted_background_may_differ_with_another_opencv():
-    bg = changed(("caches", BG), "zz")
-    bg["caches"][BG + ".tski"] = "zz"
-    bg["images"][BG]["pixels_sha256"] = "zz"
-    assert len(artist_compare.compare(bg, RESULT)) == 2
-    assert artist_compare.compare(bg, RESULT, opencv_differs=True) == []
-    bg["images"][BG]["size"] = [480, 271]
-    assert len(artist_compare.compare(bg, RESULT, opencv_differs=True)) == 2
+def test_only_the_inpainted_background_may_differ_with_another_opencv_and_within_its_bound():
+    import tempfile
+    import numpy as np
+    rng = np.random.default_rng(7)
+    ref = rng.random(480 * 270 * 4, dtype=np.float32)
+    bound = artist_compare.BACKGROUND_BOUND
+    with tempfile.TemporaryDirectory() as d:
+        def run(pixels, size=(480, 270), opencv_differs=True):
+            os.makedirs(os.path.join(d, "a"), exist_ok=True)
+            os.makedirs(os.path.join(d, "b"), exist_ok=True)
+            ref.tofile(os.path.join(d, "b", "bg.f32"))
+            bg = changed(("caches", BG), "zz")
+            bg["caches"][BG + ".tski"] = "zz"
+            bg["images"][BG].update(pixels_sha256="zz", size=list(size))
+            if pixels is not None:
+                pixels.astype(np.float32).tofile(os.path.join(d, "a", "bg.f32"))
+                bg["images"][BG]["pixels_file"] = "bg.f32"
+            apt = copy.deepcopy(RESULT)
+            apt["images"][BG]["pixels_file"] = "bg.f32"
+            bg["_dir"], apt["_dir"] = os.path.join(d, "a"), os.path.join(d, "b")
+            notes = []
+            bad = artist_compare.compare(bg, apt, opencv_differs=opencv_differs, notes=notes)
+            return bad, notes
+        near = ref.copy()
+        near[100:4000:4] += 0.9 * bound
+        assert len(run(near, opencv_differs=False)[0]) == 2
+        bad, notes = run(near)
+        assert bad == [] and len(notes) == 2 and "by at most" in notes[0], (bad, notes)
+        far = ref.copy()
+        far[4003] += 1.1 * bound  # one pixel's alpha beyond the bound
+        assert len(run(far)[0]) == 2
+        broken = near.copy()
+        broken[8] = np.nan
+        assert len(run(broken)[0]) == 2
+        assert len(run(None)[0]) == 2  # no pixels kept: nothing to measure
+        assert len(run(near, size=(480, 271))[0]) == 2
 
 
 def test_a_run_that_failed_simulated_nothing_or_rendered_nothing_fails():

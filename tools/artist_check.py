@@ -410,6 +410,13 @@ def main(out_json, work, samples, oni):
             px = np.empty(img.size[0] * img.size[1] * img.channels, np.float32)
             img.pixels.foreach_get(px)
             images[rel] = {"pixels_sha256": sha(px), "size": list(img.size)}
+            if rel.endswith("_picture/background.exr"):
+                # cv::inpaint fills it, and OpenCV versions fill differently: its pixels are
+                # kept (float32 RGBA rows) for artist_compare.py to measure by how much
+                name = rel.replace("/", "_") + ".f32"
+                os.makedirs(os.path.dirname(out_json), exist_ok=True)
+                px.tofile(os.path.join(os.path.dirname(out_json), name))
+                images[rel]["pixels_file"] = name
             bpy.data.images.remove(img)
 
     if file_hashes(work, "tussock_cache") != caches:

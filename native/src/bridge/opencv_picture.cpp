@@ -154,19 +154,28 @@ extern "C" tsk_status tsk_cvp_inpaint(float* rgba, int width, int height, const 
         cv::split(img, planes);
         const int flags = method == 1 ? cv::INPAINT_NS : cv::INPAINT_TELEA;
         cv::Mat keep = m == 0;
+        /* OpenCV before 4.10 fills a region that touches the image's top or left edge wrongly
+         * (OpenCV issue 25389), and 4.10 saturates single-pixel holes in its corners (28648):
+         * inpainted inside a frame of one pixel that is itself to be filled, no pixel of the
+         * picture is on an edge. */
+        cv::Mat framed_m;
+        cv::copyMakeBorder(m, framed_m, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(255));
+        const cv::Rect inside(1, 1, width, height);
         for (int c = 0; c < channels && c < 4; ++c) {
-            /* OpenCV's Telea rounds as if samples were integers (it adds terms of order 1),
-             * a large error for values in 0..1: scale each channel up to about 65536 first,
-             * so the error falls to ~1e-5 of its range, and back after. */
+            /* OpenCV's Telea adds terms of order 1 to a sample, as if samples were integers
+             * (before 4.10, 0.5 for rounding), a large error for values in 0..1: each
+             * channel is scaled up to 2^24 first, where such terms fall below a float's
+             * precision, and back after. */
             cv::Mat& plane = planes[(size_t)c];
             double lo = 0, hi = 0;
             cv::minMaxLoc(plane, &lo, &hi);
             const double range = std::max(1.0, std::max(std::fabs(lo), std::fabs(hi)));
-            const double scale = 65536.0 / range;
-            cv::Mat up, filled, back;
+            const double scale = 16777216.0 / range;
+            cv::Mat up, framed, filled, back;
             plane.convertTo(up, CV_32F, scale);
-            cv::inpaint(up, m, filled, (double)radius, flags);
-            filled.convertTo(back, CV_32F, 1.0 / scale);
+            cv::copyMakeBorder(up, framed, 1, 1, 1, 1, cv::BORDER_REPLICATE);
+            cv::inpaint(framed, framed_m, filled, (double)radius, flags);
+            filled(inside).convertTo(back, CV_32F, 1.0 / scale);
             plane.copyTo(back, keep); /* pixels outside the region keep their exact values */
             plane = back;
         }
