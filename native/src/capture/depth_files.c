@@ -1,7 +1,8 @@
-/* Depth image files and numbered sequences: frame discovery for '#' patterns, a header
- * check of PNG and OpenEXR files before any decoding (size limit, 16-bit grey PNG only),
- * decoding through the OpenCV bridge and conversion to metres (PNG: millimetres, 0 = no
- * data; EXR: metres, NaN/inf/negative = no data, counted). */
+/* Depth image files and numbered sequences: opening one, frame discovery for '#' patterns,
+ * a header check of PNG and OpenEXR files before any decoding (size limit, 16-bit grey PNG
+ * only), decoding through the OpenCV bridge and conversion to metres (PNG: millimetres,
+ * 0 = no data; EXR: metres, NaN/inf/negative = no data, counted); and the depth map writers.
+ * Everything of the capture that calls OpenCV's codecs is here. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -175,4 +176,84 @@ tsk_status tsk_files_read(tsk_depth_source* src, int index, float* depth_m, size
     tsk_free(data);
     if (invalid) *invalid = bad;
     return TSK_OK;
+}
+
+/* ---- a source of depth files (depth_source.c dispatches to it) ---------------------- */
+
+tsk_status tsk_depth_open_files(const char* path, tsk_depth_source** out) {
+    if (out == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out", "is NULL");
+    *out = NULL;
+    if (path == NULL || path[0] == '\0') return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
+    const size_t len = strlen(path);
+    if (len > 4000) return tsk_error_arg(TSK_ERR_LIMIT, "path", "longer than 4000 characters");
+    tsk_depth_source* src = tsk_depth_new_source(TSK_DEPTH_FILES);
+    if (src == NULL) return TSK_ERR_MEMORY;
+    src->read_file = tsk_files_read;
+    src->pattern = tsk_alloc(len + 16, "path");
+    if (src->pattern == NULL) {
+        tsk_free(src);
+        return TSK_ERR_MEMORY;
+    }
+    memcpy(src->pattern, path, len + 1);
+    /* the last run of '#' in the file name is the frame number */
+    const char* base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    const char* last = strrchr(base, '#');
+    if (last != NULL) {
+        const char* first = last;
+        while (first > base && first[-1] == '#') --first;
+        src->hash_pos = (int)(first - path);
+        src->hash_len = (int)(last - first + 1);
+        if (src->hash_len > 9) {
+            tsk_depth_close(src);
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "more than 9 '#' in '%s'", path);
+        }
+    }
+    tsk_status s = tsk_files_read(src, -1, NULL, 0, NULL); /* finds frames, checks the first */
+    if (s != TSK_OK) {
+        tsk_depth_close(src);
+        return s;
+    }
+    snprintf(src->description, sizeof src->description, "%s", path);
+    src->K = tsk_default_intrinsics(src->width, src->height);
+    *out = src;
+    return TSK_OK;
+}
+
+/* ---- depth map writers ---------------------------------------------------------------- */
+
+static tsk_status check_depth(const float* depth_m, int width, int height) {
+    if (depth_m == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "depth_m", "is NULL");
+    if (width <= 0 || height <= 0 || width > TSK_DEPTH_MAX_SIDE || height > TSK_DEPTH_MAX_SIDE)
+        return tsk_error_arg(TSK_ERR_LIMIT, "width", "size %dx%d outside 1..%d", width, height,
+                             TSK_DEPTH_MAX_SIDE);
+    const size_t n = (size_t)width * (size_t)height;
+    for (size_t i = 0; i < n; ++i)
+        if (!isfinite(depth_m[i]) || depth_m[i] < 0.0f)
+            return tsk_error_arg(TSK_ERR_ARGUMENT, "depth_m",
+                                 "value %g at index %zu is not finite metres >= 0", depth_m[i], i);
+    return TSK_OK;
+}
+
+tsk_status tsk_depth_write_png16(const char* path, const float* depth_m, int width, int height) {
+    if (path == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is NULL");
+    tsk_status s = check_depth(depth_m, width, height);
+    if (s != TSK_OK) return s;
+    const size_t n = (size_t)width * (size_t)height;
+    uint16_t* mm = tsk_alloc(n * sizeof(uint16_t), "png16 buffer");
+    if (mm == NULL) return TSK_ERR_MEMORY;
+    for (size_t i = 0; i < n; ++i) {
+        const float v = depth_m[i] * 1000.0f + 0.5f;
+        mm[i] = v >= 65535.0f ? 65535 : (uint16_t)v;
+    }
+    s = tsk_cvb_write_png16(path, mm, width, height);
+    tsk_free(mm);
+    return s;
+}
+
+tsk_status tsk_depth_write_exr(const char* path, const float* depth_m, int width, int height) {
+    if (path == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is NULL");
+    tsk_status s = check_depth(depth_m, width, height);
+    if (s != TSK_OK) return s;
+    return tsk_cvb_write_exr(path, depth_m, width, height);
 }

@@ -16,7 +16,10 @@ struct tsk_depth_source {
     int has_K;
     tsk_intrinsics K;
     char description[256];
-    /* files */
+    /* files: read through this pointer, which tsk_depth_open_files (depth_files.c) sets, so
+     * that a program that never opens files (the recording reader) links no image codec */
+    tsk_status (*read_file)(tsk_depth_source* src, int index, float* depth_m, size_t count,
+                            int* invalid);
     char* pattern; /* path with the '#' run (or a plain path) */
     int hash_pos, hash_len; /* position and length of the '#' run; len 0 = single file */
     /* OpenNI2, in this process (devices; recordings inside the recording reader) */
@@ -24,6 +27,9 @@ struct tsk_depth_source {
     /* OpenNI2 recordings, through the recording reader process (depth_oni_proxy.c) */
     tsk_oni_proxy* proxy;
 };
+
+/* a zeroed source of `kind` (NULL when out of memory) */
+tsk_depth_source* tsk_depth_new_source(tsk_depth_kind kind);
 
 /* files back end */
 tsk_status tsk_files_read(tsk_depth_source* src, int index, float* depth_m, size_t count,

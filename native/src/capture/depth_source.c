@@ -1,11 +1,12 @@
 /* The one interface over all depth sources (files, .oni recordings, live devices):
  * opening, info, seek, read and close dispatch to the back ends; camera intrinsics
- * defaults; depth map writers. */
+ * defaults. Nothing here calls OpenCV: opening files and writing depth maps are in
+ * depth_files.c, so that the recording reader, which never does either, links no image
+ * codec. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
-#include "bridge/opencv_capture_bridge.h"
 #include "core/file.h"
 #include "depth_internal.h"
 #include "core/tmath.h"
@@ -41,49 +42,10 @@ tsk_status tsk_intrinsics_from_fov(int width, int height, float hfov, float vfov
     return TSK_OK;
 }
 
-static tsk_depth_source* new_source(tsk_depth_kind kind) {
+tsk_depth_source* tsk_depth_new_source(tsk_depth_kind kind) {
     tsk_depth_source* s = tsk_calloc(1, sizeof *s, "depth source");
     if (s) s->kind = kind;
     return s;
-}
-
-tsk_status tsk_depth_open_files(const char* path, tsk_depth_source** out) {
-    if (out == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out", "is NULL");
-    *out = NULL;
-    if (path == NULL || path[0] == '\0') return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is empty");
-    const size_t len = strlen(path);
-    if (len > 4000) return tsk_error_arg(TSK_ERR_LIMIT, "path", "longer than 4000 characters");
-    tsk_depth_source* src = new_source(TSK_DEPTH_FILES);
-    if (src == NULL) return TSK_ERR_MEMORY;
-    src->pattern = tsk_alloc(len + 16, "path");
-    if (src->pattern == NULL) {
-        tsk_free(src);
-        return TSK_ERR_MEMORY;
-    }
-    memcpy(src->pattern, path, len + 1);
-    /* the last run of '#' in the file name is the frame number */
-    const char* base = strrchr(path, '/');
-    base = base ? base + 1 : path;
-    const char* last = strrchr(base, '#');
-    if (last != NULL) {
-        const char* first = last;
-        while (first > base && first[-1] == '#') --first;
-        src->hash_pos = (int)(first - path);
-        src->hash_len = (int)(last - first + 1);
-        if (src->hash_len > 9) {
-            tsk_depth_close(src);
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "more than 9 '#' in '%s'", path);
-        }
-    }
-    tsk_status s = tsk_files_read(src, -1, NULL, 0, NULL); /* finds frames, checks the first */
-    if (s != TSK_OK) {
-        tsk_depth_close(src);
-        return s;
-    }
-    snprintf(src->description, sizeof src->description, "%s", path);
-    src->K = tsk_default_intrinsics(src->width, src->height);
-    *out = src;
-    return TSK_OK;
 }
 
 static tsk_status open_recording(const char* path, tsk_depth_source** out, int in_process) {
@@ -94,7 +56,7 @@ static tsk_status open_recording(const char* path, tsk_depth_source** out, int i
     const tsk_status opened = tsk_fopen_regular(path, "path", &f);
     if (opened != TSK_OK) return opened;
     fclose(f);
-    tsk_depth_source* src = new_source(TSK_DEPTH_ONI);
+    tsk_depth_source* src = tsk_depth_new_source(TSK_DEPTH_ONI);
     if (src == NULL) return TSK_ERR_MEMORY;
     if (strlen(path) >= sizeof src->description) {
         tsk_depth_close(src);
@@ -124,7 +86,7 @@ tsk_status tsk_depth_open_oni_local(const char* path, tsk_depth_source** out) {
 tsk_status tsk_depth_attach_oni_reader(tsk_oni_channel ch, const char* name,
                                        tsk_depth_source** out) {
     *out = NULL;
-    tsk_depth_source* src = new_source(TSK_DEPTH_ONI);
+    tsk_depth_source* src = tsk_depth_new_source(TSK_DEPTH_ONI);
     if (src == NULL) return TSK_ERR_MEMORY;
     snprintf(src->description, sizeof src->description, "%s", name);
     tsk_status s = tsk_oni_proxy_attach(src, ch, -1, src->description);
@@ -139,7 +101,7 @@ tsk_status tsk_depth_attach_oni_reader(tsk_oni_channel ch, const char* name,
 tsk_status tsk_depth_open_device(const char* uri, tsk_depth_source** out) {
     if (out == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "out", "is NULL");
     *out = NULL;
-    tsk_depth_source* src = new_source(TSK_DEPTH_DEVICE);
+    tsk_depth_source* src = tsk_depth_new_source(TSK_DEPTH_DEVICE);
     if (src == NULL) return TSK_ERR_MEMORY;
     tsk_status s = tsk_oni_open(src, uri, 0);
     if (s != TSK_OK) {
@@ -216,47 +178,11 @@ tsk_status tsk_depth_read(tsk_depth_source* src, float* depth_m, size_t count,
         return TSK_OK;
     }
     int invalid = 0;
-    tsk_status s = tsk_files_read(src, src->cursor, depth_m, count, &invalid);
+    tsk_status s = src->read_file(src, src->cursor, depth_m, count, &invalid);
     if (s != TSK_OK) return s;
     ++src->cursor;
     frame->invalid_pixels = invalid;
     frame->is_new = 1;
     frame->end = src->cursor >= src->frame_count;
     return TSK_OK;
-}
-
-static tsk_status check_depth(const float* depth_m, int width, int height) {
-    if (depth_m == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "depth_m", "is NULL");
-    if (width <= 0 || height <= 0 || width > TSK_DEPTH_MAX_SIDE || height > TSK_DEPTH_MAX_SIDE)
-        return tsk_error_arg(TSK_ERR_LIMIT, "width", "size %dx%d outside 1..%d", width, height,
-                             TSK_DEPTH_MAX_SIDE);
-    const size_t n = (size_t)width * (size_t)height;
-    for (size_t i = 0; i < n; ++i)
-        if (!isfinite(depth_m[i]) || depth_m[i] < 0.0f)
-            return tsk_error_arg(TSK_ERR_ARGUMENT, "depth_m",
-                                 "value %g at index %zu is not finite metres >= 0", depth_m[i], i);
-    return TSK_OK;
-}
-
-tsk_status tsk_depth_write_png16(const char* path, const float* depth_m, int width, int height) {
-    if (path == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is NULL");
-    tsk_status s = check_depth(depth_m, width, height);
-    if (s != TSK_OK) return s;
-    const size_t n = (size_t)width * (size_t)height;
-    uint16_t* mm = tsk_alloc(n * sizeof(uint16_t), "png16 buffer");
-    if (mm == NULL) return TSK_ERR_MEMORY;
-    for (size_t i = 0; i < n; ++i) {
-        const float v = depth_m[i] * 1000.0f + 0.5f;
-        mm[i] = v >= 65535.0f ? 65535 : (uint16_t)v;
-    }
-    s = tsk_cvb_write_png16(path, mm, width, height);
-    tsk_free(mm);
-    return s;
-}
-
-tsk_status tsk_depth_write_exr(const char* path, const float* depth_m, int width, int height) {
-    if (path == NULL) return tsk_error_arg(TSK_ERR_ARGUMENT, "path", "is NULL");
-    tsk_status s = check_depth(depth_m, width, height);
-    if (s != TSK_OK) return s;
-    return tsk_cvb_write_exr(path, depth_m, width, height);
 }
