@@ -405,14 +405,10 @@ def test_a_blades_chunk_in_edit_mode_is_left_alone_and_rebuilt_after_it():
         abs(again - rebuilt).max()
 
 
-@test
-def test_a_bake_with_a_tree_it_cannot_grow_cancels_before_it_plays_a_frame():
-    # soak seed 536054 in Blender 4.3, shrunk to 14 steps, of which these matter: a pruned
-    # tree whose prune width is set to 0 (the panel says why it cannot grow); a simulated
-    # meadow; bake. The bake played every frame to read the meadow's colliders before it
-    # grew the tree, which failed: cancelled, with the meadow's blades written by those
-    # frames. Every tree is grown when the bake starts, before a frame is played.
-    scene, folder = saved_scene("ungrowable_tree")
+def simulated_meadow_and_tree(name):
+    """A saved scene with a simulated meadow (an empty collider collection) and a leafless
+    aspen: (scene, its folder, the tree)."""
+    scene, folder = saved_scene(name)
     assert bpy.ops.tussock.add_meadow(size=(1.2, 1.6), blades_per_tile=16, patch_blades=256,
                                       chunk_blades=16) == {"FINISHED"}
     meadow = bpy.context.active_object
@@ -421,11 +417,12 @@ def test_a_bake_with_a_tree_it_cannot_grow_cancels_before_it_plays_a_frame():
     meadow.tussock_meadow.colliders, meadow.tussock_meadow.use_simulation = coll, True
     assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=False) == {"FINISHED"}
     tree = bpy.context.active_object
-    s = tree.tussock_tree
-    s.params.prune_ratio = 0.5
-    assert s.last_error == ""
-    s.params.prune_width = 0.0
-    assert "when pruning" in s.last_error, s.last_error
+    return scene, folder, tree
+
+
+def bake_cancels_before_a_frame(folder, needle):
+    """Bake must cancel with `needle` before it plays any frame: no frame change, the
+    meadow's blades never written, nothing recorded or on disk."""
     chunks = [o for o in bpy.data.objects if " blades" in o.name]
     assert chunks and all(len(o.data.vertices) == 0 for o in chunks)  # no frame played yet
     played = []
@@ -434,12 +431,28 @@ def test_a_bake_with_a_tree_it_cannot_grow_cancels_before_it_plays_a_frame():
         played.append(scene_.frame_current)
     bpy.app.handlers.frame_change_pre.append(count)
     try:
-        expect_cancel(bpy.ops.tussock.bake, f"{tree.name}: prune_width: must be > 0")
+        expect_cancel(bpy.ops.tussock.bake, needle)
     finally:
         bpy.app.handlers.frame_change_pre.remove(count)
     assert played == [], played
     assert all(len(o.data.vertices) == 0 for o in chunks)
     assert record_and_disk(folder) == (set(), set())
+
+
+@test
+def test_a_bake_with_a_tree_it_cannot_grow_cancels_before_it_plays_a_frame():
+    # soak seed 536054 in Blender 4.3, shrunk to 14 steps, of which these matter: a pruned
+    # tree whose prune width is set to 0 (the panel says why it cannot grow); a simulated
+    # meadow; bake. The bake played every frame to read the meadow's colliders before it
+    # grew the tree, which failed: cancelled, with the meadow's blades written by those
+    # frames. Every tree is grown when the bake starts, before a frame is played.
+    scene, folder, tree = simulated_meadow_and_tree("ungrowable_tree")
+    s = tree.tussock_tree
+    s.params.prune_ratio = 0.5
+    assert s.last_error == ""
+    s.params.prune_width = 0.0
+    assert "when pruning" in s.last_error, s.last_error
+    bake_cancels_before_a_frame(folder, f"{tree.name}: prune_width: must be > 0")
     s.params.prune_width = 0.3  # grown again: the same bake now finishes
     assert s.last_error == ""
     assert bpy.ops.tussock.bake() == {"FINISHED"}
@@ -453,31 +466,10 @@ def test_a_bake_in_a_wind_it_cannot_step_cancels_before_it_plays_a_frame():
     # bake played every frame to read the meadow's colliders, then made the wind and
     # failed: cancelled, with the meadow's blades written by those frames. The wind is now
     # made once when the bake starts, before a frame is played.
-    scene, folder = saved_scene("unstable_wind")
-    assert bpy.ops.tussock.add_meadow(size=(1.2, 1.6), blades_per_tile=16, patch_blades=256,
-                                      chunk_blades=16) == {"FINISHED"}
-    meadow = bpy.context.active_object
-    coll = bpy.data.collections.new("Colliders")
-    scene.collection.children.link(coll)
-    meadow.tussock_meadow.colliders, meadow.tussock_meadow.use_simulation = coll, True
-    assert bpy.ops.tussock.add_tree(preset="quaking_aspen", leaves=False) == {"FINISHED"}
-    tree = bpy.context.active_object
+    scene, folder, tree = simulated_meadow_and_tree("unstable_wind")
     w = scene.tussock_wind
     w.use_fluid, w.use_continuum, w.continuum_c = True, True, 1e4
-    chunks = [o for o in bpy.data.objects if " blades" in o.name]
-    assert chunks and all(len(o.data.vertices) == 0 for o in chunks)  # no frame played yet
-    played = []
-
-    def count(scene_, *_args):
-        played.append(scene_.frame_current)
-    bpy.app.handlers.frame_change_pre.append(count)
-    try:
-        expect_cancel(bpy.ops.tussock.bake, "unstable (CFL)")
-    finally:
-        bpy.app.handlers.frame_change_pre.remove(count)
-    assert played == [], played
-    assert all(len(o.data.vertices) == 0 for o in chunks)
-    assert record_and_disk(folder) == (set(), set())
+    bake_cancels_before_a_frame(folder, "unstable (CFL)")
     w.continuum_c = 0.5  # a speed its grid steps: the same bake now finishes
     assert bpy.ops.tussock.bake() == {"FINISHED"}
     assert tree.modifiers.get("Tussock Cache") is not None
