@@ -31,7 +31,8 @@ def soak(*args, plant=""):
 
 
 def summary(text):
-    m = re.search(r"^soak: (\d+) steps in (\d+) s, seed (\d+), (\d+) failures", text, re.M)
+    m = re.search(r"^soak: (\d+) steps in (\d+) s(?: soaking \(\d+ s in all\))?, seed (\d+), "
+                  r"(\d+) failures", text, re.M)
     assert m, text[-3000:]
     return tuple(int(x) for x in m.groups())
 
