@@ -3,7 +3,7 @@
 #                              | bench [--blender N] [--record] [NAME...] | package | fuzz [SECONDS [NAME...]]
 #                              | roots [4] [5] | shots [--blender N] | windows
 #                              | soak [--blender N] [--minutes M] [--seed S] [--window] [--gdb]
-#                              | leaks [--blender N] [CYCLES]
+#                              | leaks [--blender N] [--background] [CYCLES]
 # Each step is idempotent and quiet when there is nothing to do.
 set -euo pipefail
 
@@ -840,22 +840,28 @@ cmd_soak() {
   return "$rc"
 }
 
-# ./build.sh leaks [--blender N[,N]] [CYCLES]: resident memory over CYCLES (default 1000)
-# add/delete cycles of a meadow and of a tree (tools/leak_cycles.py, issue 42) in each Blender
-# named (default 3,4,5); fails when memory after the last cycle is more than 5 % above that
-# after cycle 100, or Tussock's native bytes or data-blocks differ. Then the control: as many
-# plain objects as a meadow makes, without Tussock (what Blender itself keeps; never fails).
+# ./build.sh leaks [--blender N[,N]] [--background] [CYCLES]: resident memory over CYCLES
+# (default 1000) add/delete cycles of a meadow and of a tree (tools/leak_cycles.py, issue 42)
+# in each Blender named (default 3,4,5), in a real window on Xvfb as an artist works (each
+# cycle in a timer call, Blender's event loop between them) or with --background in background
+# Blender; fails when memory after the last cycle is more than 5 % above that after cycle 100,
+# or Tussock's native bytes or data-blocks differ. Then the control: as many plain objects as
+# a meadow makes, without Tussock (what Blender itself keeps; never fails).
 cmd_leaks() {
-  local m kind rc=0
+  local m kind a rc=0 mode=(--window) rest=()
   parse_blenders 3,4,5 "$@"
+  for a in ${ARGS[@]+"${ARGS[@]}"}; do
+    if [ "$a" = --background ]; then mode=(); else rest+=("$a"); fi
+  done
   cmd_deps
   cmd_build
   for m in "${MAJORS[@]}"; do
     root_build "$m"
     for kind in meadow tree objects; do
-      say "build.sh leaks: Blender $m, $kind"
-      with_blender "$m" "$ROOT/tools/blender_run.py" "$ROOT/tools/leak_cycles.py" -- "$kind" \
-        ${ARGS[@]+"${ARGS[@]}"} | grep -E '^(cycle|LEAK|CONTROL)' || rc=1
+      say "build.sh leaks: Blender $m, $kind, ${mode[*]:-background}"
+      with_blender "$m" "$ROOT/tools/blender_run.py" ${mode[@]+"${mode[@]}"} \
+        "$ROOT/tools/leak_cycles.py" -- "$kind" ${rest[@]+"${rest[@]}"} \
+        | grep -E '^(cycle|LEAK|CONTROL)' || rc=1
     done
   done
   return "$rc"
@@ -1089,7 +1095,7 @@ main() {
     *) say "usage: ./build.sh deps | build | test [--blender 3|4|5[,...]] | demo [--blender N]"
        say "                  | bench [--blender N] [--record] [NAME...] | package | fuzz [SECONDS [NAME...]]"
        say "                  | roots [4] [5] | shots [--blender N] | windows"
-       say "                  | soak [--blender N] [--minutes M] [--seed S] | leaks [--blender N] [CYCLES]"
+       say "                  | soak [--blender N] [--minutes M] [--seed S] | leaks [--blender N] [--background] [CYCLES]"
        exit 2 ;;
   esac
 }

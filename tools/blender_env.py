@@ -55,13 +55,14 @@ def command(script, args=(), blend=None, window=False):
     return cmd
 
 
-def run(script, args=(), blend=None, timeout=None, capture=True):
-    """Runs script in background Blender; returns (exit code, output text)."""
+def run(script, args=(), blend=None, timeout=None, capture=True, window=False):
+    """Runs script in background Blender (or a real window); returns (exit code, output
+    text)."""
     with BlenderUser() as user:
         kw = dict(env=user.env, timeout=timeout, text=True, errors="replace")
         if capture:
             kw.update(stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-        proc = subprocess.run(command(script, args, blend), **kw)
+        proc = subprocess.run(command(script, args, blend, window), **kw)
         return proc.returncode, proc.stdout or ""
 
 

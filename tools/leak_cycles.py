@@ -41,7 +41,11 @@ def differing(a, b):
 
 
 def setup(kind):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+    if bpy.app.background:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+    else:  # the window's file as it opened (--factory-startup), emptied without a file read
+        for o in list(bpy.data.objects):
+            bpy.data.objects.remove(o)
     import addon_utils
     addon_utils.enable("tussock", default_set=True)
     scene = bpy.context.scene
@@ -161,13 +165,17 @@ def mib(n):
     return "n/a" if n is None else f"{n / 2**20:.1f} MiB"
 
 
-def main():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    kind = argv[0] if argv else "meadow"
-    total = int(argv[1]) if len(argv) > 1 else 1000
-    if kind not in ("meadow", "tree", "objects") or total < 100:
-        raise SystemExit("usage: leak_cycles.py -- meadow|tree|objects [CYCLES >= 100]")
-    scene = setup(kind)
+def blender_stats():
+    """Blender's own allocations in use (its guarded allocator's count, whatever the C
+    allocator), as its status bar shows them."""
+    text = bpy.context.scene.statistics(bpy.context.view_layer)
+    return next((part.strip() for part in text.split("|") if "Memory" in part), "n/a")
+
+
+def run(kind, total, scene):
+    """The cycles, one per iteration (a window's timer runs each in its own call, so that
+    Blender's event loop handles what the cycle queued before the next). Returns the exit
+    status through StopIteration."""
     from tussock import native
     lib = native.require()
     marks = {}
@@ -181,12 +189,14 @@ def main():
                         sys.getallocatedblocks())
             c = marks[i][2]
             print(f"cycle {i}: resident {marks[i][0] / 2**20:.1f} MiB, {ALLOCATOR} heap in use "
-                  f"{mib(marks[i][3])}, native {marks[i][1] / 2**20:.2f} MiB, Python blocks "
-                  f"{marks[i][4]}, objects/meshes/collections "
-                  f"{(c['objects'], c['meshes'], c['collections'])}, {time.monotonic() - t0:.0f} s",
-                  flush=True)
+                  f"{mib(marks[i][3])}, Blender's {blender_stats()}, native "
+                  f"{marks[i][1] / 2**20:.2f} MiB, Python blocks {marks[i][4]}, "
+                  f"objects/meshes/collections {(c['objects'], c['meshes'], c['collections'])}, "
+                  f"{time.monotonic() - t0:.0f} s", flush=True)
+        yield
     r100, rn = marks[100][0], marks[total][0]
     print(f"LEAKS kind={kind} cycles={total} blender={bpy.app.version_string} "
+          f"{'background' if bpy.app.background else 'window'} "
           f"rss100={r100 / 2**20:.1f}MiB rss{total}={rn / 2**20:.1f}MiB "
           f"growth={(rn - r100) / r100 * 100:+.2f}% allocator={ALLOCATOR} "
           f"heap100={mib(marks[100][3])} heap{total}={mib(marks[total][3])} "
@@ -209,6 +219,41 @@ def main():
     return 1 if bad and kind != "objects" else 0
 
 
-status = main()
-sys.stdout.flush()
-os._exit(status)
+def finish(status):
+    sys.stdout.flush()
+    os._exit(status)
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    kind = argv[0] if argv else "meadow"
+    total = int(argv[1]) if len(argv) > 1 else 1000
+    if kind not in ("meadow", "tree", "objects") or total < 100:
+        raise SystemExit("usage: leak_cycles.py -- meadow|tree|objects [CYCLES >= 100]")
+    if bpy.app.background:
+        cycles = run(kind, total, setup(kind))
+        try:
+            while True:
+                next(cycles)
+        except StopIteration as done:
+            finish(done.value)
+    cycles = None
+
+    def step():
+        nonlocal cycles
+        try:
+            if cycles is None:  # in the event loop, where the window's context is whole
+                cycles = run(kind, total, setup(kind))
+            next(cycles)
+        except StopIteration as done:
+            finish(done.value)
+        except Exception:
+            import traceback
+            traceback.print_exc()
+            finish(2)
+        return 0.0
+
+    bpy.app.timers.register(step, first_interval=1.0)
+
+
+main()
