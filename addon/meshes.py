@@ -33,6 +33,17 @@ def in_edit_mode(obj):
     return bool(getattr(getattr(obj, "data", None), "is_editmode", False))
 
 
+def leave_edit_mode(context):
+    """Leaves Edit Mode, as Blender's own Add operators do before they make a new object
+    active (ED_object_add_type), with the edits kept. Called by Tussock's operators that
+    make their new objects active, after everything that can fail: an object left in Edit
+    Mode while another is active is a state Blender's interface never makes, and joining
+    such an object into another leaks its edit mesh in Blender 5.2 (soak seed 247497)."""
+    obj = context.view_layer.objects.active
+    if obj is not None and obj.mode == "EDIT":
+        bpy.ops.object.mode_set(mode="OBJECT")
+
+
 _waiting = {}  # object name -> work(obj) to redo once the object is out of Edit Mode
 
 

@@ -7,7 +7,7 @@ import time
 import bpy
 import numpy as np
 
-from .. import compat, errors, native, progress
+from .. import compat, errors, meshes, native, progress
 from . import blades, pipeline, preview
 from .props import SOURCE_ITEMS, TIPS
 
@@ -147,6 +147,7 @@ class TUSSOCK_OT_capture_blades(bpy.types.Operator):
                                     context.scene.cursor.location)
         img = result["images"]
         preview.show(preview.compose(img["DEPTH"], img["MASK"], img["LABELS"], img["OVERLAY"]))
+        meshes.leave_edit_mode(context)
         for o in context.selected_objects:
             o.select_set(False)
         for o in objs:

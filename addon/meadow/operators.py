@@ -6,7 +6,7 @@ import types
 
 import bpy
 
-from .. import bounds, budget, errors, progress
+from .. import bounds, budget, errors, meshes, progress
 from . import build, identity
 from .props import TussockMeadowSettings
 
@@ -107,6 +107,7 @@ class TUSSOCK_OT_add_meadow(bpy.types.Operator):
             context.scene.collection.objects.link(ground)
         context.scene.collection.objects.link(obj)
         s.is_meadow = True
+        meshes.leave_edit_mode(context)
         for o in context.selected_objects:
             o.select_set(False)
         obj.select_set(True)

@@ -45,6 +45,7 @@ class TUSSOCK_OT_add_tree(bpy.types.Operator):
         build.write_posed(obj, data, context.scene, context.scene.frame_current,
                           obj.matrix_basis.copy(), by_operator=True)
         s.is_tree = True
+        meshes.leave_edit_mode(context)
         for o in context.selected_objects:
             o.select_set(False)
         obj.select_set(True)

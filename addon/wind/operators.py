@@ -6,7 +6,7 @@ import math
 import bpy
 import numpy as np
 
-from .. import bounds, errors, native
+from .. import bounds, errors, meshes, native
 from . import runtime
 from .props import MAX_WAVES, TussockWindSource
 
@@ -46,6 +46,7 @@ class TUSSOCK_OT_add_wind_source(bpy.types.Operator):
         s.is_source = True
         s.strength, s.radius, s.interval = self.strength, self.radius, self.interval
         context.collection.objects.link(obj)
+        meshes.leave_edit_mode(context)
         for o in context.selected_objects:
             o.select_set(False)
         obj.select_set(True)
