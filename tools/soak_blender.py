@@ -907,6 +907,11 @@ class addon_toggle:
             harness.disable_addon()
         else:
             harness.enable_addon()
+            if not CTX.window:  # the timer register sets (no timers in background: 693756)
+                from tussock.meadow import simulate
+                if bpy.app.timers.is_registered(simulate.rebuild_stale_models):
+                    bpy.app.timers.unregister(simulate.rebuild_stale_models)
+                    simulate.rebuild_stale_models()
         return {"ENABLED" if addon_on() else "DISABLED"}
 
 
