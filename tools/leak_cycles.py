@@ -3,19 +3,22 @@ tree the way an artist does (the operator), plays two frames, deletes it with th
 Meadow made (the Delete operator; Tussock tidies what the meadow owned), and purges orphan
 data as saving and reopening the file would. After cycle 100 and after the last it prints
 the process's resident memory (VmRSS, after the C allocator gave its free pages back:
-tools/memory_probe.py), the bytes that allocator has in use, Tussock's native bytes in use,
-the blocks Python has allocated and the length of every bpy.data collection; a leak shows
-as growth between the two.
+tools/memory_probe.py), the bytes that allocator has in use, Blender's own allocations,
+Tussock's native bytes in use, the blocks Python has allocated and the length of every
+bpy.data collection; a leak shows as growth between the two. In a window each cycle is one
+timer call, so that Blender's event loop runs between cycles as between an artist's clicks
+(Blender 3.4 queues notifiers that only that loop frees: docs/reliability.md).
 
-    blender -b --factory-startup --python tools/leak_cycles.py -- KIND [CYCLES]
+    blender [-b] --factory-startup --python tools/leak_cycles.py -- KIND [CYCLES]
     KIND: meadow (a simulated 3 m meadow with a ball in its grass) | tree (a leafy aspen) |
           objects (the control: no Tussock, as many plain mesh objects as a meadow makes,
           made with bpy.data in a collection of the scene, played and deleted the same way)
 
-(with the add-on enabled as tools/blender_env.py sets it up; ./build.sh leaks runs it in each
-Blender). Prints `LEAKS kind=... cycles=... rss100=... rssN=... growth=...%`, then a `LEAK:` line
-for each bound broken (exit status 1): resident memory more than 5 % above cycle 100's, or
-native bytes or data-block counts other than cycle 100's. The control's broken bounds are
+(with the add-on enabled as tools/blender_env.py sets it up: blender_run.py [--window];
+./build.sh leaks runs it in each Blender). Prints `LEAKS kind=... cycles=... rss100=...
+rssN=... growth=...%`, then a `LEAK:` line for each bound broken (exit status 1): resident
+memory more than 5 % above cycle 100's, or native bytes or data-block counts other than
+cycle 100's. The control's broken bounds are
 Blender's own: `CONTROL:` lines, exit status 0."""
 
 import gc
