@@ -33,15 +33,20 @@ def in_edit_mode(obj):
     return bool(getattr(getattr(obj, "data", None), "is_editmode", False))
 
 
-def leave_edit_mode(context):
-    """Leaves Edit Mode, as Blender's own Add operators do before they make a new object
-    active (ED_object_add_type), with the edits kept. Called by Tussock's operators that
-    make their new objects active, after everything that can fail: an object left in Edit
-    Mode while another is active is a state Blender's interface never makes, and joining
-    such an object into another leaks its edit mesh in Blender 5.2 (soak seed 247497)."""
-    obj = context.view_layer.objects.active
-    if obj is not None and obj.mode == "EDIT":
+def select_new(context, objs):
+    """Makes objs, which an operator has just added, the selection, the first of them active.
+    Leaves Edit Mode first, edits kept, as Blender's own Add operators do (ED_object_add_type):
+    an object left in Edit Mode while another is active is a state Blender's interface never
+    makes, and joining such an object into another leaks its edit mesh in Blender 4.3 and 5.2
+    (soak seed 247497). Call it after everything that can fail."""
+    active = context.view_layer.objects.active
+    if active is not None and active.mode == "EDIT":
         bpy.ops.object.mode_set(mode="OBJECT")
+    for o in context.selected_objects:
+        o.select_set(False)
+    for o in objs:
+        o.select_set(True)
+    context.view_layer.objects.active = objs[0]
 
 
 _waiting = {}  # object name -> work(obj) to redo once the object is out of Edit Mode

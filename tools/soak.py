@@ -393,16 +393,15 @@ def main(argv=None):
     # step replayed with jemalloc) come on top, so that an hour's run is an hour of steps
     soaked = 0.0
     while not args.replay:
-        elapsed = soaked
-        if args.minutes and elapsed > args.minutes * 60 - 5:
+        if args.minutes and soaked > args.minutes * 60 - 5:
             break
         soak_args = common + ["--seed", str(run_seed),
                               "--workdir", os.path.join(out_dir, f"run-{run_seed}")]
         if args.steps:
             soak_args += ["--steps", str(args.steps - total)]
         if args.minutes:
-            soak_args += ["--minutes", f"{args.minutes - elapsed / 60:.3f}"]
-        left = args.minutes * 60 - elapsed if args.minutes else 3600 + 60 * args.steps
+            soak_args += ["--minutes", f"{args.minutes - soaked / 60:.3f}"]
+        left = args.minutes * 60 - soaked if args.minutes else 3600 + 60 * args.steps
         outcome = run_blender(args, soak_args, os.path.join(out_dir, f"journal-{run_seed}.jsonl"),
                               left + args.step_timeout + 60, args.step_timeout, args.window,
                               args.gdb, args.debug_memory)

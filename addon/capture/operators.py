@@ -147,12 +147,7 @@ class TUSSOCK_OT_capture_blades(bpy.types.Operator):
                                     context.scene.cursor.location)
         img = result["images"]
         preview.show(preview.compose(img["DEPTH"], img["MASK"], img["LABELS"], img["OVERLAY"]))
-        meshes.leave_edit_mode(context)
-        for o in context.selected_objects:
-            o.select_set(False)
-        for o in objs:
-            o.select_set(True)
-        context.view_layer.objects.active = objs[0]
+        meshes.select_new(context, objs)
         cut = int(np.count_nonzero(result["flags"] & 1))
         msg = f"Captured {len(objs)} blades ({summary['message']})"
         if cut:

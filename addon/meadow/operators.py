@@ -107,11 +107,7 @@ class TUSSOCK_OT_add_meadow(bpy.types.Operator):
             context.scene.collection.objects.link(ground)
         context.scene.collection.objects.link(obj)
         s.is_meadow = True
-        meshes.leave_edit_mode(context)
-        for o in context.selected_objects:
-            o.select_set(False)
-        obj.select_set(True)
-        context.view_layer.objects.active = obj
+        meshes.select_new(context, [obj])
         note = budget.note(layout["memory"])
         self.report({"WARNING"} if note else {"INFO"},
                     f"Meadow: {info['blade_count']:,} blades in {info['nonempty_tiles']:,} "

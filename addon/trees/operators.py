@@ -45,11 +45,7 @@ class TUSSOCK_OT_add_tree(bpy.types.Operator):
         build.write_posed(obj, data, context.scene, context.scene.frame_current,
                           obj.matrix_basis.copy(), by_operator=True)
         s.is_tree = True
-        meshes.leave_edit_mode(context)
-        for o in context.selected_objects:
-            o.select_set(False)
-        obj.select_set(True)
-        context.view_layer.objects.active = obj
+        meshes.select_new(context, [obj])
         self.report({"INFO"}, f"{obj.name}: {obj['tussock_branches']:,} branches, "
                               f"{obj['tussock_leaves']:,} leaves")
         return {"FINISHED"}

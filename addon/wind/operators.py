@@ -46,11 +46,7 @@ class TUSSOCK_OT_add_wind_source(bpy.types.Operator):
         s.is_source = True
         s.strength, s.radius, s.interval = self.strength, self.radius, self.interval
         context.collection.objects.link(obj)
-        meshes.leave_edit_mode(context)
-        for o in context.selected_objects:
-            o.select_set(False)
-        obj.select_set(True)
-        context.view_layer.objects.active = obj
+        meshes.select_new(context, [obj])
         if not context.scene.tussock_wind.use_fluid:
             self.report({"INFO"}, "Wind sources push the fluid wind: turn on Fluid wind")
         return {"FINISHED"}
