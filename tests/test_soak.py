@@ -1,8 +1,9 @@
 """The soak tester's own test (issue 42), with the machine's Blender: a planted operator that
 raises in 1 call of 50 is found, shrunk to at most 5 steps and reported with its seed; a
-planted frame handler that leaks a mesh per frame is found; memory that no data-block holds
-is told from a large scene; a short clean soak of the add-on passes. Run by ./build.sh test,
-or alone: /usr/bin/python3 tests/test_soak.py [NAME...]"""
+planted frame handler that leaks a mesh per frame is found; a planted step that leaves
+Blender's blocks at exit is found with --debug-memory and shrunk to that step; memory that
+no data-block holds is told from a large scene; a short clean soak of the add-on passes. Run
+by ./build.sh test, or alone: /usr/bin/python3 tests/test_soak.py [NAME...]"""
 
 import os
 import re
@@ -63,6 +64,21 @@ def test_planted_leak_is_found():
     assert re.search(r"^soak: FAILURE with seed 3: leak: .*'meshes'", text, re.M), text[-3000:]
     count, _ = shrunk_steps(text)
     assert count <= 5, count
+
+
+def test_blocks_left_at_exit_are_found_and_shrunk_to_the_step_that_left_them():
+    # no step reports them: only Blender's --debug-memory list at exit shows them
+    code, text = soak("--seed", "7", "--steps", "150", "--debug-memory", "--only",
+                      FAST.replace("planted", "planted_unfreed"), plant="unfreed")
+    assert code == 1, (code, text[-3000:])
+    m = re.search(r"^soak: FAILURE with seed 7: unfreed: (\d+) blocks not freed at exit",
+                  text, re.M)
+    assert m and int(m.group(1)) > 0, text[-3000:]
+    assert "BM_mesh_create len: " in text, text[-3000:]
+    count, lines = shrunk_steps(text)
+    assert 1 <= count <= 5, (count, lines)
+    assert '"op": "planted_unfreed", "n": 0' in lines[-1], lines
+    print(f"  {m.group(1)} blocks, shrunk to {count} steps")
 
 
 def test_memory_that_the_scene_does_not_explain_is_found():

@@ -7,14 +7,16 @@ as Hypothesis does, by replaying parts of it in new Blenders.
 usage: soak.py [--minutes M | --steps N] [--seed S] [--window] [--gdb] [--debug-memory]
                [--only STEP,...] [--skip STEP,...] [--max-failures F] [--shrink-minutes M]
                [--step-timeout SECONDS] [--out DIR] [--max-rss-mb MB] [--hard-rss-mb MB]
-       soak.py --replay FILE [--shrink] [--window] [--gdb]   (a shrunk sequence, or a journal)
+       soak.py --replay FILE [--shrink] [--window] [--gdb] [--debug-memory]
+               (FILE: a shrunk sequence, or a journal)
 
 Environment: BLENDER (the Blender to run), TSK_ADDON (tools/blender_env.py),
 TSK_SOAK_PRELOAD with TSK_SOAK_ASAN_OPTIONS and TSK_SOAK_UBSAN_OPTIONS (a sanitizer runtime
 preloaded into Blender alone: ./build.sh soak --asan),
-TSK_SOAK_PLANT=raise|leak (a planted fault, for the tester's own test). Prints the seed
-first; for each failure the seed, the shrunk steps, the Python traceback (faulthandler, and
-whatever the add-on printed) and with --gdb the native backtrace; last the line
+TSK_SOAK_PLANT=raise|leak|hoard|unfreed (a planted fault, for the tester's own test). Prints
+the seed first; for each failure (with --debug-memory, blocks not freed at exit are one:
+`unfreed`) the seed, the shrunk steps, the Python traceback (faulthandler, and whatever the
+add-on printed) and with --gdb the native backtrace; last the line
 `soak: N steps in S s soaking (T s in all), seed X, F failures`: --minutes counts the
 soaking, not the tester's own replays. Exits 1 when anything failed."""
 
@@ -161,6 +163,14 @@ def run_blender(args, soak_args, journal, timeout, step_timeout, window=False, g
     m = LEAKS.search(text)
     if debug_memory:
         leaks = int(m.group(1)) if m else 0
+        if kind is None and leaks:
+            # Blender's guarded allocator lists each block left at exit with its name: the
+            # names say whose they are, the shrunk steps which step left them
+            blocks = [line.strip() for line in text.splitlines() if " len: " in line]
+            kind = "unfreed"
+            detail = (f"{leaks} blocks not freed at exit"
+                      + (f" ({m.group(2)} MB)" if m.group(2) else "") + ":\n"
+                      + "\n".join(blocks[:20]) + ("\n..." if len(blocks) > 20 else ""))
     return Outcome(steps, results, kind, detail, text, proc.returncode, secs, leaks)
 
 
@@ -238,12 +248,29 @@ class Shrinker:
             return True
         return False
 
+    def shortest_prefix(self, steps):
+        """The shortest first part of the steps that still fails, by bisection: for blocks
+        not freed at exit, which no step reports, so the last step is not the one that left
+        them (blocks a part leaves, the whole nearly always leaves too). Out of time, the
+        shortest part found to fail."""
+        lo, hi = 0, len(steps)  # steps[:lo] is taken to pass, steps[:hi] fails
+        while hi - lo > 1 and time.monotonic() < self.deadline:
+            mid = (lo + hi) // 2
+            if self.fails(steps[:mid]):
+                hi = mid
+            else:
+                lo = mid
+        return steps[:hi]
+
     def shrink(self, steps):
         """The step that failed is kept last (a failure needs it, nearly always); the steps
         before it are shrunk: first the shortest tail that still fails (1, 2, 4, ... steps
         before it: a cause is usually recent), then ddmin, which removes chunks of them,
-        halving the chunks' size down to single steps."""
+        halving the chunks' size down to single steps. Blocks not freed at exit are first
+        cut to the shortest first part that leaves them, whose last step is then kept."""
         steps = list(steps)
+        if self.kind == "unfreed":
+            steps = self.shortest_prefix(steps)
         last, before = steps[-1:], steps[:-1]
         k = 0
         while k < len(before):
@@ -411,8 +438,6 @@ def main(argv=None):
             leaks.append(outcome.leaks)
             print(f"soak: --debug-memory: {outcome.leaks} blocks not freed at exit "
                   f"(seed {run_seed})")
-            for line in [x for x in outcome.log.splitlines() if " len: " in x][:20]:
-                print("  " + line)
         for step, rec in zip(outcome.steps, outcome.results):
             if step.get("op") == "memory" and rec.get("result") != "fail":
                 print(f"soak: memory at step {rec['i']}: {rec.get('result')}")

@@ -22,7 +22,9 @@ every invariant, FAIL_EXIT when one broke (the run stops there), anything else i
 Planted faults, for the tester's own test (TSK_SOAK_PLANT): `raise` adds a step running an
 operator that raises in 1 of 50 calls, decided by its recorded argument; `leak` adds a frame
 handler that leaves a new mesh datablock behind on every frame change; `hoard` one that keeps
-64 MB more of memory that belongs to no data-block on every frame change."""
+64 MB more of memory that belongs to no data-block on every frame change; `unfreed` adds a
+step that, in 1 call of 50, keeps a BMesh that nothing frees (its Python object's count of
+references raised by one): Blender's blocks left at exit, which only --debug-memory sees."""
 
 import contextlib
 import ctypes
@@ -1071,6 +1073,21 @@ if PLANT == "raise":
             if not SOAK_OT_planted.is_registered:
                 bpy.utils.register_class(SOAK_OT_planted)
             return stock(bpy.ops.tussock.soak_planted, n=a["n"])
+
+
+if PLANT == "unfreed":
+    @step(12)
+    class planted_unfreed:
+        def gen(rng):
+            return dict(n=rng.randrange(50))
+
+        def run(a):
+            if a["n"] == 0:
+                import bmesh
+                bm = bmesh.new()
+                bm.verts.new((0.0, 0.0, 0.0))
+                ctypes.pythonapi.Py_IncRef(ctypes.py_object(bm))
+            return "PLANTED"
 
 
 @bpy.app.handlers.persistent
