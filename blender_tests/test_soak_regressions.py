@@ -592,6 +592,44 @@ def test_a_meadow_joined_with_a_leafy_tree_grows_no_blades_on_the_tree():
     assert secs < 10, f"a frame took {secs:.1f} s"
 
 
+@test
+def test_a_meadow_joined_with_its_own_ground_is_released_by_the_join():
+    # soak seed 261014 in Blender 5.2 (background), shrunk to 37 steps: two meadows, each
+    # on a new ground plane; Join of the second meadow, active, with its ground; save; then,
+    # in the file opened again, Add Tree that cancelled (a fluid wind too fast for its
+    # grid) but changed the scene: the joined meadow became a plain mesh inside it. The
+    # ground lives on after Join, unlinked, because the meadow's settings point to it, so
+    # the number of objects did not change and the update after Join did not look at the
+    # meadow; the first update with another count (here the cancelled operator's) did.
+    scene = harness.empty_scene(6)
+    meadows = []
+    for size in ((1.5, 1.0), (0.8, 1.2)):
+        harness.select_objects([])
+        assert bpy.ops.tussock.add_meadow(size=size, blades_per_tile=16, patch_blades=256,
+                                          chunk_blades=16) == {"FINISHED"}
+        meadows.append(bpy.context.active_object)
+    keep, meadow = meadows
+    ground = meadow.tussock_meadow.ground
+    assert ground is not None and ground.type == "MESH"
+    count = len(bpy.data.objects)
+    harness.select_objects([meadow, ground])
+    bpy.context.view_layer.objects.active = meadow
+    assert bpy.ops.object.join() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    # (the other meadow's chunks of blades stay: only the joined meadow's are removed)
+    assert ground.name in bpy.data.objects and ground.users >= 1
+    assert not ground.users_scene, "Join unlinked the ground from the scene"
+    assert not meadow.tussock_meadow.is_meadow, "the joined meadow is still a meadow"
+    assert "tussock_blades" not in meadow and meadow.modifiers.get("Tussock Meadow") is None
+    assert keep.tussock_meadow.is_meadow and keep.modifiers.get("Tussock Meadow") is not None
+    assert len(bpy.data.objects) < count
+    # nothing is left for a later operator to change, even one that cancels
+    scene.tussock_wind.use_fluid = True
+    scene.tussock_wind.keyframe_insert("fluid_speed", frame=1)
+    harness.select_objects([])
+    expect_cancel(bpy.ops.tussock.add_tree, "keyframed", preset="quaking_aspen")
+
+
 # ---- every setting at its limits ---------------------------------------------------------------
 
 def _groups(idb, label):

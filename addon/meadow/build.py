@@ -345,21 +345,31 @@ def write_steps(obj, settings, key, patch, layout):
 _objects_seen = None  # the number of objects at the last look for joined meadows
 
 
-def joined_meadows():
+def joined_meadows(changed=()):
     """Meadows whose mesh holds geometry that is not the meadow's own instance points: Join
     (Ctrl+J) with the meadow active puts the other objects' vertices, edges and faces into
     its mesh, and the meadow's modifier would then put a chunk of blades on every vertex (a
-    leafy tree: millions of blades, 17 to 40 s a frame in a window). Join removes the other
-    objects, so the meadows are looked at only when the number of objects changed."""
+    leafy tree: millions of blades, 17 to 40 s a frame in a window). Looked at are the
+    meadows whose geometry changed, of the data-blocks `changed` that a depsgraph update
+    lists as (data-block, geometry changed), and all of them when the number of objects
+    changed (a look with no update to read). The count alone misses a Join whose other
+    object lives on, unlinked, because something still uses it: a meadow's ground, which
+    its settings point to (soak seed 261014: that meadow was released only later, inside
+    a cancelled Add Tree)."""
     global _objects_seen
     count = len(bpy.data.objects)
-    if count == _objects_seen:
+    geometry = {idb.as_pointer() for idb, geom in changed if geom}
+    if count == _objects_seen and not geometry:
         return []
+    everything = count != _objects_seen
     _objects_seen = count
     found = []
     for obj in identity.meadows():  # one per meadow object
         if obj.type != "MESH" or obj.library is not None or obj.mode == "EDIT" \
                 or obj.modifiers.get(MODIFIER) is None:
+            continue
+        if not everything and obj.as_pointer() not in geometry \
+                and obj.data.as_pointer() not in geometry:
             continue
         mesh = obj.data
         # (fewer points than instances is a meadow whose points were deleted in Edit Mode)

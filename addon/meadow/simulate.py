@@ -60,10 +60,10 @@ def forget(obj=None):
         identity.forget()
 
 
-def _release_joined():
+def _release_joined(changed=()):
     """Meadows joined with other objects become plain meshes (build.release_joined); True
-    when there was one."""
-    joined = build.joined_meadows()
+    when there was one. `changed`: what a depsgraph update lists (build.joined_meadows)."""
+    joined = build.joined_meadows(changed)
     texts = [build.release_joined(obj) for obj in joined]
     if joined:
         sync(force=True)
@@ -137,7 +137,7 @@ def _on_depsgraph_update(scene, depsgraph=None):
     # Join removes the objects it joined, and one may be a blade model of another meadow:
     # the look for changed models follows (soak seed 720005: that meadow was left stale,
     # then rebuilt inside a cancelled Add Tree)
-    made_or_removed = _release_joined() or sync()
+    made_or_removed = _release_joined(changed) or sync()
     if changed:
         edited = build.models_edited(changed)
         blade_objects.follow_renames(changed)
