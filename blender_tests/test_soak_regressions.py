@@ -592,6 +592,73 @@ def test_a_meadow_joined_with_a_leafy_tree_grows_no_blades_on_the_tree():
     assert secs < 10, f"a frame took {secs:.1f} s"
 
 
+def _chunks_of(meadow):
+    """The collection a meadow's modifier instances, and how many chunk objects it holds."""
+    from tussock import compat
+    coll = compat.get_modifier_input(meadow.modifiers["Tussock Meadow"], "Chunks")
+    return coll, len(coll.objects)
+
+
+@test
+def test_a_duplicated_meadow_given_a_new_patch_keeps_its_blades():
+    # found while shrinking soak seed 313306 (4.3): Shift+D of a meadow, whose copy's
+    # modifier instances the original's patch; a setting of the copy's patch changed. The
+    # copy's new chunks went into a collection of its own, but the modifier was then given
+    # another, new and empty one: the copy's blades vanished, and its chunks stayed behind,
+    # used by nothing.
+    harness.empty_scene(6)
+    harness.select_objects([])
+    assert bpy.ops.tussock.add_meadow(size=(2.0, 2.0), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    harness.select_objects([meadow])
+    assert bpy.ops.object.duplicate() == {"FINISHED"}
+    copy = bpy.context.active_object
+    bpy.context.view_layer.update()
+    assert copy != meadow and _chunks_of(copy)[0] == _chunks_of(meadow)[0]
+    copy.tussock_meadow.patch_blades = 1024  # 1,024 blades: 64 chunks of 16
+    bpy.context.view_layer.update()
+    coll, count = _chunks_of(copy)
+    assert coll != _chunks_of(meadow)[0] and count == 64, (coll.name, count)
+    unused = [c.name for c in bpy.data.collections if c.users == 0]
+    assert not unused, f"collections used by nothing: {unused}"
+    assert _chunks_of(meadow)[1] == 16
+
+
+@test
+def test_the_patch_a_rebuilt_copy_left_unused_is_tidied_in_the_same_update():
+    # soak seed 313306 in Blender 4.3 (background), shrunk to 15 steps: a meadow; Shift+D;
+    # Join of a tree, active, with the original meadow (here: Delete); blades captured,
+    # which the copy grows (its Models are empty), so it was rebuilt with a patch of its
+    # own. The
+    # original's patch, used by nothing now, was removed only when the next object was
+    # made: inside an Add Tree that cancelled, which then changed the scene.
+    scene = harness.empty_scene(6)
+    harness.select_objects([])
+    assert bpy.ops.tussock.add_meadow(size=(2.0, 2.0), blades_per_tile=16, patch_blades=256,
+                                      chunk_blades=16) == {"FINISHED"}
+    meadow = bpy.context.active_object
+    original = _chunks_of(meadow)[0].name
+    harness.select_objects([meadow])
+    assert bpy.ops.object.duplicate() == {"FINISHED"}
+    copy = bpy.context.active_object
+    harness.select_objects([meadow])
+    assert bpy.ops.object.delete() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    assert original in bpy.data.collections  # the copy still grows it
+    sample = os.path.join(harness.REPO, "samples", "blades", "depth_####.png")
+    assert bpy.ops.tussock.capture_blades(source="FILES", filepath=sample) == {"FINISHED"}
+    bpy.context.view_layer.update()
+    coll, count = _chunks_of(copy)
+    assert coll.name != original and count > 0, (coll.name, count)
+    assert original not in bpy.data.collections, "the original's patch is still there"
+    assert not [o.name for o in bpy.data.objects if o.name.startswith("Meadow chunk")]
+    scene.tussock_wind.use_fluid = True
+    scene.tussock_wind.keyframe_insert("fluid_speed", frame=1)
+    harness.select_objects([])
+    expect_cancel(bpy.ops.tussock.add_tree, "keyframed", preset="quaking_aspen")
+
+
 @test
 def test_a_meadow_joined_with_its_own_ground_is_released_by_the_join():
     # soak seed 261014 in Blender 5.2 (background), shrunk to 37 steps: two meadows, each

@@ -317,13 +317,17 @@ def write_steps(obj, settings, key, patch, layout):
     objects, the long part of a large meadow; returns the layout's info."""
     meshes.refuse_edit_mode(obj, "rebuilding the meadow")
     if patch is not None:
+        # the collection the chunks go into is the one the modifier gets: a duplicated
+        # meadow's modifier still instances its original's patch, so looking it up again
+        # would not find this new one and would make another, empty (its blades vanished)
         coll = patch_collection(obj)
         yield from chunk_data.build_chunks_steps(
             coll, obj.name, patch["positions"], patch["tris"], patch["uvs"],
             patch["blade_index"], patch["blade_rand"], patch["blade_count"],
             settings.chunk_blades, material.grass_material())
         obj["tussock_patch_key"] = key
-    coll = patch_collection(obj)
+    else:
+        coll = patch_collection(obj)
     chunk_data.write_points(obj.data, layout["origins"], layout["chunk"],
                             viewport_off(settings, len(layout["chunk"])))
     mod = obj.modifiers.get(MODIFIER)
@@ -403,7 +407,10 @@ def rebuild_stale():
     left stale would be rebuilt by whatever next asked for its patch (a frame of its
     simulation, a bake), which then changed the scene as a side effect, even when it
     failed (soak seed 363588). Runs when objects were made or removed, a collection
-    changed, or a model's mesh was edited; a meadow still being made has no patch key yet."""
+    changed, or a model's mesh was edited; a meadow still being made has no patch key yet.
+    True when a meadow was rebuilt: its old patch may now be its original's, unused, which
+    the caller's sync then tidies at once rather than at the next object made or removed."""
+    rebuilt = False
     for obj in identity.meadows():  # one check per meadow (its models' digest is kept)
         key = obj.get("tussock_patch_key")
         if obj.library is not None or key is None:
@@ -413,11 +420,13 @@ def rebuild_stale():
             if key == patch_key(s):  # (raises while a model is in Edit Mode)
                 continue
             rebuild(obj)
+            rebuilt = True
             error = ""
         except (native.Error, ValueError) as exc:
             error = str(exc)
         if s.last_error != error:  # (each write is one more depsgraph update)
             s.last_error = error
+    return rebuilt
 
 
 def rebuild_growing(blades):

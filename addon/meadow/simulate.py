@@ -115,8 +115,17 @@ def _sync_later():
     (it costs a count of the file's objects while none is made or removed)."""
     # (_release_joined syncs itself when it releases a meadow)
     if native.available() and not playback.suspended and (_release_joined() or sync()):
-        build.rebuild_stale()  # a blade model among the objects removed
+        _rebuild_stale()  # a blade model among the objects removed
     return SYNC_EVERY
+
+
+def _rebuild_stale():
+    """build.rebuild_stale, then the sync that tidies the patches it left unused (soak seed
+    313306: a duplicated meadow, its original gone, was rebuilt when blades were captured;
+    its original's patch was removed only at the next object made, inside an operator that
+    cancelled)."""
+    if build.rebuild_stale():
+        sync(force=True)
 
 
 @bpy.app.handlers.persistent
@@ -143,7 +152,7 @@ def _on_depsgraph_update(scene, depsgraph=None):
         blade_objects.follow_renames(changed)
         if made_or_removed or edited or any(isinstance(idb, bpy.types.Collection)
                                             for idb, _ in changed):
-            build.rebuild_stale()  # a blade model deleted, moved or edited
+            _rebuild_stale()  # a blade model deleted, moved or edited
 
 
 classes = ()
@@ -167,7 +176,7 @@ def rebuild_stale_models():
     if not native.available():
         return
     try:
-        build.rebuild_stale()
+        _rebuild_stale()
     except AttributeError:  # during register: Blender's data is not readable there
         bpy.app.timers.register(rebuild_stale_models, first_interval=0.0)
 
