@@ -383,13 +383,35 @@ def joined_meadows(changed=()):
     return found
 
 
+def _instanced(coll):
+    """True when a meadow's modifier instances the collection (a copy shares its original's
+    patch until it has one of its own)."""
+    for obj in identity.meadows():  # one look per meadow
+        mod = obj.modifiers.get(MODIFIER)
+        if mod is not None and mod.node_group is not None:
+            try:
+                if compat.get_modifier_input(mod, "Chunks") == coll:
+                    return True
+            except KeyError:  # not Tussock's node group
+                pass
+    return False
+
+
 def release_joined(obj):
     """A meadow joined with other objects becomes the plain mesh that Join made: no blades
     on its vertices, no simulation. The message says why and how to get the meadow back
     (Undo): printed here, and returned for the caller to report."""
+    patch = _owned_patch(obj)
     mod = obj.modifiers.get(MODIFIER)
     if mod is not None:
         obj.modifiers.remove(mod)
+    if patch is not None and not _instanced(patch):
+        # removed here rather than left to the sync's tidy, which waits for a collection
+        # with no users: Blender 5.2 still counts one after the modifier is removed
+        for o in list(patch.objects):
+            if len(o.users_collection) == 1:
+                meshes.remove_object(o)
+        bpy.data.collections.remove(patch)
     obj.tussock_meadow.is_meadow = False
     for key in ("tussock_blades", "tussock_tiles", "tussock_instances"):
         if key in obj:
