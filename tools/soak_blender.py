@@ -956,6 +956,31 @@ print("FRESH-RSS-BYTES", rss_bytes(), heap_in_use() or 0)
 """
 
 
+_journal = None  # the run's open journal (soak())
+
+
+def _wait(proc, timeout):
+    """What proc printed, once it ended; a blank line goes to the journal every 30 s while it
+    runs. tools/soak.py takes a journal that stops growing for --step-timeout for a hang: a
+    fresh Blender opening a scene of gigabytes on a busy machine took longer than that (soak
+    seed 232088, 5.2, beside a test run), and the tester killed it. The journal's readers skip
+    blank lines."""
+    import subprocess
+    t0 = time.monotonic()
+    while True:
+        try:
+            out, _ = proc.communicate(timeout=30)
+            return out
+        except subprocess.TimeoutExpired:
+            if time.monotonic() - t0 > timeout:
+                proc.kill()
+                proc.communicate()
+                raise
+            if _journal is not None:
+                _journal.write("\n")
+                _journal.flush()
+
+
 def fresh_memory_mb(path):
     """Resident memory and the C allocator's bytes in use (0 where it keeps no count), in MB,
     of a fresh background Blender (this binary, the add-on enabled) that
@@ -968,12 +993,13 @@ def fresh_memory_mb(path):
            os.path.join(REPO, "tools"), path]
     if "--debug-memory" in sys.argv:  # the same allocator as this Blender's
         cmd.insert(1, "--debug-memory")
-    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                          errors="replace", timeout=600)
-    m = re.search(r"FRESH-RSS-BYTES (\d+) (\d+)", proc.stdout)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            errors="replace")
+    text = _wait(proc, 600)
+    m = re.search(r"FRESH-RSS-BYTES (\d+) (\d+)", text)
     if not m:  # (its exit status alone says little: a refused render sets Blender's to 1)
         raise Broken("tester-error", f"the fresh Blender could not open {path}: "
-                                     f"{proc.stdout[-2000:]}")
+                                     f"{text[-2000:]}")
     return int(m.group(1)) / 2 ** 20, int(m.group(2)) / 2 ** 20
 
 
@@ -1319,7 +1345,8 @@ def soak(args, window):
     os.makedirs(WORKDIR, exist_ok=True)
     out = Output(args.journal + ".log")
     sys.excepthook = _excepthook
-    journal = open(args.journal, "w")
+    global _journal
+    journal = _journal = open(args.journal, "w")
     CTX.window = window
     harness.enable_addon()
     if PLANT == "leak":
