@@ -66,7 +66,7 @@ def bake_killed(blend, done, timeout):
 def assert_same_caches(ref_dir, other_dir):
     """Both folders' tussock_cache hold the same files with the same bytes."""
     a, b = cache_files(ref_dir), cache_files(other_dir)
-    assert a == b, (len(a), len(b))
+    assert a == b, (len(a), len(b), sorted(set(a) ^ set(b)))
     for rel in a:
         assert filecmp.cmp(os.path.join(ref_dir, "tussock_cache", rel),
                            os.path.join(other_dir, "tussock_cache", rel), shallow=False), rel

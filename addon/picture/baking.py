@@ -37,6 +37,7 @@ RECORD = "tussock_picture_bake"  # scene custom property: what was baked, for ch
 # a temporary file of the plate or a layer untouched this long is a killed bake's (seconds;
 # writing one takes well under a second)
 STALE_TEMPORARY_S = 600
+SIDECAR = ".tski"  # TSK_BAKE_IMAGE_SIDECAR
 _verified = {}  # path -> (stat signature, info dict or error text)
 _notes = {}     # scene name -> last reason printed
 
@@ -172,8 +173,10 @@ class PictureJob(cache.Job):
                 if ".tmp" not in name:
                     continue
                 path = os.path.join(folder, name)
+                # an EXR's temporary is `<file>.tmp<pid>.exr`, its sidecar's `<file>.tski.tmp<pid>`
+                base = name.split(".tmp")[0].removesuffix(SIDECAR)
                 try:
-                    if name.split(".tmp")[0] in mine or \
+                    if base in mine or \
                             time.time() - os.stat(path).st_mtime > STALE_TEMPORARY_S:
                         os.remove(path)
                 except FileNotFoundError:  # its writer renamed or removed it meanwhile
@@ -271,7 +274,7 @@ class PictureJob(cache.Job):
         paths = [os.path.join(self.folder, n) for n in static_files(self.count)]
         paths += [self.uv_path(i, f) for i in range(self.count)
                   for f in range(self.range[0], self.range[1] + 1)]
-        return all(os.path.exists(p + ".tski") for p in paths)
+        return all(os.path.exists(p + SIDECAR) for p in paths)
 
     # ---- main thread ---------------------------------------------------------------------
 
@@ -358,7 +361,7 @@ def _tree_with_nodes(scene, count):
 
 def _signature(path):
     try:
-        a, b = os.stat(path), os.stat(path + ".tski")
+        a, b = os.stat(path), os.stat(path + SIDECAR)
     except OSError:
         return None
     return (a.st_mtime_ns, a.st_size, a.st_ino, b.st_mtime_ns, b.st_size, b.st_ino)
@@ -504,7 +507,7 @@ def free(scene, root, freed=()):
             continue
         found = True
         for name in os.listdir(folder):
-            if name.endswith((".exr", ".tski")) or ".tmp" in name:
+            if name.endswith((".exr", SIDECAR)) or ".tmp" in name:
                 os.remove(os.path.join(folder, name))
         if not os.listdir(folder):
             os.rmdir(folder)
