@@ -15,8 +15,9 @@ TSK_SOAK_PRELOAD with TSK_SOAK_ASAN_OPTIONS and TSK_SOAK_UBSAN_OPTIONS (a saniti
 preloaded into Blender alone: ./build.sh soak --asan),
 TSK_SOAK_PLANT=raise|leak|hoard|unfreed (a planted fault, for the tester's own test). Prints
 the seed first; for each failure (with --debug-memory, blocks not freed at exit are one,
-`unfreed`, but for those Blender leaves by itself: BLENDER_OWN_BLOCKS) the seed, the shrunk steps, the Python traceback (faulthandler, and whatever the
-add-on printed) and with --gdb the native backtrace; last the line
+`unfreed`, but for those Blender leaves by itself: BLENDER_OWN_BLOCKS) the seed, the shrunk
+steps, the Python traceback (faulthandler, and whatever the add-on printed) and with --gdb
+the native backtrace; last the line
 `soak: N steps in S s soaking (T s in all), seed X, F failures`: --minutes counts the
 soaking, not the tester's own replays. Exits 1 when anything failed."""
 
