@@ -183,8 +183,8 @@ def run_blender(args, soak_args, journal, timeout, step_timeout, window=False, g
 
 
 def blocks_left(text):
-    """(how many blocks a `--debug-memory` Blender's output says it left at exit, not counting
-    Blender's own; a failure's detail naming them, or "" when there are none)"""
+    """(how many blocks a `--debug-memory` Blender's output says it left at exit, 0 when all
+    are Blender's own; a failure's detail naming the others, or "" when there are none)"""
     m = LEAKS.search(text)
     if not m:
         return 0, ""
