@@ -395,7 +395,8 @@ def main(argv=None):
     if not (args.minutes or args.steps or args.replay):
         args.minutes = 3.0
     seed = args.seed if args.seed is not None else int(time.time() * 1000) % 1000000
-    out_dir = args.out or tempfile.mkdtemp(prefix="tussock-soak-")
+    # absolute: Blender 3.4 refuses to save to a relative path (the memory step saves there)
+    out_dir = os.path.abspath(args.out) if args.out else tempfile.mkdtemp(prefix="tussock-soak-")
     os.makedirs(out_dir, exist_ok=True)
     print(f"soak: seed {seed}, {'window' if args.window else 'background'}, "
           f"{args.minutes or '-'} minutes, {args.steps or '-'} steps; files in {out_dir}",

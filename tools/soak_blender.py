@@ -1341,7 +1341,7 @@ def soak(args, window):
     """The whole run, as a generator: each value is how long the event loop runs before it
     goes on (in background the values are ignored). Returns the exit status."""
     global WORKDIR
-    WORKDIR = args.workdir or os.path.dirname(os.path.abspath(args.journal))
+    WORKDIR = os.path.abspath(args.workdir or os.path.dirname(args.journal))
     os.makedirs(WORKDIR, exist_ok=True)
     out = Output(args.journal + ".log")
     sys.excepthook = _excepthook
