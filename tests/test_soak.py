@@ -4,8 +4,8 @@ planted frame handler that leaks a mesh per frame is found; a planted step that 
 Blender's blocks at exit is found with --debug-memory and shrunk to that step, while the
 blocks Blender leaves by itself are no failure; memory that no data-block holds is told from
 a large scene, also with the output folder given as a relative path; a short clean soak of
-the add-on passes. Run
-by ./build.sh test, or alone: /usr/bin/python3 tests/test_soak.py [NAME...]"""
+the add-on passes. Run by ./build.sh test, or alone: /usr/bin/python3 tests/test_soak.py
+[NAME...]"""
 
 import os
 import re
