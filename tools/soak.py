@@ -193,14 +193,15 @@ def blocks_left(text):
     blocks = [line.strip() for line in text.splitlines() if " len: " in line]
     v = re.search(r"^Blender (\d+)\.(\d+)", text, re.M)
     version = (int(v.group(1)), int(v.group(2))) if v else None
-    blenders = [b for b in blocks if blender_own(b, version)]
+    blenders, others = [], []
+    for b in blocks:
+        (blenders if blender_own(b, version) else others).append(b)
     leaks = int(m.group(1))
-    if blenders and len(blenders) == len(blocks) == leaks:
+    if blenders and not others and len(blenders) == leaks:
         names = sorted({b.split(" len: ")[0] for b in blenders})
         print(f"soak: --debug-memory: the {leaks} blocks not freed at exit are Blender's own "
               f"({', '.join(names)}; tools/soak.py BLENDER_OWN_BLOCKS)", flush=True)
         return 0, ""
-    others = [b for b in blocks if not blender_own(b, version)]
     return leaks, (f"{leaks} blocks not freed at exit"
                    + (f" ({m.group(2)} MB)" if m.group(2) else "")
                    + (f", {len(blenders)} of them Blender's own" if blenders else "") + ":\n"
