@@ -538,6 +538,38 @@ def test_models_changed_while_the_addon_was_off_rebuild_the_meadow_when_it_is_on
 
 
 @test
+def test_copies_made_where_tussock_was_off_are_tidied_when_it_is_on_or_the_file_opens():
+    # soak seed 451342 in Blender 4.3 (522 steps): the add-on disabled, Alt+D of a simulated
+    # meadow's blades object, the add-on enabled; then Apply Preset on a tree it could not
+    # pose, which cancelled, but the depsgraph update it made had tidied the copy (its
+    # Tussock tags removed: the artist's plain mesh now). Enabling the add-on, and opening
+    # a file saved with such a copy, now tidy it at once.
+    from tussock.meadow import blade_objects
+    scene, (meadow,) = simulated_meadows((2.0, 1.5))
+    scene.frame_set(2)
+    first = blade_objects.blades_object(meadow)
+    assert len(first.data.vertices) > 0
+    harness.disable_addon()
+    harness.select_objects([first])
+    assert bpy.ops.object.duplicate(linked=True) == {"FINISHED"}
+    copy = bpy.context.active_object
+    assert copy.data == first.data and any(t in copy for t in blade_objects.OWN_TAGS)
+    path = os.path.join(TMP, "soak_copy_while_off.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    harness.enable_addon()
+    from tussock.meadow import blade_objects, simulate
+    assert bpy.app.timers.is_registered(simulate.rebuild_stale_models)  # (see 72045 above)
+    simulate.rebuild_stale_models()
+    assert not any(t in copy for t in blade_objects.OWN_TAGS), list(copy.keys())
+    assert any(t in first for t in blade_objects.OWN_TAGS)  # the original stays the meadow's
+    names = first.name, copy.name
+    bpy.ops.wm.open_mainfile(filepath=path)
+    first, copy = (bpy.data.objects[n] for n in names)
+    assert any(t in first for t in blade_objects.OWN_TAGS)
+    assert not any(t in copy for t in blade_objects.OWN_TAGS), list(copy.keys())
+
+
+@test
 def test_a_frame_played_and_put_back_is_no_change_in_the_soak_fingerprint():
     # soak seed 5 in Blender 5.2, shrunk to: animate a picture; keyframe a layer's lambda_x;
     # set it by hand and keyframe it at another frame; bake (with a simulated meadow) and

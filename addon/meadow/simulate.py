@@ -103,6 +103,10 @@ def _on_frame_change(scene, depsgraph=None):
 def _on_load(*_args):
     forget()
     collider_shapes.forget()
+    # copies made where Tussock was not enabled (another machine, or the add-on off) are
+    # tidied as the file opens, not inside whatever operator next updates the depsgraph
+    if native.available():
+        sync(force=True)
 
 
 SYNC_EVERY = 0.5  # seconds between looks for meadows gone without an update (see _sync_later)
@@ -170,12 +174,15 @@ def _on_undo(*_args):
 
 
 def rebuild_stale_models():
-    """Meadows whose blade models changed while nothing watched them (the add-on disabled)
-    are rebuilt when it is enabled again, not inside whatever operator next makes an object
-    (soak seed 72045 in 5.2: a cancelled Add Tree had rebuilt such a meadow)."""
+    """What changed while nothing watched (the add-on disabled) is settled when it is
+    enabled again, not inside whatever operator next updates the depsgraph: meadows joined
+    meanwhile are released, copies of blade objects tidied (soak seed 451342 in 4.3: a
+    cancelled Apply Preset had stripped an Alt+D copy's tags), and meadows whose blade
+    models changed rebuilt (seed 72045 in 5.2: a cancelled Add Tree had rebuilt one)."""
     if not native.available():
         return
     try:
+        _release_joined() or sync(force=True)
         _rebuild_stale()
     except AttributeError:  # during register: Blender's data is not readable there
         bpy.app.timers.register(rebuild_stale_models, first_interval=0.0)
