@@ -560,6 +560,16 @@ def test_copies_made_where_tussock_was_off_are_tidied_when_it_is_on_or_the_file_
     from tussock.meadow import blade_objects, simulate
     assert bpy.app.timers.is_registered(simulate.rebuild_stale_models)  # (see 72045 above)
     simulate.rebuild_stale_models()
+    # soak seed 721000 (5.2, window): the add-on disabled before that timer ran; it then
+    # read meadows without Tussock's properties and raised. Disabling now removes it
+    harness.disable_addon()
+    harness.enable_addon()
+    assert bpy.app.timers.is_registered(simulate.rebuild_stale_models)
+    harness.disable_addon()
+    assert not bpy.app.timers.is_registered(simulate.rebuild_stale_models)
+    harness.enable_addon()
+    from tussock.meadow import blade_objects, simulate
+    simulate.rebuild_stale_models()
     assert not any(t in copy for t in blade_objects.OWN_TAGS), list(copy.keys())
     assert any(t in first for t in blade_objects.OWN_TAGS)  # the original stays the meadow's
     names = first.name, copy.name

@@ -185,7 +185,9 @@ def rebuild_stale_models():
         _release_joined() or sync(force=True)
         _rebuild_stale()
     except AttributeError:  # during register: Blender's data is not readable there
-        bpy.app.timers.register(rebuild_stale_models, first_interval=0.0)
+        # (through handlers: disabling the add-on before the timer runs removes it; run
+        # without Tussock's properties it raised in 5.2, soak seed 721000)
+        handlers.add_timer(rebuild_stale_models)
 
 
 def register_extra():
